@@ -1,0 +1,203 @@
+"""The triangle mesh: a small immutable dataclass (scikit-fem's ``Mesh`` is the model).
+
+Conventions (DESIGN.md): points ``(N, 2)`` float64, triangles ``(M, 3)`` int32 counter-clockwise,
+``regions`` ``(M,)`` int32, constrained edges ``(K, 2)`` int32 with ``edge_markers`` ``(K,)``.
+Transformations return new objects; derived topology is computed on first use and cached.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from .errors import MeshingError
+
+__all__ = ["Mesh"]
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A conforming triangulation with optional per-point and per-cell data.
+
+    Parameters
+    ----------
+    points : (N, 2) array of float
+    triangles : (M, 3) array of int; re-oriented counter-clockwise on construction.
+    regions : (M,) array of int, optional
+        Region (subdomain) id of every triangle; zeros by default.
+    edges : (K, 2) array of int, optional
+        Boundary and interface edges, exported as line cells.
+    edge_markers : (K,) array of int, optional
+        The marker (curve id + 1) of every edge in ``edges``.
+    point_data, cell_data : mapping of name to array
+        Exported alongside the mesh (composition, delta, quality, ...).
+    marker_names : mapping of marker to name
+        Names of the edge markers (curve names), exported where the format allows.
+
+    Examples
+    --------
+    >>> m = Mesh([[0, 0], [1, 0], [0, 1]], [[0, 2, 1]])
+    >>> m.triangles.tolist()   # re-oriented counter-clockwise
+    [[0, 1, 2]]
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    regions: np.ndarray | None = None
+    edges: np.ndarray | None = None
+    edge_markers: np.ndarray | None = None
+    point_data: Mapping[str, np.ndarray] = field(default_factory=dict)
+    cell_data: Mapping[str, np.ndarray] = field(default_factory=dict)
+    marker_names: Mapping[int, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.points, dtype=np.float64)
+        t = np.asarray(self.triangles)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise MeshingError(f"points must have shape (N, 2), got {p.shape}")
+        if t.size == 0:
+            t = t.reshape(0, 3)
+        if t.ndim != 2 or t.shape[1] != 3:
+            raise MeshingError(f"triangles must have shape (M, 3), got {t.shape}")
+        t = t.astype(np.int32)
+        if t.size and (t.min() < 0 or t.max() >= len(p)):
+            raise MeshingError(f"triangles index points outside 0..{len(p) - 1}")
+        # counter-clockwise orientation
+        a = _signed_area2(p, t)
+        if np.any(a < 0):
+            t = t.copy()
+            flip = a < 0
+            t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()
+        reg = np.zeros(len(t), np.int32) if self.regions is None else np.asarray(self.regions, np.int32)
+        if reg.shape != (len(t),):
+            raise MeshingError(f"len(triangles) = {len(t)}, but regions has shape {reg.shape}")
+        e = np.zeros((0, 2), np.int32) if self.edges is None else np.asarray(self.edges, np.int32).reshape(-1, 2)
+        em = np.ones(len(e), np.int32) if self.edge_markers is None else np.asarray(self.edge_markers, np.int32)
+        if em.shape != (len(e),):
+            raise MeshingError(f"len(edges) = {len(e)}, but edge_markers has shape {em.shape}")
+        pd = {}
+        for k, v in dict(self.point_data).items():
+            v = np.asarray(v)
+            if len(v) != len(p):
+                raise MeshingError(f"len(points) = {len(p)}, but len(point_data[{k!r}]) = {len(v)}")
+            pd[k] = _frozen(v)
+        cd = {}
+        for k, v in dict(self.cell_data).items():
+            v = np.asarray(v)
+            if len(v) != len(t):
+                raise MeshingError(f"len(triangles) = {len(t)}, but len(cell_data[{k!r}]) = {len(v)}")
+            cd[k] = _frozen(v)
+        set_ = object.__setattr__
+        set_(self, "points", _frozen(p))
+        set_(self, "triangles", _frozen(t))
+        set_(self, "regions", _frozen(reg))
+        set_(self, "edges", _frozen(e))
+        set_(self, "edge_markers", _frozen(em))
+        set_(self, "point_data", pd)
+        set_(self, "cell_data", cd)
+        set_(self, "marker_names", {int(k): str(v) for k, v in dict(self.marker_names).items()})
+
+    # -- sizes -------------------------------------------------------------
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.triangles)
+
+    # -- derived, cached ---------------------------------------------------
+    @cached_property
+    def areas(self) -> np.ndarray:
+        """Area of every triangle, shape (M,)."""
+        return 0.5 * _signed_area2(self.points, self.triangles)
+
+    @cached_property
+    def area(self) -> float:
+        return float(self.areas.sum())
+
+    @cached_property
+    def unique_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(edges (E, 2) sorted, count (E,))``: every edge and how many triangles hold it."""
+        t = self.triangles
+        e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+        u, c = np.unique(e, axis=0, return_counts=True)
+        return u, c
+
+    @cached_property
+    def boundary_edges(self) -> np.ndarray:
+        """Edges that belong to exactly one triangle, shape (B, 2)."""
+        u, c = self.unique_edges
+        return u[c == 1]
+
+    # -- transformations ---------------------------------------------------
+    def with_data(self, point_data: Mapping | None = None, cell_data: Mapping | None = None) -> "Mesh":
+        """A copy with point/cell data added (or replaced)."""
+        pd = dict(self.point_data)
+        pd.update(point_data or {})
+        cd = dict(self.cell_data)
+        cd.update(cell_data or {})
+        return dataclasses.replace(self, point_data=pd, cell_data=cd)
+
+    def with_regions(self, regions: np.ndarray) -> "Mesh":
+        return dataclasses.replace(self, regions=regions)
+
+    # -- checks ------------------------------------------------------------
+    def problems(self, *, rel_tol: float = 1e-12) -> list[str]:
+        """Everything that makes this not a valid conforming triangulation (empty if valid).
+
+        Checks: no degenerate or inverted triangles, no repeated or unused points, every edge
+        held by one or two triangles, and boundary edges forming closed loops (each boundary
+        vertex in exactly two boundary edges, so no hanging node and no pinched fan).
+        """
+        out: list[str] = []
+        p, t = self.points, self.triangles
+        if len(t) == 0:
+            return ["the mesh has no triangles"]
+        scale = max(float(np.ptp(p, axis=0).max()), 1e-300)
+        a = self.areas
+        bad = np.flatnonzero(a <= rel_tol * scale * scale)
+        if bad.size:
+            out.append(f"{bad.size} degenerate or inverted triangles (first #{bad[0]})")
+        if np.any(~np.isfinite(p)):
+            out.append("non-finite point coordinates")
+        used = np.zeros(len(p), bool)
+        used[t.ravel()] = True
+        if not used.all():
+            out.append(f"{int((~used).sum())} points are not used by any triangle")
+        if len(np.unique(p, axis=0)) != len(p):
+            out.append("repeated points")
+        u, c = self.unique_edges
+        if np.any(c > 2):
+            out.append(f"{int((c > 2).sum())} edges are shared by more than two triangles (overlap)")
+        be = u[c == 1]
+        deg = np.bincount(be.ravel(), minlength=len(p))
+        if np.any((deg != 0) & (deg != 2)):
+            out.append("the boundary is not a set of simple closed loops (hanging node or pinched vertex)")
+        return out
+
+    def is_valid(self) -> bool:
+        return not self.problems()
+
+    # -- output ------------------------------------------------------------
+    def write(self, path: str | Path, **kwargs) -> Path:
+        """Write the mesh; the format follows the extension (see :func:`hetmesh.io.export.write_mesh`)."""
+        from .io.export import write_mesh
+
+        return write_mesh(self, path, **kwargs)
+
+
+def _signed_area2(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
