@@ -1,0 +1,456 @@
+"""The adaptive meshing pipeline: IMG -> MOR -> GOR (paper Sec. 3.1, Fig. 2).
+
+``generate`` composes the stages:
+
+* IMG: the domain's curves are sampled into a PSLG following the material size field and
+  triangulated (constrained Delaunay);
+* MOR: nodes are placed for the density rho = |grad f|^4 (Eq. 9), either by the paper's
+  conforming CVT (``method="cvt"``: density-sampled nodes + Lloyd iterations, Sec. 3.2.3) or by
+  aligning rows of nodes with the iso-composition curves (``method="layers"``, the default,
+  see :mod:`hetmesh.layers`); then elements with delta(T) >= delta_0 are refined (Eq. 13; we
+  split the edge carrying the largest composition jump, which removes both triangles sharing
+  it) and the new nodes are smoothed locally by conforming Lloyd steps, until
+  delta_max < delta_0 (Eq. 1);
+* GOR: Delaunay refinement of triangles below the minimum angle or the quality floor
+  (circumcenter insertion; encroached boundary and interface edges are split on their true
+  curve, Ruppert), with delta re-checked in the same loop.
+
+The loop ends: smoothing stops after a few rounds, after which every round only splits edges,
+and the element budget bounds the count; a final verification re-checks every claim.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from . import density as dens
+from .errors import BudgetError, MeshingError, OptionError
+from .geometry import build_pslg
+from .mesh import Mesh
+from .metrics import MeshStats, delta_dense, delta_vertices, min_angle, quality, statistics
+from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, edge_keys,
+                     split_constraint_edges, smooth, thin_candidates, triangulate)
+from .triangulate import triangle_neighbors
+
+__all__ = ["generate", "Result", "mesh_statistics", "prepare", "finish", "check_options"]
+
+log = logging.getLogger(__name__)
+
+DEFAULT_MAX_ELEMENTS = 5_000_000
+SAMPLINGS = ("vertices", "dense")
+
+
+@dataclass
+class Result:
+    """What :func:`generate` and :func:`hetmesh.uniform` return."""
+
+    mesh: Mesh
+    stats: MeshStats
+    threshold: float
+    history: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+
+
+def check_options(threshold, min_angle_deg, max_elements, max_size, sampling, min_quality=0.0):
+    """Validate user options; raises :class:`OptionError` naming the option."""
+    try:
+        threshold = float(threshold)
+    except (TypeError, ValueError):
+        raise OptionError(f"threshold must be a number, got {threshold!r}") from None
+    if not np.isfinite(threshold) or threshold <= 0 or threshold >= 1:
+        raise OptionError(f"threshold {threshold:g} is outside (0, 1): delta_0 must be positive "
+                          "and below the largest possible composition difference")
+    if not (0 < float(min_angle_deg) <= 34):
+        raise OptionError(f"min angle {min_angle_deg:g} is outside (0, 34] degrees")
+    if int(max_elements) < 1:
+        raise OptionError(f"max elements must be positive, got {max_elements}")
+    if max_size is not None and not (np.isfinite(max_size) and max_size > 0):
+        raise OptionError(f"max size must be positive, got {max_size}")
+    if sampling not in SAMPLINGS:
+        raise OptionError(f"sampling {sampling!r} is not one of {', '.join(SAMPLINGS)}")
+    if not (0 <= min_quality < 0.9):
+        raise OptionError(f"min quality {min_quality:g} is outside [0, 0.9)")
+    return threshold
+
+
+def prepare(model, threshold, max_size):
+    """Shift the model to local coordinates and build the refinement context."""
+    domain, fld = model.domain, model.material
+    x0, y0, x1, y1 = domain.bounds
+    offset = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+    dom = domain.translated(-offset)
+    fl = fld.shifted(offset) if hasattr(fld, "shifted") else _Shifted(fld, offset)
+    h_max = float(max_size) if max_size is not None else dom.diameter / 25.0
+    infos = dom.curves
+    curves = [ci.curve for ci in infos]
+    scale = dom.diameter
+    closed = np.array([np.hypot(*(c.start - c.end)) < 1e-12 * scale for c in curves], bool)
+    bnd = np.array([ci.kind != "interface" for ci in infos], bool)
+    scalar = 1 if len(fl.constituents) == 2 else None
+    ctx = Context(domain=dom, curves=curves, closed=closed, boundary_curve=bnd, field=fl,
+                  threshold=threshold, h_max=h_max, scalar=scalar)
+    return ctx, offset
+
+
+class _Shifted:
+    def __init__(self, base, offset):
+        self.base, self.offset = base, np.asarray(offset, float)
+        self.constituents = base.constituents
+
+    def composition(self, points, **kw):
+        return self.base.composition(np.asarray(points) + self.offset, **kw)
+
+    def gradient(self, points, **kw):
+        return self.base.gradient(np.asarray(points) + self.offset, **kw)
+
+
+def workset_from_pslg(pslg, pinned_names=None) -> WorkSet:
+    n = len(pslg.vertices)
+    return WorkSet(P=np.array(pslg.vertices, float), vcurve=np.array(pslg.vertex_curve, np.int64),
+                   vt=np.array(pslg.vertex_t, float), pinned=np.zeros(n, bool),
+                   level=np.full(n, np.nan), E=np.array(pslg.edges, np.int64),
+                   ecurve=np.array(pslg.edge_curve, np.int64))
+
+
+# --------------------------------------------------------------------------- placement
+def size_fn(ctx: Context, factor: float):
+    def h(pts):
+        return dens.size_at(ctx.g(pts), ctx.threshold, ctx.h_max, factor)
+    return h
+
+
+def place_cvt(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
+    """The paper's MOR start: density-sampled nodes, then global conforming Lloyd (Sec. 3.2.3)."""
+    factor = 1.0 / np.sqrt(0.9)  # start with ~0.9 x the density's point count (DESIGN.md)
+    h = size_fn(ctx, factor)
+    ws = workset_from_pslg(build_pslg(ctx.domain, h, chord_tol))
+    pts = _sample_interior(ctx, h, rng)
+    add_free_points(ws, pts)
+    tris = triangulate(ws, ctx)
+    smooth(ws, ctx, tris, iters=12)
+    return ws
+
+
+def _sample_interior(ctx: Context, h, rng) -> np.ndarray:
+    """Stratified random nodes with density 2/(sqrt(3) h^2) (equilateral triangles of side h)."""
+    dom = ctx.domain
+    x0, y0, x1, y1 = dom.bounds
+    n = 256
+    cx = (x1 - x0) / n
+    cy = (y1 - y0) / n
+    X, Y = np.meshgrid(x0 + (np.arange(n) + 0.5) * cx, y0 + (np.arange(n) + 0.5) * cy)
+    c = np.column_stack([X.ravel(), Y.ravel()])
+    lam = 2.0 / (np.sqrt(3.0) * h(c) ** 2) * cx * cy
+    k = np.floor(lam).astype(np.int64)
+    k += rng.random(len(k)) < (lam - k)
+    cells = np.repeat(np.arange(len(c)), k)
+    pts = c[cells] + (rng.random((len(cells), 2)) - 0.5) * [cx, cy]
+    pts = pts[dom.contains(pts)]
+    if len(pts):
+        far = dom.distance_to_boundary(pts) > 0.5 * h(pts)
+        pts = pts[far]
+    return pts
+
+
+# --------------------------------------------------------------------------- repair loop
+def _corner_exempt(ws: WorkSet, tris: np.ndarray, ang_deg: float) -> np.ndarray:
+    """Triangles whose smallest angle sits at an input corner too sharp to refine (< 2A)."""
+    P = ws.P
+    p = P[tris]
+    ang = np.empty((len(tris), 3))
+    for k in range(3):
+        u = p[:, (k + 1) % 3] - p[:, k]
+        v = p[:, (k + 2) % 3] - p[:, k]
+        cosv = (u * v).sum(1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
+        ang[:, k] = np.degrees(np.arccos(np.clip(cosv, -1, 1)))
+    total = np.bincount(tris.ravel(), ang.ravel(), minlength=len(P))
+    sharp = (ws.vcurve == FIXED) & (total < 2 * ang_deg - 1e-9)
+    kmin = ang.argmin(axis=1)
+    vmin = tris[np.arange(len(tris)), kmin]
+    return sharp[vmin]
+
+
+def _constraint_index(ws: WorkSet):
+    keys = edge_keys(ws.E[:, 0], ws.E[:, 1])
+    order = np.argsort(keys)
+    return keys[order], order
+
+
+def _lookup(sorted_keys, order, keys):
+    pos = np.searchsorted(sorted_keys, keys)
+    pos = np.minimum(pos, len(sorted_keys) - 1)
+    hit = sorted_keys[pos] == keys
+    return np.where(hit, order[pos], -1)
+
+
+def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str):
+    comp = ctx.field.composition(ws.P)
+    delta = delta_vertices(comp, tris)
+    if sampling == "dense":
+        delta = np.maximum(delta, delta_dense(ctx.field, ws.P, tris))
+    return comp, delta
+
+
+def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
+           sampling: str, max_elements: int, history: list, smooth_rounds: int = 6,
+           max_rounds: int = 200, progress=None, check_delta: bool = True):
+    """Refine until delta_max < delta_0 (MOR, Eq. 1) and no triangle is below the angle or
+    quality floor (GOR). Returns ``(triangles, composition, delta)``."""
+    thr = ctx.threshold
+    for rnd in range(max_rounds):
+        tris = triangulate(ws, ctx)
+        comp, delta = evaluate(ctx, ws, tris, sampling)
+        viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
+        q = quality(ws.P, tris)
+        ang = min_angle(ws.P, tris)
+        badq = ((ang < min_angle_deg) | (q < min_quality)) & ~viol
+        if badq.any():
+            badq &= ~_corner_exempt(ws, tris, min_angle_deg)
+        history.append({"round": rnd, "elements": int(len(tris)), "points": int(ws.n),
+                        "delta_max": float(delta.max()), "violators": int(viol.sum()),
+                        "bad_quality": int(badq.sum())})
+        log.info("round %d: %d elements, delta_max %.4g, %d violators, %d bad-quality",
+                 rnd, len(tris), delta.max(), viol.sum(), badq.sum())
+        if progress:
+            progress("refine", None)
+        if not viol.any() and not badq.any():
+            return tris, comp, delta
+        if len(tris) > max_elements:
+            raise BudgetError(f"refinement exceeded the element budget ({len(tris)} > "
+                              f"{max_elements} elements); raise --max-elements or the threshold")
+        n_before = ws.n
+        skeys, sorder = _constraint_index(ws)
+        split_c = []
+        cand = []
+        cand_min = []
+        # MOR: split the edge with the largest composition jump of every violator
+        if viol.any():
+            tv = tris[viol]
+            cv = comp[tv]  # (k, 3, m)
+            jumps = np.stack([np.abs(cv[:, (k + 1) % 3] - cv[:, (k + 2) % 3]).max(axis=1)
+                              for k in range(3)], axis=1)
+            lens = np.stack([np.hypot(*(ws.P[tv[:, (k + 1) % 3]] - ws.P[tv[:, (k + 2) % 3]]).T)
+                             for k in range(3)], axis=1)
+            score = jumps + 1e-9 * lens / lens.max()
+            kk = score.argmax(axis=1)
+            a = tv[np.arange(len(tv)), (kk + 1) % 3]
+            b = tv[np.arange(len(tv)), (kk + 2) % 3]
+            ek, first = np.unique(edge_keys(a, b), return_index=True)
+            a, b = a[first], b[first]
+            ci = _lookup(skeys, sorder, ek)
+            split_c.append(ci[ci >= 0])
+            free = ci < 0
+            mid = 0.5 * (ws.P[a[free]] + ws.P[b[free]])
+            cand.append(mid)
+            cand_min.append(0.05 * np.hypot(*(ws.P[a[free]] - ws.P[b[free]]).T))
+        # GOR: circumcenters of bad-quality triangles (Ruppert), encroachment -> split edges
+        if badq.any():
+            cc, r = _circumcircles(ws.P, tris[badq])
+            enc = _encroached(ws, cc, r)
+            split_c.append(enc[enc >= 0])
+            ok = enc < 0
+            cc, r = cc[ok], r[ok]
+            inside = ctx.inside(cc) if len(cc) else np.zeros(0, bool)
+            if (~inside).any():  # outside but not encroaching: split the nearest constraint edge
+                split_c.append(_nearest_constraint(ws, cc[~inside]))
+            cand.append(cc[inside])
+            cand_min.append(0.3 * r[inside])
+        sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
+        new_c = split_constraint_edges(ws, ctx, sc)
+        pts = np.concatenate(cand) if cand else np.zeros((0, 2))
+        md = np.concatenate(cand_min) if cand_min else np.zeros(0)
+        pts = thin_candidates(ws, pts, md)
+        add_free_points(ws, pts)
+        if ws.n == n_before:
+            raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
+                               f"elements at delta >= {thr:g} and {int(badq.sum())} below the "
+                               "quality floor")
+        if rnd < smooth_rounds:
+            new = np.zeros(ws.n, bool)
+            new[n_before:] = True
+            new[new_c] = True
+            tris = triangulate(ws, ctx)
+            active = _rings(tris, new, 2)
+            smooth(ws, ctx, tris, iters=2, active=active)
+    raise MeshingError(f"refinement did not converge in {max_rounds} rounds")
+
+
+def _rings(tris: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
+    out = mask.copy()
+    for _ in range(k):
+        hit = out[tris].any(axis=1)
+        out[tris[hit].ravel()] = True
+    return out
+
+
+def _circumcircles(P, t):
+    a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
+    ba, ca = b - a, c - a
+    d = 2.0 * (ba[:, 0] * ca[:, 1] - ba[:, 1] * ca[:, 0])
+    bl, cl = (ba ** 2).sum(1), (ca ** 2).sum(1)
+    ux = (ca[:, 1] * bl - ba[:, 1] * cl) / d
+    uy = (ba[:, 0] * cl - ca[:, 0] * bl) / d
+    return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
+
+
+def _encroached(ws: WorkSet, pts: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Index of a constraint edge whose diametral circle contains each point, or -1."""
+    out = np.full(len(pts), -1, np.int64)
+    if len(pts) == 0 or len(ws.E) == 0:
+        return out
+    a, b = ws.P[ws.E[:, 0]], ws.P[ws.E[:, 1]]
+    mid = 0.5 * (a + b)
+    half = 0.5 * np.hypot(*(b - a).T)
+    k = min(8, len(mid))
+    d, j = cKDTree(mid).query(pts, k=k)
+    d, j = d.reshape(len(pts), k), j.reshape(len(pts), k)
+    inside = d < half[j] * (1 - 1e-12)
+    anyin = inside.any(axis=1)
+    out[anyin] = j[anyin, inside[anyin].argmax(axis=1)]
+    return out
+
+
+def _nearest_constraint(ws: WorkSet, pts: np.ndarray) -> np.ndarray:
+    if len(pts) == 0:
+        return np.zeros(0, np.int64)
+    mid = 0.5 * (ws.P[ws.E[:, 0]] + ws.P[ws.E[:, 1]])
+    return cKDTree(mid).query(pts)[1].astype(np.int64)
+
+
+# --------------------------------------------------------------------------- output
+def region_ids(domain, centroids: np.ndarray) -> np.ndarray:
+    """Region of every triangle: which closed interface curves enclose its centroid."""
+    import shapely
+
+    code = np.zeros(len(centroids), np.int64)
+    bit = 0
+    for path in getattr(domain, "interfaces", ()):
+        cs = path.curves
+        if np.hypot(*(cs[0].start - cs[-1].end)) > 1e-9 * domain.diameter:
+            continue
+        ring = np.concatenate([c.point(np.linspace(0, 1, 65)[:-1]) for c in cs])
+        poly = shapely.Polygon(ring)
+        inside = shapely.contains_xy(poly, centroids[:, 0], centroids[:, 1])
+        code |= inside.astype(np.int64) << bit
+        bit += 1
+    _, inv = np.unique(code, return_inverse=True)
+    return inv.astype(np.int32)
+
+
+def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, model, *, sampling,
+           threshold, min_angle_deg, check_delta=True) -> Mesh:
+    """Verify every claim on the final mesh and build the :class:`Mesh` (local -> user coords)."""
+    P = ws.P
+    cent = P[tris].mean(axis=1)
+    mesh = Mesh(points=P + offset, triangles=tris, regions=region_ids(ctx.domain, cent),
+                edges=ws.E, edge_markers=ws.ecurve + 1,
+                marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
+                point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
+                cell_data={"delta": delta, "quality": quality(P, tris)})
+    problems = Mesh(P, tris).problems()
+    area = float(Mesh(P, tris).area)
+    exact = ctx.domain.area
+    if abs(area - exact) > 2e-3 * exact:
+        problems.append(f"mesh area {area:.9g} differs from the domain's {exact:.9g}")
+    if check_delta and delta.max() >= threshold:
+        problems.append(f"delta_max {delta.max():.6g} >= threshold {threshold:g}")
+    on = ws.vcurve >= 0
+    if on.any():
+        off = 0.0
+        for c in np.unique(ws.vcurve[on]):
+            s = np.flatnonzero(ws.vcurve == c)
+            off = max(off, float(np.hypot(*(ctx.curves[c].point(ws.vt[s]) - P[s]).T).max()))
+        if off > 1e-8 * ctx.domain.diameter:
+            problems.append(f"boundary nodes are off their curve by {off:.3g}")
+    if problems:
+        raise MeshingError("the mesh failed verification: " + "; ".join(problems))
+    return mesh
+
+
+# --------------------------------------------------------------------------- the pipeline
+PLACEMENTS = {"cvt": place_cvt}
+
+
+def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: float | None = None,
+             max_elements: int = DEFAULT_MAX_ELEMENTS, sampling: str = "vertices",
+             method: str = "layers", seed: int = 0, min_quality: float = 0.6,
+             progress=None) -> Result:
+    """Mesh ``model`` so that every element has delta(T) < ``threshold`` (Eq. 1).
+
+    Parameters
+    ----------
+    model : hetmesh Model (``load_model`` or built in code)
+    threshold : delta_0 in (0, 1)
+    min_angle : minimum angle in degrees, (0, 34]; triangles at input corners sharper
+        than twice it are exempt.
+    max_size : largest element edge (default: domain diameter / 25); floors rho.
+    max_elements : element budget, checked against an a-priori estimate and while refining.
+    sampling : "vertices" (the paper's Eqs. 14-15) or "dense" (also a lattice inside
+        every element).
+    method : "layers" (nodes on iso-composition curves) or "cvt" (the paper's CVT start).
+    seed : random seed (same input and seed, same mesh).
+    min_quality : quality floor q(T) (Eq. 17) enforced by the refinement.
+
+    Examples
+    --------
+    >>> import hetmesh
+    >>> m = hetmesh.load_model(hetmesh.example_path("power_plate"))   # doctest: +SKIP
+    >>> r = hetmesh.generate(m, 0.05)                                   # doctest: +SKIP
+    >>> r.stats.delta_max < 0.05                                        # doctest: +SKIP
+    True
+    """
+    from .layers import place_layers
+
+    PLACEMENTS.setdefault("layers", place_layers)
+    threshold = check_options(threshold, min_angle, max_elements, max_size, sampling, min_quality)
+    if method not in PLACEMENTS:
+        raise OptionError(f"method {method!r} is not one of {', '.join(sorted(PLACEMENTS))}")
+    timings: dict = {}
+    t0 = time.perf_counter()
+    ctx, offset = prepare(model, threshold, max_size)
+    est = dens.estimate_elements(ctx.field, ctx.domain, threshold, ctx.h_max)
+    if est > max_elements:
+        raise BudgetError(f"the a-priori estimate is {est:,.0f} elements, above the budget of "
+                          f"{max_elements:,}; raise --max-elements or the threshold")
+    if method == "layers" and ctx.scalar is None:
+        method = "cvt"  # level rows need one scalar composition (two constituents)
+    rng = np.random.default_rng(seed)
+    chord_tol = 1e-3 * ctx.domain.diameter
+    timings["prepare"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    ws = PLACEMENTS[method](ctx, rng, chord_tol, progress=progress)
+    timings["placement"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    history: list = []
+    tris, comp, delta = repair(ws, ctx, min_angle_deg=min_angle, min_quality=min_quality,
+                               sampling=sampling, max_elements=max_elements, history=history,
+                               progress=progress)
+    timings["refine"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    mesh = finish(ws, ctx, tris, comp, delta, offset, model, sampling=sampling,
+                  threshold=threshold, min_angle_deg=min_angle)
+    stats = statistics(ws.P, tris, delta)
+    timings["verify"] = time.perf_counter() - t3
+    timings["total"] = time.perf_counter() - t0
+    opts = dict(threshold=threshold, min_angle=min_angle, max_size=ctx.h_max,
+                max_elements=max_elements, sampling=sampling, method=method, seed=seed,
+                min_quality=min_quality, estimate=float(est))
+    return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
+                  timings=timings, options=opts)
+
+
+def mesh_statistics(mesh: Mesh, model, sampling: str = "vertices") -> MeshStats:
+    """Recompute q and delta of any mesh from the model (Eqs. 1, 16-18)."""
+    if sampling not in SAMPLINGS:
+        raise OptionError(f"sampling {sampling!r} is not one of {', '.join(SAMPLINGS)}")
+    comp = model.material.composition(mesh.points)
+    delta = delta_vertices(comp, mesh.triangles)
+    if sampling == "dense":
+        delta = np.maximum(delta, delta_dense(model.material, mesh.points, mesh.triangles))
+    return statistics(mesh.points, mesh.triangles, delta)

@@ -1,0 +1,297 @@
+"""``hetmesh mesh``: the adaptive, material-aware mesh of a model file.
+
+Also holds what ``uniform`` and ``demo`` share with it: the meshing options, their validation
+(done before any meshing), the output checks, and writing the results (mesh, plot, stats JSON).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from rich.console import Console
+
+from ..errors import OptionError, OutputError
+from .progress import progress_reporter
+
+__all__ = [
+    "add_parser", "run", "add_meshing_options", "meshing_kwargs", "check_threshold",
+    "check_outputs", "check_writable_dir", "interface_markers", "write_outputs", "run_pipeline",
+]
+
+
+# -- parser ------------------------------------------------------------------
+
+def _count(text: str) -> int:
+    """An element count: ``20000``, ``20_000`` or ``2e4``."""
+    try:
+        return int(text)
+    except ValueError:
+        value = float(text)  # ValueError -> argparse reports "invalid count value"
+        if not value.is_integer():
+            raise
+        return int(value)
+
+
+_count.__name__ = "count"
+
+
+def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
+    """The options of ``mesh`` (``adaptive=True``) and ``uniform``."""
+    p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML)")
+    p.add_argument("--threshold", "-d", type=float, required=True, metavar="D",
+                   help="largest material variation delta_0 allowed in an element, 0 < D < 1; "
+                        "every element of the result has delta < D")
+    p.add_argument("--output", "-o", type=Path, required=True, metavar="OUT",
+                   help="mesh file to write; the format follows the extension: .vtu, .vtk, "
+                        ".msh (Gmsh 4.1), .xdmf, .inp (Abaqus), .mesh (Medit)")
+    p.add_argument("--min-angle", type=float, metavar="A",
+                   help="smallest angle (degrees) the quality refinement aims for, "
+                        "0 < A <= 34 (default: 30)")
+    if adaptive:
+        p.add_argument("--max-size", type=float, metavar="H",
+                       help="largest element edge length, > 0 (default: no limit)")
+    p.add_argument("--max-elements", type=_count, metavar="N",
+                   help="element budget; meshing stops with an error rather than exceed it "
+                        "(default: 5000000)")
+    p.add_argument("--sampling", choices=("vertices", "dense"),
+                   help="delta(T) from the vertex compositions (the paper's) or from a dense "
+                        "lattice in every element, which sees peaks between vertices "
+                        "(default: vertices)")
+    if adaptive:
+        p.add_argument("--method", choices=("layers", "cvt"),
+                       help="point placement: nodes on iso-composition layers, or the "
+                            "paper's density-weighted CVT (default: layers)")
+        p.add_argument("--seed", type=int, metavar="S",
+                       help="random seed, >= 0; same input and seed give the same mesh (default: 0)")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="also write a picture of the mesh coloured by composition (.png, .pdf, .svg)")
+    p.add_argument("--stats", type=Path, metavar="JSON",
+                   help="also write the statistics, history, timings and options as JSON")
+    p.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress bar and no summary; errors only")
+
+
+def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "mesh", parents=parents,
+        help="adaptive material-aware mesh of a model",
+        description="Mesh a model adaptively: as few elements as possible such that the "
+                    "material variation delta of every element is below the threshold, with "
+                    "good element quality. The mesh is written only once it is verified.",
+    )
+    add_meshing_options(p, adaptive=True)
+    p.set_defaults(run=run)
+    return p
+
+
+# -- validation (before any meshing) ----------------------------------------
+
+def check_threshold(value: float) -> None:
+    if not 0.0 < value < 1.0:
+        raise OptionError(f"--threshold {value:g} is outside (0, 1)")
+
+
+def meshing_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The keyword arguments of ``generate``/``uniform`` the user gave, validated.
+
+    Options not given are left out, so the library's defaults apply.
+    """
+    check_threshold(args.threshold)
+    kw: dict[str, Any] = {}
+    if args.min_angle is not None:
+        if not 0.0 < args.min_angle <= 34.0:
+            raise OptionError(f"--min-angle {args.min_angle:g} is outside (0, 34]")
+        kw["min_angle"] = args.min_angle
+    if getattr(args, "max_size", None) is not None:
+        if not 0.0 < args.max_size < math.inf:
+            raise OptionError(f"--max-size {args.max_size:g} must be a positive length")
+        kw["max_size"] = args.max_size
+    if args.max_elements is not None:
+        if args.max_elements <= 0:
+            raise OptionError(f"--max-elements {args.max_elements} must be a positive integer")
+        kw["max_elements"] = args.max_elements
+    if args.sampling is not None:
+        kw["sampling"] = args.sampling
+    if getattr(args, "method", None) is not None:
+        kw["method"] = args.method
+    if getattr(args, "seed", None) is not None:
+        if args.seed < 0:
+            raise OptionError(f"--seed {args.seed} must be >= 0")
+        kw["seed"] = args.seed
+    return kw
+
+
+def check_writable_dir(directory: Path, label: str) -> None:
+    """Raise :class:`OutputError` unless files can be created in ``directory``.
+
+    Tries to create (and removes) a temporary file: permission bits alone do not tell (root,
+    ACLs, read-only mounts).
+    """
+    if not directory.exists():
+        raise OutputError(f"{label}: directory {directory} does not exist")
+    if not directory.is_dir():
+        raise OutputError(f"{label}: {directory} is not a directory")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".hetmesh-check-", dir=directory)
+    except OSError as exc:
+        raise OutputError(f"{label}: directory {directory} is not writable ({exc.strerror})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def _check_output_path(path: Path, label: str, extensions: list[str] | None, kind: str) -> None:
+    if extensions is not None:
+        ext = path.suffix.lower()
+        if ext not in extensions:
+            raise OutputError(f"{label} {path}: unknown {kind} format {ext or '(no extension)'!r} "
+                              f"(known: {', '.join(extensions)})")
+    if path.is_dir():
+        raise OutputError(f"{label} {path} is a directory")
+    check_writable_dir(path.parent, f"{label} {path}")
+
+
+def mesh_extensions() -> list[str]:
+    from ..io.export import FORMATS
+
+    return sorted(FORMATS)
+
+
+def plot_extensions() -> list[str]:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return sorted("." + e for e in FigureCanvasBase.get_supported_filetypes())
+
+
+def check_outputs(args: argparse.Namespace, inputs: list[Path]) -> None:
+    """Check ``--output``, ``--plot``, ``--stats``: known formats, writable, distinct, and none
+    of them overwrites an input file."""
+    outputs = [("--output", args.output, mesh_extensions(), "mesh")]
+    if args.plot is not None:
+        outputs.append(("--plot", args.plot, plot_extensions(), "image"))
+    if args.stats is not None:
+        outputs.append(("--stats", args.stats, None, ""))
+    seen: dict[Path, str] = {p.resolve(): "MODEL" for p in inputs}
+    for label, path, extensions, kind in outputs:
+        _check_output_path(path, label, extensions, kind)
+        key = path.resolve()
+        if key in seen:
+            raise OutputError(f"{label} {path} is the same file as {seen[key]}")
+        seen[key] = label
+
+
+# -- running -------------------------------------------------------------------
+
+def run_pipeline(func: Callable, model, threshold: float, kwargs: dict[str, Any], *,
+                 quiet: bool, label: str):
+    """Call ``generate``/``uniform`` with a progress bar; returns ``(result, seconds)``."""
+    with progress_reporter(quiet=quiet, label=label) as progress:
+        t0 = time.perf_counter()
+        result = func(model, threshold, progress=progress, **kwargs)
+        return result, time.perf_counter() - t0
+
+
+def jsonable(value: Any) -> Any:
+    """``value`` with numpy scalars/arrays, paths and tuples made JSON-serialisable."""
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    return value
+
+
+def stats_document(args: argparse.Namespace, model, result, seconds: float) -> dict[str, Any]:
+    """The ``--stats`` JSON: everything needed to reproduce and judge the run."""
+    from .. import __version__
+
+    return jsonable({
+        "hetmesh_version": __version__,
+        "command": args.command,
+        "model": {"name": model.name, "file": str(args.model)},
+        "threshold": args.threshold,
+        "output": str(args.output),
+        "stats": result.stats.as_dict(),
+        "history": list(result.history),
+        "timings": {**dict(result.timings), "wall": seconds},
+        "options": result.options,
+    })
+
+
+def interface_markers(model) -> list[int]:
+    """Edge markers of the model's interface curves (marker = curve index + 1, as in Mesh)."""
+    return [i + 1 for i, info in enumerate(model.domain.curves) if info.kind == "interface"]
+
+
+def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> list[Path]:
+    """Write the mesh, then the optional plot and stats JSON (all atomically)."""
+    from ..io.export import write_mesh
+
+    written = [write_mesh(result.mesh, args.output)]
+    if args.plot is not None:
+        from ..plot import plot_mesh
+
+        plot_mesh(result.mesh, args.plot, interface_markers=interface_markers(model),
+                  title=f"{model.name}: {args.command} mesh, delta_0 = {args.threshold:g}")
+        written.append(args.plot)
+    if args.stats is not None:
+        from ..io.atomic import atomic_write
+
+        with atomic_write(args.stats) as fh:
+            json.dump(stats_document(args, model, result, seconds), fh, indent=2)
+            fh.write("\n")
+        written.append(args.stats)
+    return written
+
+
+def print_summary(model, result, seconds: float, written: list[Path], threshold: float) -> None:
+    from .stats import stats_table
+
+    console = Console(highlight=False, markup=False)
+    console.print(f"{model.name}, delta_0 = {threshold:g}")
+    console.print(stats_table({model.name: result.stats}, times={model.name: seconds}))
+    for path in written:
+        console.print(f"wrote {path}")
+
+
+def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable]) -> int:
+    """``mesh`` and ``uniform``: validate, load, mesh, write, summarise.
+
+    ``load_pipeline()`` imports and returns ``generate`` or ``uniform`` (after validation).
+    """
+    kwargs = meshing_kwargs(args)
+    check_outputs(args, [args.model])
+    from ..io.model import load_model
+
+    func = load_pipeline()
+    model = load_model(args.model)
+    result, seconds = run_pipeline(func, model, args.threshold, kwargs, quiet=args.quiet,
+                                   label=model.name)
+    written = write_outputs(args, model, result, seconds)
+    if not args.quiet:
+        print_summary(model, result, seconds, written, args.threshold)
+    return 0
+
+
+def _generate() -> Callable:
+    from ..adapt import generate
+
+    return generate
+
+
+def run(args: argparse.Namespace) -> int:
+    return run_meshing(args, _generate)

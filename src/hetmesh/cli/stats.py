@@ -1,0 +1,93 @@
+"""``hetmesh stats``: the statistics of a mesh file against a model.
+
+Also home of the statistics table that ``mesh``, ``uniform`` and ``demo`` print.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Callable, Mapping
+
+from rich.console import Console
+from rich.table import Table
+
+__all__ = ["add_parser", "run", "stats_table", "STAT_ROWS"]
+
+def _floor4(x: float) -> str:
+    """Four significant digits, rounded down: a delta_max just below the threshold must not
+    print as the threshold itself (0.0199996 -> 0.01999, not 0.0200)."""
+    if not (x > 0 and math.isfinite(x)):
+        return f"{x:.4g}"
+    scale = 10.0 ** (3 - math.floor(math.log10(x)))
+    return f"{math.floor(x * scale * (1 + 1e-12)) / scale:.4g}"  # 1e-12: 0.0449 * 1e5 < 4490
+
+
+# (label, MeshStats field, formatter); the paper's Tables 1, 3, 5 plus the smallest angle.
+STAT_ROWS: tuple[tuple[str, str, Callable[[float], str]], ...] = (
+    ("Np", "n_points", "{:d}".format),
+    ("Ne", "n_elements", "{:d}".format),
+    ("q_min", "q_min", "{:.4f}".format),
+    ("q_avg", "q_avg", "{:.4f}".format),
+    ("delta_min", "delta_min", "{:.4g}".format),
+    ("delta_avg", "delta_avg", "{:.4g}".format),
+    ("delta_max", "delta_max", _floor4),
+    ("angle_min", "angle_min", "{:.2f}°".format),
+)
+
+
+def stats_table(columns: Mapping[str, object], *, times: Mapping[str, float] | None = None) -> Table:
+    """A table with one row per statistic and one column per mesh.
+
+    ``columns`` maps a column heading to a ``MeshStats`` (or its ``as_dict()``); ``times``
+    optionally maps the same headings to seconds, shown as a last row.
+    """
+    table = Table()
+    table.add_column("")
+    for name in columns:
+        table.add_column(name, justify="right")
+    dicts = [c if isinstance(c, Mapping) else c.as_dict() for c in columns.values()]
+    for label, key, fmt in STAT_ROWS:
+        table.add_row(label, *(fmt(d[key]) if key in d else "-" for d in dicts))
+    if times is not None:
+        table.add_row("time", *(f"{times[name]:.2f} s" if name in times else "-" for name in columns))
+    return table
+
+
+def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "stats", parents=parents,
+        help="statistics (Np, Ne, q, delta) of a mesh file",
+        description="Read a mesh file, recompute the element quality q and the material "
+                    "variation delta of every element from the model, and print Np, Ne, "
+                    "q_min, q_avg, delta_min, delta_avg, delta_max and the smallest angle.",
+    )
+    p.add_argument("mesh", type=Path, metavar="MESH", help="mesh file written by hetmesh (.vtu, .msh, ...)")
+    p.add_argument("--model", "-m", type=Path, required=True, metavar="MODEL",
+                   help="the model file (TOML) the mesh was made for")
+    p.add_argument("--sampling", choices=("vertices", "dense"), default="vertices",
+                   help="delta from the vertex compositions (the paper's) or from a dense "
+                        "lattice in every element (default: vertices)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(run=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..adapt import mesh_statistics
+    from ..io.export import read_mesh
+    from ..io.model import load_model
+
+    model = load_model(args.model)
+    mesh = read_mesh(args.mesh)
+    stats = mesh_statistics(mesh, model, sampling=args.sampling)
+    if args.json:
+        print(json.dumps({"mesh": str(args.mesh), "model": str(args.model),
+                          "sampling": args.sampling, **stats.as_dict()}, indent=2))
+    else:
+        console = Console(highlight=False, markup=False)
+        console.print(f"{args.mesh}: model {model.name}, delta from the {args.sampling}")
+        console.print(stats_table({args.mesh.name: stats}))
+    return 0

@@ -1,0 +1,309 @@
+"""Node placement on iso-composition curves ("layers"): MOR's start for two constituents.
+
+Why: delta(T) of a small element is |grad f| times its extent along the gradient. A CVT spreads
+that extent by ~1.4 between elements, so an isotropic CVT cannot go much below ~1.2 x N_iso
+elements. Rows of nodes on the level curves f = c_k, c_k = anchor -/+ k * beta * delta_0,
+with spacing 2 w / sqrt(3) along each row (w = beta * delta_0 / |grad f| the row distance),
+make near-equilateral triangles whose vertices sit on two adjacent rows, so every such triangle
+has delta(T) = beta * delta_0 exactly: the threshold is used to the full (about 0.75-0.9 x N_iso
+elements). The rows are traced from where the level curves cross the boundary (predictor step
+along the tangent, Newton corrector back onto the level); flat zones are filled by
+circumcenter insertion to the maximum size; nodes then slide along their rows (conforming
+Lloyd, :func:`hetmesh.refine.smooth`) and the shared repair loop of :mod:`hetmesh.adapt`
+fixes whatever is left, so the guarantee does not depend on this placement.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, project_to_level, smooth,
+                     thin_candidates, triangulate)
+
+__all__ = ["place_layers", "BETA"]
+
+log = logging.getLogger(__name__)
+
+BETA = 0.985  # row spacing in composition, as a fraction of delta_0
+
+
+def _scalar(ctx: Context, pts: np.ndarray) -> np.ndarray:
+    return ctx.field.composition(pts)[:, ctx.scalar]
+
+
+def _scalar_grad(ctx: Context, pts: np.ndarray) -> np.ndarray:
+    return ctx.field.gradient(pts)[:, ctx.scalar, :]
+
+
+def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float) -> np.ndarray:
+    with np.errstate(divide="ignore"):
+        s = 2.0 * dprime / (np.sqrt(3.0) * gnorm)
+    return np.minimum(np.nan_to_num(s, nan=ctx.h_max, posinf=ctx.h_max), ctx.h_max)
+
+
+def _levels_and_anchor(ctx: Context, dprime: float):
+    dom = ctx.domain
+    ts = np.linspace(0, 1, 401)
+    bpts, blen = [], []
+    for c, isb in zip(ctx.curves, ctx.boundary_curve):
+        if isb:
+            bpts.append(c.point(ts))
+            blen.append(np.full(len(ts), c.length / len(ts)))
+    bpts = np.concatenate(bpts)
+    blen = np.concatenate(blen)
+    from .density import background_points
+
+    ipts, _ = background_points(dom, 200)
+    f_all = _scalar(ctx, np.vstack([bpts, ipts]))
+    fmin, fmax = float(f_all.min()), float(f_all.max())
+    fb = _scalar(ctx, bpts)
+    tol = 1e-9
+    at_max = blen[np.abs(fb - fmax) < tol].sum()
+    at_min = blen[np.abs(fb - fmin) < tol].sum()
+    anchor, sign = (fmax, -1.0) if at_max >= at_min else (fmin, 1.0)
+    return anchor, sign, fmin, fmax
+
+
+def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
+    """Where the level curves cross every curve: (curve id, t, level) arrays."""
+    cid, tt, lv = [], [], []
+    for k, c in enumerate(ctx.curves):
+        n = 64
+        ts = np.linspace(0, 1, n + 1)
+        g = np.sqrt((_scalar_grad(ctx, c.point(ts)) ** 2).sum(1)).max()
+        # resolve the rows: at least 8 samples per row crossing
+        n = int(min(200_000, max(256, 8 * c.length * g / dprime)))
+        ts = np.linspace(0, 1, n + 1)
+        f = _scalar(ctx, c.point(ts))
+        u = (f - anchor) * sign / dprime  # row coordinate: crossing of row k where u == k
+        fl = np.floor(u + 1e-12)
+        i = np.flatnonzero(fl[1:] != fl[:-1])
+        if i.size == 0:
+            continue
+        lo = np.minimum(fl[i], fl[i + 1]) + 1
+        hi = np.maximum(fl[i], fl[i + 1])
+        cnt = (hi - lo + 1).astype(np.int64)
+        seg = np.repeat(i, cnt)
+        kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+        keep = kk >= 1
+        seg, kk = seg[keep], kk[keep]
+        level = anchor + sign * kk * dprime
+        a, b = ts[seg], ts[seg + 1]
+        fa, fb = f[seg] - level, f[seg + 1] - level
+        for _ in range(40):  # bisection on t, vectorised
+            m = 0.5 * (a + b)
+            fm = _scalar(ctx, c.point(m)) - level
+            left = np.sign(fm) == np.sign(fa)
+            a = np.where(left, m, a)
+            fa = np.where(left, fm, fa)
+            b = np.where(left, b, m)
+        cid.append(np.full(len(a), k))
+        tt.append(0.5 * (a + b))
+        lv.append(level)
+    if not cid:
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+    return np.concatenate(cid), np.concatenate(tt), np.concatenate(lv)
+
+
+def _curve_params(ctx: Context, cid, tt, dprime):
+    """Per-curve sorted parameters: 0, crossings, 1, plus fill to the local row step."""
+    out = []
+    for k, c in enumerate(ctx.curves):
+        t = np.sort(tt[cid == k])
+        # drop crossings too close to the curve's ends or to each other
+        pts = c.point(t) if len(t) else np.zeros((0, 2))
+        s = _row_step(ctx, np.sqrt((_scalar_grad(ctx, pts) ** 2).sum(1)), dprime) if len(t) else t
+        if len(t):
+            gap_end = np.minimum(t, 1 - t) * c.length
+            ok = gap_end > 0.3 * s
+            t, s = t[ok], s[ok]
+        if len(t) > 1:
+            keep = np.ones(len(t), bool)
+            keep[1:] = np.diff(t) * c.length > 0.3 * np.minimum(s[1:], s[:-1])
+            t = t[keep]
+        pinned_t = t
+        full = np.concatenate([[0.0], t, [1.0]])
+        filled = [full[:1]]
+        for a, b in zip(full[:-1], full[1:]):
+            mid = c.point(np.array([0.5 * (a + b)]))
+            h = _row_step(ctx, np.sqrt((_scalar_grad(ctx, mid) ** 2).sum(1)), dprime)[0]
+            h = min(h, np.sqrt(8 * getattr(c, "radius", np.inf) * 1e-3 * ctx.domain.diameter))
+            nseg = max(1, int(np.ceil((b - a) * c.length / (1.15 * h))))
+            if getattr(c, "radius", None) is not None and abs(b - a) > 0.99:
+                nseg = max(nseg, 4)
+            filled.append(np.linspace(a, b, nseg + 1)[1:])
+        out.append((np.concatenate(filled), pinned_t))
+    return out
+
+
+def _pslg_workset(ctx: Context, params) -> WorkSet:
+    """Build the work set from per-curve parameter lists (curve end points shared)."""
+    scale = ctx.domain.diameter
+    P, vc, vt, pin, E, ec = [], [], [], [], [], []
+    ends: dict = {}
+
+    def end_vertex(p):
+        key = tuple(np.round(np.asarray(p) / (1e-9 * scale)).astype(np.int64))
+        if key not in ends:
+            ends[key] = len(P)
+            P.append(np.asarray(p, float))
+            vc.append(FIXED)
+            vt.append(np.nan)
+            pin.append(True)
+        return ends[key]
+
+    for k, (c, (t, pinned_t)) in enumerate(zip(ctx.curves, params)):
+        ids = [end_vertex(c.start)]
+        inner = t[1:-1]
+        pts = c.point(inner) if len(inner) else np.zeros((0, 2))
+        pinset = np.isin(inner, pinned_t)
+        for p, ti, pi in zip(pts, inner, pinset):
+            ids.append(len(P))
+            P.append(p)
+            vc.append(k)
+            vt.append(ti)
+            pin.append(bool(pi))
+        ids.append(end_vertex(c.end))
+        ids = np.array(ids)
+        E.append(np.column_stack([ids[:-1], ids[1:]]))
+        ec.append(np.full(len(ids) - 1, k))
+    for name, p in getattr(ctx.domain, "points", {}).items():
+        end_vertex(p)
+    n = len(P)
+    return WorkSet(P=np.array(P), vcurve=np.array(vc, np.int64), vt=np.array(vt, float),
+                   pinned=np.array(pin, bool), level=np.full(n, np.nan),
+                   E=np.concatenate(E).astype(np.int64), ecurve=np.concatenate(ec).astype(np.int64))
+
+
+def _distances(ctx: Context, pts: np.ndarray):
+    db = np.full(len(pts), np.inf)
+    di = np.full(len(pts), np.inf)
+    for c, isb in zip(ctx.curves, ctx.boundary_curve):
+        d = c.distance(pts)
+        if isb:
+            db = np.minimum(db, d)
+        else:
+            di = np.minimum(di, d)
+    return db, di
+
+
+def _trace_rows(ctx: Context, cid, tt, lv, dprime, budget: int):
+    """Trace every level curve inwards from its boundary crossings; returns (points, levels)."""
+    seeds = np.array([ctx.curves[c].point(np.array([t]))[0] for c, t in zip(cid, tt)]) \
+        if len(cid) else np.zeros((0, 2))
+    isb = ctx.boundary_curve[cid] if len(cid) else np.zeros(0, bool)
+    seeds, lv = seeds[isb], lv[isb]
+    if len(seeds) == 0:
+        return np.zeros((0, 2)), np.zeros(0)
+    gr = _scalar_grad(ctx, seeds)
+    gn = np.linalg.norm(gr, axis=1)
+    tau = np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(gn, 1e-300)[:, None]
+    s = _row_step(ctx, gn, dprime)
+    probe = seeds + 0.05 * s[:, None] * tau
+    inward = ctx.inside(probe)
+    x, lev = seeds[inward], lv[inward]
+    out_p, out_l = [], []
+    total = 0
+    active = np.ones(len(x), bool)
+    start = x.copy()
+    travelled = np.zeros(len(x))
+    for step in range(100_000):
+        if not active.any() or total > budget:
+            break
+        xa, la = x[active], lev[active]
+        g = _scalar_grad(ctx, xa)
+        gn = np.linalg.norm(g, axis=1)
+        h = _row_step(ctx, gn, dprime)
+        tau = np.column_stack([-g[:, 1], g[:, 0]]) / np.maximum(gn, 1e-300)[:, None]
+        xm = xa + 0.5 * h[:, None] * tau  # midpoint predictor
+        gm = _scalar_grad(ctx, xm)
+        tm = np.column_stack([-gm[:, 1], gm[:, 0]]) / np.maximum(np.linalg.norm(gm, axis=1), 1e-300)[:, None]
+        xn = project_to_level(ctx, xa + h[:, None] * tm, la, iters=3)
+        moved = np.linalg.norm(xn - xa, axis=1)
+        inside = ctx.inside(xn)
+        db, di = _distances(ctx, xn)
+        ok = inside & (gn > 1e-12) & (moved > 0.2 * h) & (moved < 3 * h)
+        # closed level curves: stop when back near the start
+        travelled[active] += moved
+        closed = (travelled[active] > 3 * h) & (np.linalg.norm(xn - start[active], axis=1) < 0.6 * h)
+        keep_node = ok & (db > 0.55 * h) & (di > 0.55 * h) & ~closed
+        out_p.append(xn[keep_node])
+        out_l.append(la[keep_node])
+        total += int(keep_node.sum())
+        cont = ok & ~closed & ((db > 0.3 * h) | (step < 2))
+        ia = np.flatnonzero(active)
+        x[ia] = xn
+        active[ia[~cont]] = False
+    if not out_p:
+        return np.zeros((0, 2)), np.zeros(0)
+    return np.concatenate(out_p), np.concatenate(out_l)
+
+
+def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
+    """Fill flat zones: insert circumcenters of triangles larger than the local size."""
+    for _ in range(rounds):
+        tris = triangulate(ws, ctx)
+        a, b, c = ws.P[tris[:, 0]], ws.P[tris[:, 1]], ws.P[tris[:, 2]]
+        ba, ca = b - a, c - a
+        d = 2.0 * (ba[:, 0] * ca[:, 1] - ba[:, 1] * ca[:, 0])
+        bl, cl = (ba ** 2).sum(1), (ca ** 2).sum(1)
+        cc = a + np.column_stack([(ca[:, 1] * bl - ba[:, 1] * cl) / d, (ba[:, 0] * cl - ca[:, 0] * bl) / d])
+        R = np.linalg.norm(cc - a, axis=1)
+        cen = (a + b + c) / 3.0
+        hloc = np.minimum(ctx.h_max, _row_step(ctx, np.linalg.norm(_scalar_grad(ctx, cen), axis=1), dprime))
+        big = R > 0.75 * hloc
+        if not big.any():
+            return tris
+        cc, R = cc[big], R[big]
+        ok = ctx.inside(cc)
+        cc, R = cc[ok], R[ok]
+        db, di = _distances(ctx, cc)
+        hh = np.minimum(ctx.h_max, _row_step(ctx, np.linalg.norm(_scalar_grad(ctx, cc), axis=1), dprime))
+        ok = (db > 0.5 * hh) & (di > 0.5 * hh)
+        cand = thin_candidates(ws, cc[ok], 0.5 * R[ok])
+        if len(cand) == 0:
+            return tris
+        add_free_points(ws, cand)
+    return triangulate(ws, ctx)
+
+
+def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
+    """Place nodes on rows along the iso-composition curves (see the module docstring)."""
+    dprime = BETA * ctx.threshold
+    anchor, sign, fmin, fmax = _levels_and_anchor(ctx, dprime)
+    cid, tt, lv = _crossings(ctx, anchor, sign, dprime)
+    ws = _pslg_workset(ctx, _curve_params(ctx, cid, tt, dprime))
+    from .density import estimate_elements
+
+    budget = int(2 * estimate_elements(ctx.field, ctx.domain, ctx.threshold, ctx.h_max)) + 1000
+    rows, rlev = _trace_rows(ctx, cid, tt, lv, dprime, budget)
+    if len(rows):
+        # rows of one level traced twice (from both ends) or crossing: thin them
+        g = np.linalg.norm(_scalar_grad(ctx, rows), axis=1)
+        md = 0.4 * _row_step(ctx, g, dprime)
+        keep = _thin_rows(ws, rows, md)
+        add_free_points(ws, rows[keep], level=rlev[keep])
+    log.info("layers: %d boundary nodes, %d row nodes", int((ws.vcurve != FREE).sum()),
+             int(np.isfinite(ws.level).sum()))
+    tris = _fill(ws, ctx, dprime)
+    smooth(ws, ctx, tris, iters=4)
+    return ws
+
+
+def _thin_rows(ws: WorkSet, rows: np.ndarray, md: np.ndarray) -> np.ndarray:
+    from scipy.spatial import cKDTree
+
+    keep = np.ones(len(rows), bool)
+    d, _ = cKDTree(ws.P).query(rows)
+    keep &= d > md
+    t = cKDTree(rows)
+    pairs = t.query_pairs(r=float(md.max()) if len(md) else 0.0, output_type="ndarray")
+    if len(pairs):
+        dd = np.linalg.norm(rows[pairs[:, 0]] - rows[pairs[:, 1]], axis=1)
+        pairs = pairs[dd < np.minimum(md[pairs[:, 0]], md[pairs[:, 1]])]
+        for i, j in pairs:
+            if keep[i] and keep[j]:
+                keep[j] = False
+    return keep

@@ -1,0 +1,270 @@
+"""Figures: the mesh coloured by composition, and histograms of delta over the elements.
+
+Figures are built with :class:`matplotlib.figure.Figure` on an Agg canvas, never through
+``pyplot``: no global state, no GUI backend, nothing to ``show``, safe in threads. The
+``*_figure`` functions return the Figure (for tests and notebooks); the ``plot_*`` functions
+save it atomically (:func:`hetmesh.io.atomic.atomic_path`) in the format of the extension
+(``.png``, ``.pdf``, ``.svg``, ...) and return the path.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+from matplotlib.tri import Triangulation
+
+from .errors import OptionError, OutputError
+from .io.atomic import atomic_path
+from .mesh import Mesh
+
+__all__ = ["mesh_figure", "plot_mesh", "delta_histogram_figure", "plot_delta_histogram"]
+
+log = logging.getLogger(__name__)
+
+DeltaLike = np.ndarray | Sequence[float] | Mesh
+
+
+# -- the mesh ----------------------------------------------------------------------------
+
+def _new_figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _point_values(mesh: Mesh, data: str | None) -> tuple[str, np.ndarray] | None:
+    """The name and values of the point data to colour by (None if there is none)."""
+    if data is None:
+        scalars = [k for k, v in mesh.point_data.items() if np.ndim(v) == 1]
+        if not scalars:
+            return None
+        data = scalars[-1]
+    if data not in mesh.point_data:
+        known = ", ".join(mesh.point_data) or "none"
+        raise OptionError(f"no point data {data!r} to plot (available: {known})")
+    values = np.asarray(mesh.point_data[data], np.float64)
+    if values.ndim != 1:
+        raise OptionError(f"point data {data!r} has shape {values.shape}; only scalars can be plotted")
+    return data, values
+
+
+def _figure_size(mesh: Mesh) -> tuple[float, float]:
+    span = np.ptp(mesh.points, axis=0) if mesh.n_points else np.ones(2)
+    aspect = float(span[1] / span[0]) if span[0] > 0 else 1.0
+    width = 7.0
+    return width, float(np.clip(width * aspect * 0.85 + 0.6, 2.5, 10.0))
+
+
+def _edge_segments(mesh: Mesh, select: np.ndarray) -> np.ndarray:
+    return mesh.points[mesh.edges[select]]
+
+
+def mesh_figure(mesh: Mesh, *, data: str | None = None, title: str | None = None,
+                interface_markers: Iterable[int] = (), show_edges: bool = True) -> Figure:
+    """The mesh coloured by a point data array (Gouraud shading), with its edges.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    data : str, optional
+        Name of a scalar ``mesh.point_data`` array; by default the last one (the last
+        constituent, e.g. ``"metal"``). Without point data the triangles are coloured by
+        region.
+    title : str, optional
+    interface_markers : iterable of int
+        Edge markers whose constrained edges are drawn thick and red (interfaces).
+    show_edges : bool
+        Draw the triangles' edges in thin dark lines.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> fig = mesh_figure(mesh, data="metal", interface_markers=[5])   # doctest: +SKIP
+    """
+    fig = _new_figure(*_figure_size(mesh))
+    ax = fig.add_subplot()
+    tri = Triangulation(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles)
+    picked = _point_values(mesh, data)
+    if picked is None:
+        art = ax.tripcolor(tri, facecolors=mesh.regions.astype(float), cmap="tab10")
+        label = "region"
+    else:
+        label, values = picked
+        art = ax.tripcolor(tri, values, shading="gouraud", cmap="viridis")
+    fig.colorbar(art, ax=ax, label=label, shrink=0.9)
+    if show_edges:
+        lw = 0.3 if mesh.n_elements < 20_000 else 0.08
+        ax.triplot(tri, color="0.15", lw=lw, alpha=0.8)
+    _draw_constrained_edges(ax, mesh, interface_markers)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def _draw_constrained_edges(ax, mesh: Mesh, interface_markers: Iterable[int]) -> None:
+    """Boundary/interface edges: dark outline, the ``interface_markers`` thick and red."""
+    if not len(mesh.edges):
+        return
+    red = np.isin(mesh.edge_markers, np.fromiter(interface_markers, dtype=np.int64))
+    if (~red).any():
+        ax.add_collection(LineCollection(_edge_segments(mesh, ~red), colors="0.05", linewidths=0.8))
+    if red.any():
+        ax.add_collection(LineCollection(_edge_segments(mesh, red), colors="red", linewidths=2.0))
+
+
+def plot_mesh(mesh: Mesh, path: str | Path, *, data: str | None = None, title: str | None = None,
+              interface_markers: Iterable[int] = (), show_edges: bool = True,
+              dpi: int = 150) -> Path:
+    """Save :func:`mesh_figure` to ``path`` (atomically; format from the extension).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> plot_mesh(mesh, "plate.png", title="plate, delta_0 = 0.05")   # doctest: +SKIP
+    PosixPath('plate.png')
+    """
+    fig = mesh_figure(mesh, data=data, title=title, interface_markers=interface_markers,
+                      show_edges=show_edges)
+    return _save(fig, path, dpi)
+
+
+# -- delta histograms --------------------------------------------------------------------
+
+def _delta_values(delta: DeltaLike, what: str) -> np.ndarray:
+    if isinstance(delta, Mesh):
+        if "delta" not in delta.cell_data:
+            raise OptionError(f"{what}: the mesh has no cell data 'delta'")
+        delta = delta.cell_data["delta"]
+    d = np.asarray(delta, np.float64).ravel()
+    return d[np.isfinite(d)]
+
+
+def _series(delta, other, labels: Sequence[str]) -> list[tuple[str, np.ndarray]]:
+    """``[(label, finite delta values)]`` from an array/Mesh (+ other) or a mapping."""
+    if isinstance(delta, Mapping):
+        return [(str(k), _delta_values(v, str(k))) for k, v in delta.items()]
+    items = [delta] if other is None else [delta, other]
+    if len(labels) < len(items):
+        raise OptionError(f"need {len(items)} labels for the delta histograms, got {len(labels)}")
+    return [(labels[i], _delta_values(d, labels[i])) for i, d in enumerate(items)]
+
+
+def _bin_edges(series: list[tuple[str, np.ndarray]], threshold: float, bins) -> np.ndarray:
+    if bins is not None and np.ndim(bins) == 1:
+        return np.asarray(bins, np.float64)
+    top = max([threshold] + [float(d.max()) for _, d in series if d.size])
+    return np.linspace(0.0, 1.05 * top, (40 if bins is None else int(bins)) + 1)
+
+
+def delta_histogram_figure(delta, *, threshold: float, other: DeltaLike | None = None,
+                           labels: Sequence[str] = ("adaptive", "uniform"), bins=None,
+                           title: str | None = None) -> Figure:
+    """Histogram(s) of delta(T) over the elements, as the fraction of elements per bin.
+
+    Like the paper's Fig. 6: one histogram per mesh on shared bins, and a vertical line at
+    the threshold delta_0.
+
+    Parameters
+    ----------
+    delta : array, Mesh or mapping of label to array/Mesh
+        delta of every element (a Mesh gives its ``cell_data["delta"]``). A mapping draws
+        one histogram per entry and ignores ``other`` and ``labels``.
+    threshold : float
+        delta_0, drawn as a vertical line.
+    other : array or Mesh, optional
+        A second mesh's delta (e.g. the uniform baseline).
+    labels : sequence of str
+        Legend labels of ``delta`` and ``other``.
+    bins : int or array, optional
+        Number of bins (default 40, from 0 to 1.05 x the largest value or the threshold)
+        or the bin edges.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> fig = delta_histogram_figure(adaptive.mesh, other=uniform.mesh, threshold=0.05)  # doctest: +SKIP
+    """
+    if not (np.isfinite(threshold) and threshold > 0):
+        raise OptionError(f"threshold must be a positive number, got {threshold!r}")
+    series = _series(delta, other, labels)
+    edges = _bin_edges(series, float(threshold), bins)
+    fig = _new_figure(7.0, 4.2)
+    ax = fig.add_subplot()
+    for i, (label, d) in enumerate(series):
+        if not d.size:
+            log.warning("no finite delta values for %r; nothing to draw", label)
+            continue
+        color = f"C{i}"
+        w = np.full(d.size, 1.0 / d.size)
+        ax.hist(d, bins=edges, weights=w, histtype="stepfilled", alpha=0.35, color=color)
+        ax.hist(d, bins=edges, weights=w, histtype="step", lw=1.5, color=color,
+                label=f"{label} ({d.size} elements)")
+    ax.axvline(threshold, color="red", ls="--", lw=1.5, label=f"threshold $\\delta_0$ = {threshold:g}")
+    ax.set_xlabel(r"$\delta(T)$")
+    ax.set_ylabel("fraction of elements")
+    ax.set_xlim(edges[0], edges[-1])
+    ax.legend()
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def plot_delta_histogram(delta, path: str | Path, *, threshold: float,
+                         other: DeltaLike | None = None,
+                         labels: Sequence[str] = ("adaptive", "uniform"), bins=None,
+                         title: str | None = None, dpi: int = 150) -> Path:
+    """Save :func:`delta_histogram_figure` to ``path`` (atomically; format from the extension).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> plot_delta_histogram({"adaptive": a.mesh, "uniform": u.mesh}, "delta.png",
+    ...                      threshold=0.05)   # doctest: +SKIP
+    PosixPath('delta.png')
+    """
+    fig = delta_histogram_figure(delta, threshold=threshold, other=other, labels=labels,
+                                 bins=bins, title=title)
+    return _save(fig, path, dpi)
+
+
+# -- saving ------------------------------------------------------------------------------
+
+def _save(fig: Figure, path: str | Path, dpi: int) -> Path:
+    """Save atomically in the format of the extension, then release the figure."""
+    path = Path(path)
+    known = fig.canvas.get_supported_filetypes()
+    fmt = path.suffix[1:].lower()
+    if fmt not in known:
+        names = ", ".join("." + k for k in sorted(known))
+        raise OutputError(f"unknown image format {path.suffix!r} for {path} (known: {names})")
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi)
+    finally:
+        fig.clear()
+    log.info("wrote %s", path)
+    return path

@@ -1,0 +1,234 @@
+"""The working point set of the mesher and the local operations on it.
+
+A :class:`WorkSet` holds the points and what each one is tied to: a boundary or interface
+curve (with its parameter), a fixed corner or named point, a composition level (for nodes
+placed on iso-composition curves), or nothing (free interior nodes). The triangulation is
+always recomputed from it (constrained Delaunay), so the operations here only add or move
+points: splitting constraint edges on their true curve, inserting free points, and the
+conforming CVT smoothing of :mod:`hetmesh.cvt`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from . import cvt
+from .triangulate import constrained_delaunay
+
+__all__ = ["WorkSet", "Context", "triangulate", "split_constraint_edges", "add_free_points",
+           "smooth", "edge_keys"]
+
+FREE, FIXED = -2, -1
+
+
+@dataclass
+class Context:
+    """Everything the local operations need to know about the model (read-only)."""
+
+    domain: object
+    curves: list  # Curve objects, index = curve id
+    closed: np.ndarray  # (C,) bool: curve start == end
+    boundary_curve: np.ndarray  # (C,) bool: outer or hole (not interface)
+    field: object
+    threshold: float
+    h_max: float
+    scalar: int | None = None  # constituent whose level sets carry nodes (layers)
+
+    def inside(self, pts: np.ndarray) -> np.ndarray:
+        return self.domain.contains(pts)
+
+    def g(self, pts: np.ndarray) -> np.ndarray:
+        gr = self.field.gradient(pts)
+        return np.sqrt((gr ** 2).sum(axis=2)).max(axis=1)
+
+    def rho(self, pts: np.ndarray) -> np.ndarray:
+        g = np.maximum(self.g(pts), self.threshold / self.h_max)
+        return g ** 4  # Eq. (9), d = 2
+
+
+@dataclass
+class WorkSet:
+    P: np.ndarray  # (N, 2)
+    vcurve: np.ndarray  # (N,) curve id, FIXED or FREE
+    vt: np.ndarray  # (N,) parameter on vcurve (nan otherwise)
+    pinned: np.ndarray  # (N,) bool: never moved
+    level: np.ndarray  # (N,) composition level carried (nan otherwise)
+    E: np.ndarray  # (K, 2) constraint edges
+    ecurve: np.ndarray  # (K,) curve of every constraint edge
+    ET: np.ndarray = field(default=None)  # (K, 2) parameters of the edge ends on ecurve
+
+    @property
+    def n(self) -> int:
+        return len(self.P)
+
+
+def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    lo = np.minimum(a, b).astype(np.int64)
+    hi = np.maximum(a, b).astype(np.int64)
+    return (lo << 32) | hi
+
+
+def edge_params(ws: WorkSet, ctx: Context) -> np.ndarray:
+    """Parameters (K, 2) of the two ends of every constraint edge on that edge's curve."""
+    E, c = ws.E, ws.ecurve
+    out = np.empty(E.shape)
+    for j in (0, 1):
+        v = E[:, j]
+        own = ws.vcurve[v] == c
+        out[own, j] = ws.vt[v[own]]
+        oth = np.flatnonzero(~own)
+        for k in oth:  # edges ending at a curve end point (few): parameter 0 or 1
+            cu = ctx.curves[c[k]]
+            w = E[k, 1 - j]
+            if ctx.closed[c[k]]:
+                other = ws.vt[w] if ws.vcurve[w] == c[k] else 0.5
+                out[k, j] = 0.0 if other < 0.5 else 1.0
+            else:
+                p = ws.P[E[k, j]]
+                d0 = np.hypot(*(p - cu.start))
+                d1 = np.hypot(*(p - cu.end))
+                out[k, j] = 0.0 if d0 <= d1 else 1.0
+    return out
+
+
+def curve_bounds(ws: WorkSet, ctx: Context) -> tuple[np.ndarray, np.ndarray]:
+    """For every curve vertex, the parameters of its neighbours along the curve."""
+    et = edge_params(ws, ctx)
+    lo = np.full(ws.n, -np.inf)
+    hi = np.full(ws.n, np.inf)
+    for j in (0, 1):
+        v, tv, to = ws.E[:, j], et[:, j], et[:, 1 - j]
+        own = ws.vcurve[v] == ws.ecurve
+        up = own & (to > tv)
+        np.minimum.at(hi, v[up], to[up])
+        dn = own & (to < tv)
+        np.maximum.at(lo, v[dn], to[dn])
+    lo = np.where(np.isfinite(lo), lo, ws.vt)
+    hi = np.where(np.isfinite(hi), hi, ws.vt)
+    return lo, hi
+
+
+def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
+    bmask = ctx.boundary_curve[ws.ecurve]
+    return constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
+
+
+def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray) -> np.ndarray:
+    """Split constraint edges ``idx`` at their curve midpoint; returns the new vertex ids."""
+    idx = np.unique(idx)
+    if idx.size == 0:
+        return np.zeros(0, np.int64)
+    et = edge_params(ws, ctx)[idx]
+    tm = 0.5 * (et[:, 0] + et[:, 1])
+    c = ws.ecurve[idx]
+    newp = np.empty((len(idx), 2))
+    for cid in np.unique(c):
+        s = c == cid
+        newp[s] = ctx.curves[cid].point(tm[s])
+    n0 = ws.n
+    nid = n0 + np.arange(len(idx))
+    a, b = ws.E[idx, 0].copy(), ws.E[idx, 1].copy()
+    ws.P = np.vstack([ws.P, newp])
+    ws.vcurve = np.concatenate([ws.vcurve, c])
+    ws.vt = np.concatenate([ws.vt, tm])
+    ws.pinned = np.concatenate([ws.pinned, np.zeros(len(idx), bool)])
+    ws.level = np.concatenate([ws.level, np.full(len(idx), np.nan)])
+    ws.E[idx, 1] = nid
+    ws.E = np.vstack([ws.E, np.column_stack([nid, b])])
+    ws.ecurve = np.concatenate([ws.ecurve, c])
+    return nid
+
+
+def add_free_points(ws: WorkSet, pts: np.ndarray, level: np.ndarray | None = None) -> np.ndarray:
+    n0 = ws.n
+    k = len(pts)
+    ws.P = np.vstack([ws.P, pts])
+    ws.vcurve = np.concatenate([ws.vcurve, np.full(k, FREE)])
+    ws.vt = np.concatenate([ws.vt, np.full(k, np.nan)])
+    ws.pinned = np.concatenate([ws.pinned, np.zeros(k, bool)])
+    ws.level = np.concatenate([ws.level, np.full(k, np.nan) if level is None else level])
+    return n0 + np.arange(k)
+
+
+def thin_candidates(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray) -> np.ndarray:
+    """Drop candidates closer than ``min_dist`` to existing points or to an earlier candidate."""
+    if len(cand) == 0:
+        return cand
+    tree = cKDTree(ws.P)
+    d, _ = tree.query(cand)
+    keep = d > min_dist
+    cand, md = cand[keep], min_dist[keep]
+    if len(cand) < 2:
+        return cand
+    t2 = cKDTree(cand)
+    pairs = t2.query_pairs(r=float(md.max()), output_type="ndarray")
+    if len(pairs):
+        dd = np.hypot(*(cand[pairs[:, 0]] - cand[pairs[:, 1]]).T)
+        close = dd < np.minimum(md[pairs[:, 0]], md[pairs[:, 1]])
+        drop = np.zeros(len(cand), bool)
+        for i, j in pairs[close]:  # greedy, in order: deterministic
+            if not drop[i]:
+                drop[j] = True
+        cand = cand[~drop]
+    return cand
+
+
+def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: int = 3) -> np.ndarray:
+    """Newton steps along the gradient onto f = level (for nodes on iso-composition curves)."""
+    j = ctx.scalar
+    p = pts.copy()
+    for _ in range(iters):
+        f = ctx.field.composition(p)[:, j]
+        gr = ctx.field.gradient(p)[:, j, :]
+        g2 = (gr ** 2).sum(1)
+        ok = g2 > 1e-30
+        step = np.zeros_like(p)
+        step[ok] = ((f[ok] - level[ok]) / g2[ok])[:, None] * gr[ok]
+        p = p - step
+    return p
+
+
+def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
+           active: np.ndarray | None = None) -> np.ndarray:
+    """Conforming density-weighted Lloyd iterations (Sec. 3.2.3); returns the last triangles.
+
+    Free nodes move to their cell's rho-centroid; curve nodes slide along their curve; nodes
+    carrying a composition level slide along that level curve (tangential move, then Newton
+    back onto it); fixed and pinned nodes stay. ``active`` limits the moves to some vertices.
+    """
+    for it in range(iters):
+        cent, mass = cvt.cell_centroids(ws.P, tris, ctx.rho)
+        movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
+        if active is not None:
+            movable &= active
+        target = cent
+        lev = np.isfinite(ws.level) & movable & (ws.vcurve == FREE)
+        if lev.any():
+            j = ctx.scalar
+            gr = ctx.field.gradient(ws.P[lev])[:, j, :]
+            nrm = np.linalg.norm(gr, axis=1, keepdims=True)
+            tng = np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(nrm, 1e-300)
+            d = cent[lev] - ws.P[lev]
+            tgt = ws.P[lev] + (d * tng).sum(1, keepdims=True) * tng
+            target = target.copy()
+            target[lev] = project_to_level(ctx, tgt, ws.level[lev])
+        oncurve = movable & (ws.vcurve >= 0)
+        if oncurve.any():
+            lo, hi = curve_bounds(ws, ctx)
+            slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, ws.vcurve, -1), ws.vt,
+                                             ctx.curves, lo, hi)
+            target = np.where(oncurve[:, None], slid, target)
+        moved = cvt.limit_to_star(ws.P, tris, target, movable)
+        if oncurve.any():
+            # keep the parameter of curve nodes consistent with where they ended up
+            ok = oncurve & np.all(moved == target, axis=1)
+            ws.vt = np.where(ok, tnew, ws.vt)
+            back = oncurve & ~ok
+            moved[back] = ws.P[back]
+        # a node that left the domain (or crossed an interface cell) is put back
+        ws.P = moved
+        tris = triangulate(ws, ctx)
+    return tris

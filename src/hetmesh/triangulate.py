@@ -1,0 +1,131 @@
+"""The one wrapper around the constrained Delaunay kernel (pythoncdt).
+
+Everything else in hetmesh sees plain arrays: ``points (N, 2)``, constraint ``edges (E, 2)``
+in, counter-clockwise ``triangles (M, 3)`` out.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pythoncdt as cdt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from .errors import MeshingError
+
+__all__ = ["constrained_delaunay", "triangle_neighbors"]
+
+log = logging.getLogger(__name__)
+
+
+def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
+                         boundary_edges: np.ndarray | None = None) -> np.ndarray:
+    """Constrained Delaunay triangulation of ``points`` honouring ``edges``.
+
+    Parameters
+    ----------
+    points : (N, 2) float array, no duplicates.
+    edges : (E, 2) int array of constraint edges (boundary, holes and interfaces); they must
+        not cross each other.
+    inside : callable ``(K, 2) -> (K,) bool``, optional
+        Tells which connected pieces of the triangulation (separated by ``boundary_edges``)
+        lie inside the domain. Without it the convex hull is returned.
+    boundary_edges : (B, 2) int array, optional
+        The constraint edges that separate inside from outside (outer loop and holes; not
+        interfaces). Defaults to ``edges``.
+
+    Returns
+    -------
+    (M, 3) int32 triangles, counter-clockwise, indexing ``points``.
+    """
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    e = np.ascontiguousarray(edges, dtype=np.uintc).reshape(-1, 2)
+    t = cdt.Triangulation(cdt.VertexInsertionOrder.AUTO,
+                          cdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
+    try:
+        t.insert_vertices(pts)
+        if len(e):
+            t.insert_edges(e)
+        t.erase_super_triangle()
+    except Exception as exc:  # the kernel reports duplicate points or crossing constraints
+        raise MeshingError(f"constrained Delaunay triangulation failed: {exc}") from exc
+    if t.vertices_count() != len(pts):
+        raise MeshingError("constrained Delaunay triangulation added or dropped vertices "
+                           f"({t.vertices_count()} != {len(pts)}): crossing constraint edges?")
+    tri = t.triangles_array()
+    tris = tri["vertices"].astype(np.int32)
+    if inside is None or len(tris) == 0:
+        return _ccw(pts, tris)
+    nbr = tri["neighbors"].astype(np.int64)
+    be = e if boundary_edges is None else np.asarray(boundary_edges).reshape(-1, 2)
+    keep = _inside_components(pts, tris, nbr, be, inside)
+    return _ccw(pts, tris[keep])
+
+
+def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    lo = np.minimum(a, b).astype(np.int64)
+    hi = np.maximum(a, b).astype(np.int64)
+    return lo * n + hi
+
+
+def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
+    """Flood the triangle adjacency graph without crossing boundary edges; keep the inside pieces."""
+    m, n = len(tris), len(pts)
+    # edge j of a CDT triangle is opposite vertex j? find the shared edge explicitly instead
+    src = np.repeat(np.arange(m), 3)
+    dst = nbr.ravel()
+    ok = (dst >= 0) & (dst < m)
+    src, dst = src[ok], dst[ok]
+    # vertices common to both triangles give the shared edge
+    ts, td = tris[src], tris[dst]
+    common = (ts[:, :, None] == td[:, None, :]).any(axis=2)  # (k, 3) which of src's vertices are shared
+    # each row has exactly two shared vertices
+    idx = np.argsort(~common, axis=1, kind="stable")[:, :2]
+    va = np.take_along_axis(ts, idx, axis=1)
+    keys = _edge_keys(va[:, 0], va[:, 1], n)
+    bkeys = np.unique(_edge_keys(boundary_edges[:, 0], boundary_edges[:, 1], n))
+    cut = np.isin(keys, bkeys)
+    g = coo_matrix((np.ones(int((~cut).sum())), (src[~cut], dst[~cut])), shape=(m, m))
+    ncomp, label = connected_components(g, directed=False)
+    # one representative centroid per component
+    first = np.full(ncomp, -1)
+    order = np.arange(m)[::-1]
+    first[label[order]] = order
+    cent = pts[tris[first]].mean(axis=1)
+    comp_inside = np.asarray(inside(cent), dtype=bool)
+    return comp_inside[label]
+
+
+def _ccw(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+    cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    out = tris.copy()
+    neg = cross < 0
+    out[neg, 1], out[neg, 2] = tris[neg, 2], tris[neg, 1]
+    return np.ascontiguousarray(out, dtype=np.int32)
+
+
+def triangle_neighbors(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique edges and, for each, the two adjacent triangles (-1 where only one).
+
+    Returns ``(edges (E, 2) sorted, tri_of_edge (E, 2))``, plus nothing else; used for flips and
+    edge-based refinement.
+    """
+    m = len(triangles)
+    e = np.concatenate([triangles[:, [1, 2]], triangles[:, [2, 0]], triangles[:, [0, 1]]])
+    e = np.sort(e, axis=1)
+    owner = np.tile(np.arange(m), 3)
+    order = np.lexsort((e[:, 1], e[:, 0]))
+    e, owner = e[order], owner[order]
+    new = np.ones(len(e), bool)
+    new[1:] = np.any(e[1:] != e[:-1], axis=1)
+    start = np.flatnonzero(new)
+    uniq = e[start]
+    cnt = np.diff(np.append(start, len(e)))
+    t2 = np.full((len(uniq), 2), -1, np.int64)
+    t2[:, 0] = owner[start]
+    two = cnt == 2
+    t2[two, 1] = owner[start[two] + 1]
+    return uniq, t2

@@ -1,0 +1,365 @@
+"""The command line: ``main([...])`` with ``tmp_path`` and ``capsys`` (meshio, optimesh style)."""
+
+from __future__ import annotations
+
+import json
+import os
+from importlib import resources
+from pathlib import Path
+
+import pytest
+
+from hetmesh.cli import main
+
+THRESHOLD = 0.1  # coarse: a few hundred elements on the power plate
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory) -> Path:
+    """The packaged power-plate example, as a real file."""
+    src = resources.files("hetmesh") / "examples" / "power_plate.toml"
+    path = tmp_path_factory.mktemp("model") / "power_plate.toml"
+    path.write_text(src.read_text(encoding="utf-8"), encoding="utf-8")
+    return path
+
+
+def run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code, out, err, *, contains: str = "") -> str:
+    assert code == 2, (code, out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("hetmesh: error:"), err
+    assert "Traceback" not in err
+    assert contains in lines[0], lines[0]
+    return lines[0]
+
+
+# -- help and version ------------------------------------------------------------------
+
+@pytest.mark.parametrize("command", [[], ["mesh"], ["uniform"], ["stats"], ["demo"]])
+def test_help_exits_0(command, capsys):
+    code, out, err = run([*command, "--help"], capsys)
+    assert code == 0
+    assert out.startswith("usage: hetmesh")
+    assert err == ""
+
+
+def test_version(capsys):
+    code, out, _ = run(["--version"], capsys)
+    assert code == 0
+    assert out.startswith("hetmesh ")
+
+
+def test_no_command_is_a_usage_error(capsys):
+    assert_one_line_error(*run([], capsys), contains="COMMAND")
+
+
+# -- bad input: exit 2, one line, nothing written ---------------------------------------
+
+def mesh_argv(model, out, *extra, command="mesh", threshold=THRESHOLD):
+    return [command, model, "--threshold", threshold, "--output", out, "--quiet", *extra]
+
+
+@pytest.mark.parametrize("command", ["mesh", "uniform"])
+@pytest.mark.parametrize("extra, contains", [
+    (["--threshold", "0"], "--threshold 0 is outside (0, 1)"),
+    (["--threshold", "-1"], "--threshold -1 is outside (0, 1)"),
+    (["--threshold", "1"], "--threshold"),
+    (["--threshold", "nan"], "--threshold"),
+    (["--threshold", "abc"], "--threshold"),
+    (["--min-angle", "40"], "--min-angle 40 is outside (0, 34]"),
+    (["--min-angle", "0"], "--min-angle 0 is outside (0, 34]"),
+    (["--max-elements", "0"], "--max-elements 0"),
+    (["--max-elements", "1.5"], "--max-elements"),
+    (["--sampling", "sparse"], "--sampling"),
+])
+def test_bad_options(command, extra, contains, model, tmp_path, capsys):
+    out = tmp_path / "out.vtu"
+    argv = mesh_argv(model, out, command=command)
+    if extra[0] == "--threshold":
+        argv[argv.index("--threshold") + 1] = extra[1]
+    else:
+        argv += extra
+    assert_one_line_error(*run(argv, capsys), contains=contains)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("extra, contains", [
+    (["--max-size", "0"], "--max-size 0"),
+    (["--max-size", "-2"], "--max-size -2"),
+    (["--seed", "-1"], "--seed -1"),
+    (["--method", "magic"], "--method"),
+])
+def test_bad_adaptive_options(extra, contains, model, tmp_path, capsys):
+    out = tmp_path / "out.vtu"
+    assert_one_line_error(*run(mesh_argv(model, out, *extra), capsys), contains=contains)
+    assert not out.exists()
+
+
+def test_missing_required_option(model, tmp_path, capsys):
+    assert_one_line_error(*run(["mesh", model, "--output", tmp_path / "o.vtu"], capsys),
+                          contains="--threshold")
+
+
+def test_nonexistent_model(tmp_path, capsys):
+    out = tmp_path / "out.vtu"
+    line = assert_one_line_error(*run(mesh_argv(tmp_path / "nope.toml", out), capsys))
+    assert "nope.toml" in line
+    assert not out.exists()
+
+
+def test_model_not_toml(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("this is [not toml\n")
+    out = tmp_path / "out.vtu"
+    line = assert_one_line_error(*run(mesh_argv(bad, out), capsys))
+    assert "bad.toml" in line
+    assert not out.exists()
+
+
+def test_existing_output_untouched_when_model_is_bad(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[model]\nname = 3\nfoo = [\n")
+    out = tmp_path / "out.vtu"
+    out.write_text("keep me")
+    stats = tmp_path / "stats.json"
+    stats.write_text("{}")
+    assert_one_line_error(*run(mesh_argv(bad, out, "--stats", stats), capsys))
+    assert out.read_text() == "keep me"
+    assert stats.read_text() == "{}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "out.vtu", "stats.json"]
+
+
+def test_unknown_output_extension(model, tmp_path, capsys):
+    out = tmp_path / "out.stl"
+    assert_one_line_error(*run(mesh_argv(model, out), capsys), contains="--output")
+    assert not out.exists()
+
+
+def test_unknown_plot_extension(model, tmp_path, capsys):
+    out = tmp_path / "out.vtu"
+    assert_one_line_error(*run(mesh_argv(model, out, "--plot", tmp_path / "p.xyz"), capsys),
+                          contains="--plot")
+    assert not out.exists()
+
+
+def test_output_directory_missing(model, tmp_path, capsys):
+    out = tmp_path / "missing" / "out.vtu"
+    assert_one_line_error(*run(mesh_argv(model, out), capsys), contains="does not exist")
+    assert not out.parent.exists()
+
+
+def test_output_directory_is_a_file(model, tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    out = tmp_path / "file" / "out.vtu"
+    assert_one_line_error(*run(mesh_argv(model, out), capsys), contains="not a directory")
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,
+                    reason="root can write to read-only directories")
+def test_output_directory_unwritable(model, tmp_path, capsys):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        assert_one_line_error(*run(mesh_argv(model, ro / "out.vtu"), capsys),
+                              contains="not writable")
+        assert list(ro.iterdir()) == []
+    finally:
+        ro.chmod(0o700)
+
+
+def test_output_directory_unwritable_simulated(model, tmp_path, capsys, monkeypatch):
+    """As above, also when running as root: creating a file in the directory fails."""
+    import hetmesh.cli.mesh
+
+    def denied(*a, **k):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(hetmesh.cli.mesh.tempfile, "mkstemp", denied)
+    out = tmp_path / "out.vtu"
+    assert_one_line_error(*run(mesh_argv(model, out), capsys), contains="not writable")
+    assert not out.exists()
+
+
+def test_stats_output_unwritable(model, tmp_path, capsys):
+    out = tmp_path / "out.vtu"
+    assert_one_line_error(*run(mesh_argv(model, out, "--stats", tmp_path / "no" / "s.json"),
+                               capsys), contains="--stats")
+    assert not out.exists()
+
+
+def test_output_is_the_model(model, tmp_path, capsys):
+    copy = tmp_path / "m.vtu"
+    copy.write_text(model.read_text())
+    before = copy.read_text()
+    assert_one_line_error(*run(mesh_argv(copy, tmp_path / "o.vtu", "--stats", copy), capsys),
+                          contains="same file")
+    assert copy.read_text() == before
+
+
+def test_stats_missing_mesh(model, tmp_path, capsys):
+    assert_one_line_error(*run(["stats", tmp_path / "none.vtu", "--model", model], capsys),
+                          contains="none.vtu")
+
+
+def test_demo_out_is_a_file(tmp_path, capsys):
+    f = tmp_path / "f"
+    f.write_text("x")
+    assert_one_line_error(*run(["demo", "--out", f, "--quiet"], capsys), contains="--out")
+
+
+def test_demo_bad_threshold(tmp_path, capsys):
+    assert_one_line_error(*run(["demo", "--out", tmp_path / "d", "--threshold", "2"], capsys),
+                          contains="--threshold 2")
+    assert not (tmp_path / "d").exists()
+
+
+# -- unexpected failures ---------------------------------------------------------------
+
+def test_keyboard_interrupt_exits_130(model, tmp_path, capsys, monkeypatch):
+    import hetmesh.io.model
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(hetmesh.io.model, "load_model", interrupted)
+    code, _, err = run(mesh_argv(model, tmp_path / "o.vtu"), capsys)
+    assert code == 130
+    assert "Traceback" not in err
+
+
+def test_internal_error_is_one_line_or_traceback_with_debug(model, tmp_path, capsys, monkeypatch):
+    import hetmesh.io.model
+
+    def bug(*a, **k):
+        raise ZeroDivisionError("boom")
+
+    monkeypatch.setattr(hetmesh.io.model, "load_model", bug)
+    code, _, err = run(mesh_argv(model, tmp_path / "o.vtu"), capsys)
+    assert code == 1
+    assert err.strip().splitlines() == [
+        "hetmesh: error: internal error: ZeroDivisionError: boom "
+        "(run with --debug for the traceback)"]
+    with pytest.raises(ZeroDivisionError):
+        main([str(a) for a in mesh_argv(model, tmp_path / "o.vtu", "--debug")])
+
+
+# -- meshing ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def meshed(model, tmp_path_factory):
+    """``hetmesh mesh`` at a coarse threshold, with a plot and stats JSON."""
+    d = tmp_path_factory.mktemp("mesh")
+    out, stats, plot = d / "plate.vtu", d / "plate.json", d / "plate.png"
+    code = main([str(a) for a in mesh_argv(model, out, "--stats", stats, "--plot", plot,
+                                           "--seed", "3")])
+    assert code == 0
+    return out, stats, plot
+
+
+def test_mesh_writes_mesh_stats_and_plot(meshed):
+    from hetmesh.io.export import read_mesh
+
+    out, stats, plot = meshed
+    doc = json.loads(stats.read_text())
+    assert doc["stats"]["delta_max"] < THRESHOLD
+    assert doc["threshold"] == THRESHOLD
+    assert doc["model"]["name"] == "power_plate"
+    assert doc["command"] == "mesh"
+    assert doc["options"]["seed"] == 3
+    assert doc["options"]["sampling"] == "vertices"
+    assert doc["hetmesh_version"]
+    assert isinstance(doc["history"], list) and doc["history"]
+    assert all("elements" in h and "delta_max" in h for h in doc["history"])
+    assert doc["timings"]["wall"] > 0
+    mesh = read_mesh(out)
+    assert mesh.n_elements == doc["stats"]["n_elements"]
+    assert mesh.n_points == doc["stats"]["n_points"]
+    assert mesh.is_valid()
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    leftovers = [p.name for p in out.parent.iterdir() if p.name.startswith(".")]
+    assert leftovers == []
+
+
+def test_mesh_prints_summary(model, tmp_path, capsys):
+    out = tmp_path / "o.msh"
+    argv = [a for a in mesh_argv(model, out) if a != "--quiet"]
+    code, stdout, _ = run(argv, capsys)
+    assert code == 0
+    assert out.exists()
+    for label in ("Np", "Ne", "q_min", "q_avg", "delta_min", "delta_avg", "delta_max"):
+        assert label in stdout
+    assert f"wrote {out}" in stdout
+
+
+def test_progress_bar_on_a_terminal(model, tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("TTY_COMPATIBLE", "1")  # rich: treat stderr (and stdout) as a terminal
+    out = tmp_path / "o.vtu"
+    argv = [a for a in mesh_argv(model, out) if a != "--quiet"]
+    code, stdout, err = run(argv, capsys)
+    assert code == 0, err
+    assert "Traceback" not in err
+    assert "delta_max" in stdout
+    assert out.exists()
+
+
+def test_uniform_writes_mesh_and_stats(model, meshed, tmp_path, capsys):
+    out, stats = tmp_path / "u.vtu", tmp_path / "u.json"
+    code, _, err = run(mesh_argv(model, out, "--stats", stats, command="uniform"), capsys)
+    assert code == 0, err
+    doc = json.loads(stats.read_text())
+    assert doc["command"] == "uniform"
+    assert doc["stats"]["delta_max"] < THRESHOLD
+    adaptive = json.loads(meshed[1].read_text())
+    assert doc["stats"]["n_elements"] > adaptive["stats"]["n_elements"]
+    from hetmesh.io.export import read_mesh
+
+    assert read_mesh(out).n_elements == doc["stats"]["n_elements"]
+
+
+def test_stats_prints_the_numbers(model, meshed, capsys):
+    out, stats, _ = meshed
+    expected = json.loads(stats.read_text())["stats"]
+    code, stdout, _ = run(["stats", out, "--model", model], capsys)
+    assert code == 0
+    for label in ("Np", "Ne", "q_min", "q_avg", "delta_min", "delta_avg", "delta_max"):
+        assert label in stdout
+    assert str(expected["n_elements"]) in stdout
+    assert f"{expected['q_min']:.4f}" in stdout
+
+    code, stdout, _ = run(["stats", out, "--model", model, "--json"], capsys)
+    assert code == 0
+    got = json.loads(stdout)
+    assert got["n_elements"] == expected["n_elements"]
+    assert got["n_points"] == expected["n_points"]
+    assert got["delta_max"] == pytest.approx(expected["delta_max"], rel=1e-6)
+    assert got["q_min"] == pytest.approx(expected["q_min"], rel=1e-6)
+
+
+def test_delta_max_never_prints_as_the_threshold():
+    from hetmesh.cli.stats import stats_table
+    from rich.console import Console
+
+    console = Console(width=80, record=True)
+    stats = dict(n_points=3, n_elements=1, q_min=1.0, q_avg=1.0, delta_min=0.01,
+                 delta_avg=0.0449, delta_max=0.0499996, angle_min=60.0)
+    console.print(stats_table({"m": stats}))
+    text = console.export_text()
+    assert "0.04999" in text and "0.0500" not in text
+    assert "0.0449" in text
+
+
+def test_demo_writes_four_files(tmp_path, capsys):
+    out = tmp_path / "demo"
+    code, stdout, err = run(["demo", "--out", out, "--quiet"], capsys)
+    assert code == 0, err
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["power_plate.png", "power_plate.vtu", "power_plate_delta.png",
+                     "power_plate_uniform.vtu"]
+    assert stdout == ""

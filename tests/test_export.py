@@ -1,0 +1,294 @@
+"""Mesh export/import round trips (every format) and atomic writes."""
+
+from __future__ import annotations
+
+import os
+
+import meshio
+import numpy as np
+import pytest
+
+from hetmesh.errors import OptionError, OutputError
+from hetmesh.io import export
+from hetmesh.io.atomic import atomic_path, atomic_write
+from hetmesh.io.export import FILE_FORMATS, FORMATS, read_mesh, region_tag_offset, write_mesh
+from hetmesh.mesh import Mesh
+
+# (extension, file_format, keeps point data, keeps cell data, keeps marker names)
+CASES = [
+    (".vtu", None, True, True, False),
+    (".vtk", None, True, True, False),
+    (".xdmf", None, True, True, False),
+    (".msh", None, True, True, True),
+    (".msh", "gmsh41", True, True, True),
+    (".msh", "gmsh22", True, False, True),
+    (".inp", None, False, False, True),
+    (".mesh", None, False, False, False),
+]
+IDS = [f"{ext}-{ff}" if ff else ext for ext, ff, *_ in CASES]
+
+
+def square_mesh() -> Mesh:
+    """Unit square, 3 x 3 nodes, 8 triangles; region 0 left of x = 0.5, region 1 right.
+
+    Edges: the bottom (marker 1, "bottom") and the interface x = 0.5 (marker 2).
+    """
+    x, y = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
+    points = np.column_stack([x.ravel(), y.ravel()])
+    tris = []
+    for j in range(2):
+        for i in range(2):
+            a = 3 * j + i
+            tris += [[a, a + 1, a + 4], [a, a + 4, a + 3]]
+    tris = np.array(tris)
+    c = points[tris].mean(axis=1)
+    metal = points[:, 1] ** 2
+    return Mesh(points, tris, regions=(c[:, 0] > 0.5).astype(int),
+                edges=[[0, 1], [1, 2], [1, 4], [4, 7]], edge_markers=[1, 1, 2, 2],
+                point_data={"ceramic": 1 - metal, "metal": metal},
+                cell_data={"delta": c[:, 0] / 3, "quality": 1 - c[:, 1] / 7},
+                marker_names={1: "bottom", 2: "interface x=0.5"})
+
+
+def by_triangle(mesh: Mesh, values) -> dict:
+    """Values keyed by the triangle's sorted vertex triple (order-independent)."""
+    return {tuple(sorted(t)): v for t, v in zip(mesh.triangles.tolist(), np.asarray(values).tolist())}
+
+
+def edge_set(mesh: Mesh) -> set:
+    return {(tuple(sorted(e)), m) for e, m in zip(mesh.edges.tolist(), mesh.edge_markers.tolist())}
+
+
+@pytest.mark.parametrize("ext, file_format, point_data, cell_data, names", CASES, ids=IDS)
+def test_round_trip(tmp_path, ext, file_format, point_data, cell_data, names):
+    mesh = square_mesh()
+    path = tmp_path / f"out{ext}"
+    assert write_mesh(mesh, path, file_format=file_format) == path
+    assert sorted(os.listdir(tmp_path)) == [path.name]  # no temp or side file (.h5)
+    back = read_mesh(path)
+    np.testing.assert_allclose(back.points, mesh.points, rtol=0, atol=1e-12)
+    assert by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
+    assert edge_set(back) == edge_set(mesh)
+    if point_data:
+        assert set(back.point_data) == {"ceramic", "metal"}
+        for k, v in mesh.point_data.items():
+            np.testing.assert_allclose(back.point_data[k], v, rtol=0, atol=1e-12)
+    if cell_data:
+        assert set(back.cell_data) == {"delta", "quality"}
+        for k, v in mesh.cell_data.items():
+            got, want = by_triangle(back, back.cell_data[k]), by_triangle(mesh, v)
+            assert got.keys() == want.keys()
+            np.testing.assert_allclose([got[t] for t in want], list(want.values()), rtol=0, atol=1e-12)
+    if names:
+        expected = {1: "bottom", 2: "interface x=0.5"}
+        if ext == ".inp":
+            expected = {1: "bottom", 2: "interface_x_0_5"}  # sanitised Abaqus set names
+        assert back.marker_names == expected
+
+
+@pytest.mark.parametrize("ext, file_format", [(c[0], c[1]) for c in CASES], ids=IDS)
+def test_round_trip_bare_mesh(tmp_path, ext, file_format):
+    """No edges, no data, one region."""
+    mesh = Mesh([[0, 0], [2, 0], [2, 1], [0, 1]], [[0, 1, 2], [0, 2, 3]])
+    back = read_mesh(write_mesh(mesh, tmp_path / f"bare{ext}", file_format=file_format))
+    np.testing.assert_allclose(back.points, mesh.points, atol=1e-12)
+    assert by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
+    assert len(back.edges) == 0
+
+
+def test_triangles_stay_in_order_where_the_format_allows(tmp_path):
+    mesh = square_mesh()
+    for name in ("out.vtu", "out.xdmf", "out.inp"):
+        back = read_mesh(write_mesh(mesh, tmp_path / name))
+        np.testing.assert_array_equal(back.triangles, mesh.triangles)
+        np.testing.assert_array_equal(back.regions, mesh.regions)
+
+
+def test_xdmf_is_one_inline_file_with_2d_points(tmp_path):
+    path = write_mesh(square_mesh(), tmp_path / "m.xdmf")
+    text = path.read_text()
+    assert 'Format="XML"' in text and ".h5" not in text
+    assert meshio.read(path).points.shape == (9, 2)
+
+
+def test_vtu_content(tmp_path):
+    m = meshio.read(write_mesh(square_mesh(), tmp_path / "m.vtu"))
+    assert m.points.shape == (9, 3) and not m.points[:, 2].any()
+    assert [c.type for c in m.cells] == ["triangle", "line"]
+    np.testing.assert_array_equal(m.cell_data["marker"][0], 0)
+    np.testing.assert_array_equal(m.cell_data["marker"][1], [1, 1, 2, 2])
+    assert np.isnan(m.cell_data["delta"][1]).all()
+    np.testing.assert_array_equal(m.cell_data["region"][1], -1)
+
+
+@pytest.mark.parametrize("file_format, version", [(None, "4.1"), ("gmsh22", "2.2")])
+def test_gmsh_physical_groups(tmp_path, file_format, version):
+    path = write_mesh(square_mesh(), tmp_path / "m.msh", file_format=file_format)
+    assert path.read_text().splitlines()[1].startswith(version)
+    m = meshio.read(path)
+    assert {k: v.tolist() for k, v in m.field_data.items()} == {
+        "bottom": [1, 1], "interface x=0.5": [2, 1], "region_0": [1000, 2], "region_1": [1001, 2]}
+    tri_tags = np.concatenate([m.cell_data["gmsh:physical"][i]
+                               for i, c in enumerate(m.cells) if c.type == "triangle"])
+    assert set(tri_tags.tolist()) == {1000, 1001}
+
+
+def test_region_tag_offset_clears_the_markers():
+    assert region_tag_offset(np.array([1, 2, 999])) == 1000
+    assert region_tag_offset(np.array([1000])) == 10_000
+    assert region_tag_offset(np.array([], int)) == 1000
+
+
+def test_gmsh_file_loads_in_scikit_fem(tmp_path):
+    skfem = pytest.importorskip("skfem")
+    path = write_mesh(square_mesh(), tmp_path / "m.msh")
+    m = skfem.Mesh.load(str(path))
+    assert {k: len(v) for k, v in m.subdomains.items()} == {"region_0": 4, "region_1": 4}
+    assert len(m.boundaries["bottom"]) == 2
+
+
+def test_abaqus_file(tmp_path):
+    path = write_mesh(square_mesh(), tmp_path / "m.inp")
+    text = path.read_text()
+    assert "*ELEMENT, TYPE=CPE3" in text
+    m = meshio.read(path)  # CPE3 is registered with meshio's reader on import
+    assert sorted(m.cell_sets) == ["REGION_0", "REGION_1"]
+    assert m.point_sets["bottom"].tolist() == [0, 1, 2]
+    assert m.point_sets["interface_x_0_5"].tolist() == [1, 4, 7]
+
+
+def test_unknown_extension(tmp_path):
+    with pytest.raises(OutputError, match=r"unknown mesh format '\.xyz' for .*out\.xyz \(known: \.inp, "):
+        write_mesh(square_mesh(), tmp_path / "out.xyz")
+    with pytest.raises(OutputError, match="unknown mesh file_format 'stl'"):
+        write_mesh(square_mesh(), tmp_path / "out.vtu", file_format="stl")
+    with pytest.raises(OutputError, match="unknown mesh format"):
+        read_mesh(tmp_path / "out.xyz")
+    assert not os.listdir(tmp_path)
+
+
+def test_known_formats():
+    assert {".vtu", ".msh", ".xdmf", ".inp", ".vtk", ".mesh"} <= set(FORMATS)
+    assert {"gmsh22", "gmsh41", "gmsh"} <= set(FILE_FORMATS)
+
+
+@pytest.mark.parametrize("where", ["missing parent", "directory", "parent is a file"])
+def test_unwritable_path(tmp_path, where):
+    if where == "missing parent":
+        path = tmp_path / "no" / "such" / "out.vtu"
+    elif where == "directory":
+        path = tmp_path / "out.vtu"
+        path.mkdir()
+    else:
+        (tmp_path / "file").write_text("x")
+        path = tmp_path / "file" / "out.vtu"
+    with pytest.raises(OutputError, match=r"^cannot write .*out\.vtu: ") as info:
+        write_mesh(square_mesh(), path)
+    assert "\n" not in str(info.value)
+
+
+def test_read_errors(tmp_path):
+    with pytest.raises(OutputError, match="no such file"):
+        read_mesh(tmp_path / "missing.vtu")
+    (tmp_path / "garbage.msh").write_text("not a mesh\n")
+    with pytest.raises(OutputError, match="cannot read"):
+        read_mesh(tmp_path / "garbage.msh")
+
+
+def test_negative_regions_rejected_where_they_name_groups(tmp_path):
+    mesh = square_mesh().with_regions(np.full(8, -1))
+    for name in ("m.msh", "m.inp"):
+        with pytest.raises(OutputError, match="regions >= 0"):
+            write_mesh(mesh, tmp_path / name)
+    assert not os.listdir(tmp_path)
+    write_mesh(mesh, tmp_path / "m.vtu")  # fine where regions are plain data
+
+
+def test_failed_meshio_write_keeps_the_old_file(tmp_path, monkeypatch):
+    path = tmp_path / "out.vtu"
+    path.write_text("old content")
+    seen = []
+
+    def broken(filename, *args, **kwargs):
+        seen.append(filename)
+        with open(filename, "w") as f:
+            f.write("half a mesh")
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(meshio, "write", broken)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        write_mesh(square_mesh(), path)
+    assert path.read_text() == "old content"
+    assert os.listdir(tmp_path) == ["out.vtu"]
+    assert str(seen[0]).endswith(".vtu") and seen[0] != path  # a temp file, same suffix
+
+
+def test_failed_own_writer_keeps_the_old_file(tmp_path, monkeypatch):
+    path = tmp_path / "out.msh"
+    path.write_text("old content")
+    real = export._write_rows
+    calls = []
+
+    def flaky(f, row, a):
+        calls.append(1)
+        if len(calls) > 2:
+            raise MemoryError("out of memory")
+        real(f, row, a)
+
+    monkeypatch.setattr(export, "_write_rows", flaky)
+    with pytest.raises(MemoryError):
+        write_mesh(square_mesh(), path)
+    assert path.read_text() == "old content"
+    assert os.listdir(tmp_path) == ["out.msh"]
+
+
+def test_mesh_write_delegates(tmp_path):
+    path = square_mesh().write(tmp_path / "m.msh", file_format="gmsh22")
+    assert path.read_text().splitlines()[1].startswith("2.2")
+
+
+# -- atomic writes -----------------------------------------------------------------------
+
+def test_atomic_write_text_and_binary(tmp_path):
+    with atomic_write(tmp_path / "a.txt") as f:
+        f.write("héllo")
+    assert (tmp_path / "a.txt").read_text(encoding="utf-8") == "héllo"
+    with atomic_write(tmp_path / "b.bin", "wb") as f:
+        f.write(b"\x00\x01")
+    assert (tmp_path / "b.bin").read_bytes() == b"\x00\x01"
+    assert sorted(os.listdir(tmp_path)) == ["a.txt", "b.bin"]
+
+
+def test_atomic_write_failure_keeps_old_file(tmp_path):
+    path = tmp_path / "stats.json"
+    path.write_text("{}")
+    with pytest.raises(KeyError):
+        with atomic_write(path) as f:
+            f.write('{"half": ')
+            raise KeyError("boom")
+    assert path.read_text() == "{}"
+    assert os.listdir(tmp_path) == ["stats.json"]
+
+
+def test_atomic_write_bad_mode(tmp_path):
+    with pytest.raises(OptionError, match="mode"):
+        with atomic_write(tmp_path / "x", "a"):
+            pass
+
+
+def test_atomic_path_keeps_suffix_and_permissions(tmp_path):
+    path = tmp_path / "pic.png"
+    with atomic_path(path) as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".png" and tmp.exists()
+        tmp.write_bytes(b"png")
+    assert path.read_bytes() == b"png"
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_atomic_path_oserror_becomes_output_error(tmp_path):
+    with pytest.raises(OutputError, match=r"^cannot write .*x\.txt: no space left"):
+        with atomic_path(tmp_path / "x.txt"):
+            raise OSError(28, "No space left on device")
+    assert not os.listdir(tmp_path)
