@@ -96,6 +96,23 @@ def test_round_trip_bare_mesh(tmp_path, ext, file_format):
     assert len(back.edges) == 0
 
 
+@pytest.mark.parametrize("ext, file_format", [(c[0], c[1]) for c in CASES], ids=IDS)
+def test_round_trip_sparse_ids(tmp_path, ext, file_format):
+    """Regions 0, 2, 5 interleaved; markers 3 (unnamed) and 7 (named)."""
+    base = square_mesh()
+    mesh = Mesh(base.points, base.triangles, regions=[5, 0, 2, 5, 0, 2, 5, 0],
+                edges=base.edges, edge_markers=[7, 3, 7, 3], marker_names={7: "left side"})
+    back = read_mesh(write_mesh(mesh, tmp_path / f"m{ext}", file_format=file_format))
+    assert by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
+    if ext == ".inp":  # node sets: MARKER_3 keeps its id, the named set is numbered 1
+        assert edge_set(back) == {((0, 1), 1), ((1, 2), 1), ((1, 4), 3), ((4, 7), 3)}
+        assert back.marker_names == {1: "left_side"}
+    else:
+        assert edge_set(back) == edge_set(mesh)
+    if ext == ".msh":
+        assert back.marker_names == {7: "left side"}
+
+
 def test_triangles_stay_in_order_where_the_format_allows(tmp_path):
     mesh = square_mesh()
     for name in ("out.vtu", "out.xdmf", "out.inp"):

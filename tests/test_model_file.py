@@ -194,7 +194,7 @@ def test_parse_model_from_dict_and_check_flag():
             "material": {"constituents": ["a", "b"], "composition": {"b": "2*x"}}}
     m = parse_model(data, "dict", check=False)        # out of range, not checked
     assert m.name == "model" and m.source is None
-    with pytest.raises(MaterialError, match=r"^dict: material.composition.b: value 2 at"):
+    with pytest.raises(MaterialError, match=r"^dict: material.composition.b: value -?2 at \(-?1, 0\)"):
         parse_model(data, "dict")
 
 
@@ -248,7 +248,7 @@ _UNKNOWN = [
      "'domain.outer.path[0].bulge'", "to, name, through, center, direction"),
     (SQUARE + "[domain.hole]\ncircle = {center=[0.5,0.5], radius=0.1}\n" + MATERIAL,
      "'domain.hole'", "outer, holes, interfaces, points"),
-    (SQUARE.replace("[domain.outer]", "[domain.outer]\ncircle = { center = [0, 0], r = 1 }"),
+    ("[domain.outer]\ncircle = { center = [0, 0], r = 1 }\n" + MATERIAL,
      "'domain.outer.circle.r'", "center, radius"),
     (SQUARE + MATERIAL + "steel = 'x'\n", "'material.composition.steel'", "ceramic, metal"),
     (SQUARE + MATERIAL.replace("[material]", "[material]\nkind = 1"), "'material.kind'",
@@ -319,7 +319,7 @@ _WRONG_TYPES = [
      "material.composition.metal: expected a formula string"),
     (SQUARE + MATERIAL.replace('"(1 - y)**2"', "['y']"),
      "material.composition.metal: expected a formula string"),
-    (SQUARE + MATERIAL.replace("[material.composition]", "composition = 'y'\n[x]"),
+    (SQUARE + "[material]\nconstituents = ['a', 'b']\ncomposition = 'y'\n",
      "material.composition: expected a table"),
     ("[model]\nname = ''\n" + SQUARE.replace("[domain.outer]", "[domain.outer]\nname = ''")
      + MATERIAL, "domain.outer.name: expected a non-empty name"),
@@ -403,7 +403,8 @@ _GEOMETRY = [
      "domain.outer.path[1]: arc points (1, 0), (1, 0.5), (1, 1) are collinear"),
     (SQUARE.replace("{ to = [1, 1] }", "{ to = [1, 0] }, { to = [1, 1] }"),
      "domain.outer.path[1].to: zero-length segment"),
-    (SQUARE.replace("{ to = [1, 1] }, { to = [0, 1] }", "{ to = [0, 1] }, { to = [1, 1] }"),
+    (SQUARE.replace("[1, 0] }, { to = [1, 1] }, { to = [0, 1] }",
+                    "[2, 0] }, { to = [0, 1] }, { to = [1, 1] }"),
      "domain.outer: outer: the boundary intersects itself"),
     (SQUARE + "[[domain.holes]]\ncircle = { center = [2, 2], radius = 0.1 }\n",
      "domain.holes[0]: hole[0]: not strictly inside outer"),
@@ -459,10 +460,11 @@ constituents = ["a", "b", "c"]
 [material.composition]
 a = "x/2"
 b = "y/2"
-c = "0.5"
+c = "0.7"
 """
     msg = _error(tmp_path, text, MaterialError)
-    assert "material.composition: fractions sum to 1.5, not 1, at (1, 1)" in msg
+    assert "material.composition: fractions sum to 1.7, not 1, at (1, 1) (a 0.5, b 0.5, c 0.7)" \
+        in msg
 
 
 def test_derived_constituent_out_of_range_blames_given_formula(tmp_path):

@@ -86,7 +86,7 @@ def prepare(model, threshold, max_size):
     offset = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
     dom = domain.translated(-offset)
     fl = fld.shifted(offset) if hasattr(fld, "shifted") else _Shifted(fld, offset)
-    h_max = float(max_size) if max_size is not None else dom.diameter / 25.0
+    h_max = float(max_size) if max_size is not None else dom.diameter / 8.0
     infos = dom.curves
     curves = [ci.curve for ci in infos]
     scale = dom.diameter

@@ -471,10 +471,6 @@ def _check_loops(d: Domain) -> None:
         if not b.is_arc[i0:i1].any() and i1 - i0 < 3:
             raise GeometryError(f"{o.name}: a polygonal loop needs at least 3 vertices, "
                                 f"got {i1 - i0}")
-        area = abs(float(b.green_area(b.p0[i0])[i0:i1].sum()))
-        if area <= d._tol * d.diameter:
-            raise GeometryError(f"{o.name}: the loop encloses no area (near "
-                                f"{fmt_point(b.p0[i0])})")
         reason = shapely.is_valid_reason(Polygon(d._fine[k]))
         if reason != "Valid Geometry":
             m = _LOC.search(reason)
@@ -483,6 +479,10 @@ def _check_loops(d: Domain) -> None:
             except (AttributeError, ValueError):
                 where = fmt_point(b.p0[i0])
             raise GeometryError(f"{o.name}: the boundary intersects itself near {where}")
+        area = abs(float(b.green_area(b.p0[i0])[i0:i1].sum()))
+        if area <= d._tol * d.diameter:
+            raise GeometryError(f"{o.name}: the loop encloses no area (near "
+                                f"{fmt_point(b.p0[i0])})")
 
 
 def _check_holes(d: Domain) -> None:

@@ -11,6 +11,8 @@ The format is documented in ``docs/model-format.md``.
 
 from __future__ import annotations
 
+import json
+import keyword
 import logging
 import math
 import os
@@ -22,6 +24,9 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ..errors import GeometryError, HetmeshError, MaterialError, ModelFileError
+from ..expr import FUNCTIONS
+from ..geometry import Arc, Loop, Segment, make_domain
+from ..geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
 
 __all__ = ["Model", "load_model", "parse_model", "MATERIAL_TYPES", "MAX_FILE_BYTES"]
@@ -176,10 +181,24 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
 
 # ------------------------------------------------------------------------- schema helpers
 
+def _toml(value) -> str:
+    """``value`` written as in a TOML file (``true``, ``"text"``, ``[1, 2]``, ``{ a = 1 }``)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
+    return repr(value)
+
+
 def _describe(value) -> str:
+    """A short description of a wrong value: ``[0, true] (array)``."""
     kind = {bool: "boolean", int: "integer", float: "number", str: "string", list: "array",
             dict: "table"}.get(type(value), type(value).__name__)
-    text = repr(value)
+    text = _toml(value)
     if len(text) > 40:
         text = text[:37] + "..."
     return f"{text} ({kind})"
@@ -250,14 +269,7 @@ class _Ctx:
 # ------------------------------------------------------------------------------ parameters
 
 def _reserved() -> frozenset[str]:
-    from .. import expr
-
-    names = set(RESERVED_NAMES)
-    for attr in ("FUNCTIONS", "RESERVED", "CONSTANTS"):
-        table = getattr(expr, attr, None)
-        if table:
-            names.update(table)
-    return frozenset(names)
+    return RESERVED_NAMES | frozenset(FUNCTIONS) | frozenset(keyword.kwlist)
 
 
 def _parameters(ctx: _Ctx, value) -> dict[str, float]:
@@ -267,20 +279,14 @@ def _parameters(ctx: _Ctx, value) -> dict[str, float]:
     out = {}
     for name, v in table.items():
         key = f"parameters.{name}"
-        if not name.isidentifier() or name.startswith("_"):
+        if not (name.isascii() and name.isidentifier()) or name.startswith("_"):
             raise ctx.fail(key, f"{name!r} is not a valid name (letters, digits and '_', "
                                 f"not starting with a digit or '_')")
-        if name in reserved or name in _keywords():
+        if name in reserved:
             raise ctx.fail(key, f"name {name!r} is reserved (x, y, pi, e and the formula "
                                 f"functions such as sin, exp, sqrt cannot be parameters)")
         out[name] = ctx.number(v, key)
     return out
-
-
-def _keywords() -> frozenset[str]:
-    import keyword
-
-    return frozenset(keyword.kwlist)
 
 
 # -------------------------------------------------------------------------------- geometry
@@ -288,8 +294,6 @@ def _keywords() -> frozenset[str]:
 def _curves(ctx: _Ctx, key: str, start, path) -> list:
     """Segments and arcs of ``path`` (a list of tables ``{to, name, through, center,
     direction}``) starting at ``start``."""
-    from ..geometry import Arc, Segment
-
     p0 = ctx.point(start, f"{key}.start")
     if not isinstance(path, list) or not path:
         raise ctx.fail(f"{key}.path", f"expected a non-empty array of "
@@ -327,8 +331,6 @@ def _curves(ctx: _Ctx, key: str, start, path) -> list:
 
 
 def _circle(ctx: _Ctx, key: str, value):
-    from ..geometry import Arc
-
     t = ctx.table(value, f"{key}.circle", required=("center", "radius"))
     c = ctx.point(t["center"], f"{key}.circle.center")
     r = ctx.number(t["radius"], f"{key}.circle.radius", positive=True)
@@ -375,8 +377,6 @@ _EPS = float(np.finfo(float).eps)
 
 
 def _domain(ctx: _Ctx, value):
-    from ..geometry import Loop, Path as CurvePath, make_domain
-
     t = ctx.table(value, "domain", required=("outer",),
                   optional=("holes", "interfaces", "points"))
     used: dict[str, str] = {}  # loop / interface name -> key

@@ -15,6 +15,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from ..errors import MaterialError
+from ..expr import compile_expr
 from .field import as_points
 
 __all__ = ["AnalyticField", "CallableField", "check_constituents"]
@@ -115,8 +116,6 @@ class AnalyticField(_Shiftable):
 
     def __init__(self, formulas: Mapping[str, str], constituents: Sequence[str],
                  parameters: Mapping[str, float] | None = None, where: str = ""):
-        from ..expr import compile_expr
-
         pre = _prefix(where)
         self.constituents = check_constituents(constituents, where)
         self.parameters = dict(parameters or {})

@@ -71,8 +71,10 @@ def _fmt(v: float) -> str:
     return f"{float(v):.6g}"
 
 
-def _at(p: np.ndarray) -> str:
-    return f"({_fmt(p[0])}, {_fmt(p[1])})"
+def _at(p: np.ndarray, scale: float = 1.0) -> str:
+    """``(x, y)``, with rounding noise (below 1e-12 of ``scale``) shown as 0."""
+    q = np.where(np.abs(p) < 1e-12 * scale, 0.0, p)
+    return f"({_fmt(q[0])}, {_fmt(q[1])})"
 
 
 def sample_domain(domain, n: int = 200) -> np.ndarray:
@@ -129,12 +131,19 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
 
     Examples
     --------
-    >>> from hetmesh.geometry import Loop, Segment, make_domain  # doctest: +SKIP
+    >>> from hetmesh.geometry import Arc, Loop, make_domain
+    >>> from hetmesh.material import AnalyticField
+    >>> disk = make_domain(Loop((Arc.circle((0, 0), 2.0),), "outer"))
+    >>> check_field(AnalyticField({"b": "x/2"}, ["a", "b"]), disk, "m.toml")
+    Traceback (most recent call last):
+    ...
+    hetmesh.errors.MaterialError: m.toml: material.composition.b: value -1 at (-2, 0) is outside [0, 1]
     """
     pre = _prefix(where)
     names = tuple(field.constituents)
     m = len(names)
     pts = sample_domain(domain, n)
+    scale = float(np.abs(pts).max()) if len(pts) else 1.0
     with np.errstate(all="ignore"):
         comp = np.asarray(field.composition(pts), dtype=float)
         grad = np.asarray(field.gradient(pts), dtype=float)
@@ -155,23 +164,23 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
         bad = ~np.isfinite(c)
         if bad.any():
             i = int(np.argmax(bad))
-            raise MaterialError(f"{key}: value {c[i]} at {_at(pts[i])} is not finite")
+            raise MaterialError(f"{key}: value {c[i]} at {_at(pts[i], scale)} is not finite")
         excess = np.maximum(c - 1.0, -c)
         i = int(np.argmax(excess))
         if excess[i] > TOLERANCE:
-            raise MaterialError(f"{key}: value {_fmt(c[i])} at {_at(pts[i])} is outside [0, 1]")
+            raise MaterialError(f"{key}: value {_fmt(c[i])} at {_at(pts[i], scale)} is outside [0, 1]")
     total = comp.sum(axis=1)
     err = np.abs(total - 1.0)
     i = int(np.argmax(err))
     if err[i] > TOLERANCE:
         parts = ", ".join(f"{name} {_fmt(v)}" for name, v in zip(names, comp[i]))
         raise MaterialError(f"{pre}material.composition: fractions sum to {_fmt(total[i])}, "
-                            f"not 1, at {_at(pts[i])} ({parts})")
+                            f"not 1, at {_at(pts[i], scale)} ({parts})")
     for j in order:
         g = grad[:, j, :]
         bad = np.isnan(g).any(axis=1)
         if bad.any():
             i = int(np.argmax(bad))
             raise MaterialError(f"{pre}material.composition.{names[j]}: gradient is undefined "
-                                f"(nan) at {_at(pts[i])}")
+                                f"(nan) at {_at(pts[i], scale)}")
     logger.debug("%schecked %d constituents at %d points", pre, m, len(pts))
