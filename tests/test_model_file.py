@@ -155,6 +155,21 @@ metal = 0.25
     np.testing.assert_allclose(m.material.composition(np.zeros((1, 2))), [[0.75, 0.25]])
 
 
+def test_interface_between_boundary_vertices(tmp_path):
+    text = """
+[domain.outer]
+start = [0, 0]
+path = [{ to = [1, 0] }, { to = [1, 0.5] }, { to = [1, 1] }, { to = [0, 1] }, { to = [0, 0.5] },
+        { to = [0, 0] }]
+[[domain.interfaces]]
+name = "seam"
+start = [1, 0.5]
+path = [{ to = [0, 0.5] }]
+""" + MATERIAL
+    m = load_model(_write(tmp_path, text))
+    assert [p.name for p in m.domain.interfaces] == ["seam"]
+
+
 def test_all_formulas_given(tmp_path):
     text = SQUARE + """
 [material]
@@ -194,7 +209,8 @@ def test_parse_model_from_dict_and_check_flag():
             "material": {"constituents": ["a", "b"], "composition": {"b": "2*x"}}}
     m = parse_model(data, "dict", check=False)        # out of range, not checked
     assert m.name == "model" and m.source is None
-    with pytest.raises(MaterialError, match=r"^dict: material.composition.b: value -?2 at \(-?1, 0\)"):
+    with pytest.raises(MaterialError,
+                       match=r"^dict: material.composition.b: value -?2 at \(-?1, 0\)"):
         parse_model(data, "dict")
 
 
@@ -423,7 +439,7 @@ def test_geometry_errors(tmp_path, text, expected):
     assert expected in msg
 
 
-# ----------------------------------------------------------------------------- formula and material errors
+# ----------------------------------------------------------------------------- formulas, material
 
 @pytest.mark.parametrize("formula, expected", [
     ("z", "material.composition.metal: unknown name 'z'"),

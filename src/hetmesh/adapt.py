@@ -199,9 +199,15 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str):
 
 def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
            sampling: str, max_elements: int, history: list, smooth_rounds: int = 6,
-           max_rounds: int = 200, progress=None, check_delta: bool = True):
+           max_rounds: int = 200, quality_rounds: int = 8, progress=None,
+           check_delta: bool = True):
     """Refine until delta_max < delta_0 (MOR, Eq. 1) and no triangle is below the angle or
-    quality floor (GOR). Returns ``(triangles, composition, delta)``."""
+    quality floor (GOR). Returns ``(triangles, composition, delta)``.
+
+    The minimum angle is enforced by Ruppert's circumcenter insertion, which terminates for
+    angles up to ~34 degrees. The quality floor ``min_quality`` also catches obtuse triangles,
+    for which circumcenter insertion has no termination guarantee (it can cascade): it is
+    enforced only during the first ``quality_rounds`` rounds, best effort."""
     thr = ctx.threshold
     for rnd in range(max_rounds):
         tris = triangulate(ws, ctx)
@@ -209,7 +215,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
         q = quality(ws.P, tris)
         ang = min_angle(ws.P, tris)
-        badq = ((ang < min_angle_deg) | (q < min_quality)) & ~viol
+        qfloor = min_quality if rnd < quality_rounds else 0.0
+        badq = ((ang < min_angle_deg) | (q < qfloor)) & ~viol
         if badq.any():
             badq &= ~_corner_exempt(ws, tris, min_angle_deg)
         history.append({"round": rnd, "elements": int(len(tris)), "points": int(ws.n),
@@ -389,7 +396,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     threshold : delta_0 in (0, 1)
     min_angle : minimum angle in degrees, (0, 34]; triangles at input corners sharper
         than twice it are exempt.
-    max_size : largest element edge (default: domain diameter / 25); floors rho.
+    max_size : largest element edge (default: domain diameter / 8); floors rho.
     max_elements : element budget, checked against an a-priori estimate and while refining.
     sampling : "vertices" (the paper's Eqs. 14-15) or "dense" (also a lattice inside
         every element).

@@ -57,7 +57,7 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "0 < A <= 34 (default: 30)")
     if adaptive:
         p.add_argument("--max-size", type=float, metavar="H",
-                       help="largest element edge length, > 0 (default: the domain diameter / 25)")
+                       help="largest element edge length, > 0 (default: the domain diameter / 8)")
     p.add_argument("--max-elements", type=_count, metavar="N",
                    help="element budget; meshing stops with an error rather than exceed it "
                         "(default: 5000000)")

@@ -60,6 +60,8 @@ def _prefix(where: str) -> str:
 
 
 def _pair(value, what: str) -> tuple[float, float]:
+    if type(value) is tuple and len(value) == 2 and all(type(v) is float for v in value):
+        return value  # fast path
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -504,7 +506,8 @@ class CurveBatch:
         return np.hypot(dx - r * np.cos(a), dy - r * np.sin(a))
 
 
-def segments_through(points, *, closed: bool, name: str = "", where: str = "") -> tuple[Segment, ...]:
+def segments_through(points, *, closed: bool, name: str = "",
+                     where: str = "") -> tuple[Segment, ...]:
     """Segments joining consecutive ``points`` (and the last to the first if ``closed``).
 
     A repeated closing vertex of a closed chain is dropped. Raises :class:`GeometryError` on
@@ -538,4 +541,4 @@ def segments_through(points, *, closed: bool, name: str = "", where: str = "") -
         raise GeometryError(f"{pre}{name}: a polygon{'' if closed else 'al path'} needs at "
                             f"least {need} vertices, got {len(p)}")
     q = np.roll(p, -1, axis=0) if closed else p[1:]
-    return tuple(Segment(a, b) for a, b in zip(p, q))
+    return tuple(Segment(a, b) for a, b in zip(map(tuple, p.tolist()), map(tuple, q.tolist())))

@@ -24,20 +24,18 @@ from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
 import shapely
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 from shapely.geometry import LinearRing, LineString, Polygon
 
 from hetmesh.errors import GeometryError
 
 from .curves import (TWO_PI, Arc, Curve, CurveBatch, Segment, _tol, fmt_num, fmt_point,
                      segments_through)
-from .pslg import sample_parameters
+from .pslg import fixed_vertices, sample_parameters
 
 __all__ = ["Loop", "Path", "CurveInfo", "Domain", "make_domain"]
 
 VALIDATION_CHORD = 1e-6  # chord tolerance of validation / containment samples, x diameter
+CONTACT = 4 * VALIDATION_CHORD  # curves closer than this (x diameter) touch
 POLYGON_CHORD = 1e-4  # default chord tolerance of Domain.polygon, x diameter
 
 
@@ -191,7 +189,7 @@ class Domain:
     @cached_property
     def curve_batch(self) -> CurveBatch:
         """All curves (in :attr:`curves` order) as flat arrays."""
-        return CurveBatch.from_curves([c.curve for c in self.curves])
+        return CurveBatch.from_curves([c for _, o in self._owners for c in o.curves])
 
     @cached_property
     def _closed(self) -> np.ndarray:
@@ -280,43 +278,7 @@ class Domain:
     # -- fixed vertices
     @cached_property
     def _junctions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
-        """Fixed vertices, merged within the tolerance.
-
-        Returns ``coords (K, 2)``, ``start_id (C,)``, ``end_id (C,)`` (fixed vertex of every
-        curve's ends) and ``point_id`` (named point -> fixed vertex). Between two curves the
-        vertex is a segment's exact end point where there is one.
-        """
-        b = self.curve_batch
-        coords, start_id, end_id = [], np.empty(len(b), np.int64), np.empty(len(b), np.int64)
-        k = 0
-        for j in range(len(self._owners)):
-            i0, i1 = self._slices[j], self._slices[j + 1]
-            n = i1 - i0
-            seg, p0, p1 = ~b.is_arc[i0:i1], b.p0[i0:i1], b.p1[i0:i1]
-            prev = np.arange(n) - 1
-            J = np.where(seg[prev, None], p1[prev], p0)
-            if not self._closed[j]:
-                J[0] = p0[0]
-                J = np.vstack([J, p1[-1:]])
-            ids = k + np.arange(len(J))
-            start_id[i0:i1] = ids[:n]
-            end_id[i0:i1] = np.roll(ids, -1) if self._closed[j] else ids[1:]
-            coords.append(J)
-            k += len(J)
-        names = list(self.points)
-        coords.append(np.array([self.points[q] for q in names]).reshape(-1, 2))
-        coords = np.vstack(coords)
-        pairs = cKDTree(coords).query_pairs(self._tol, output_type="ndarray")
-        m = len(coords)
-        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
-        _, labels = connected_components(graph, directed=False)
-        _, first = np.unique(labels, return_index=True)  # first vertex of every label
-        order = np.argsort(first)
-        rank = np.empty_like(order)
-        rank[order] = np.arange(len(order))
-        new = rank[labels]
-        point_id = {q: int(new[k + i]) for i, q in enumerate(names)}
-        return coords[first[order]], new[start_id], new[end_id], point_id
+        return fixed_vertices(self)
 
     @property
     def corners(self) -> np.ndarray:
@@ -394,8 +356,9 @@ def _label(d: Domain, i: int) -> str:
 
 
 def _pt(d: Domain, local) -> str:
-    """A local point (relative to the origin) formatted in user coordinates."""
-    return fmt_point(np.asarray(local, dtype=np.float64) + d._origin)
+    """A local point (relative to the origin) in user coordinates, to the sampling accuracy."""
+    step = 10.0 ** math.floor(math.log10(VALIDATION_CHORD * d.diameter))
+    return fmt_point(np.round((np.asarray(local, dtype=np.float64) + d._origin) / step) * step)
 
 
 def _rep(geom) -> np.ndarray:
@@ -485,6 +448,21 @@ def _check_loops(d: Domain) -> None:
                                 f"{fmt_point(b.p0[i0])})")
 
 
+def _touch(ga, gb, d: Domain, shared: np.ndarray | None = None) -> np.ndarray | None:
+    """A local point where ``ga`` and ``gb`` come closer than the contact tolerance.
+
+    Samples sit within ``VALIDATION_CHORD * diameter`` of the true curves, so curves closer
+    than ``CONTACT * diameter`` count as touching (tangent circles included). Parts of ``ga``
+    near ``shared`` points (curve ends both chains may share) are left out.
+    """
+    tol = CONTACT * d.diameter
+    if shared is not None and len(shared):
+        ga = ga.difference(shapely.buffer(shapely.multipoints(shared), 1000 * tol))
+    if ga.is_empty or not shapely.dwithin(ga, gb, tol):
+        return None
+    return np.asarray(shapely.shortest_line(ga, gb).coords).mean(axis=0)
+
+
 def _check_holes(d: Domain) -> None:
     H = len(d.holes)
     if not H:
@@ -493,20 +471,22 @@ def _check_holes(d: Domain) -> None:
     holes = [Polygon(r) for r in d._fine[1:1 + H]]
     oname = d.outer.name
     for i, h in enumerate(holes):
-        if shapely.contains_properly(outer, h):
-            continue
         inter = h.exterior.intersection(outer.exterior)
-        if not inter.is_empty:
+        near = _rep(inter) if not inter.is_empty else _touch(h.exterior, outer.exterior, d)
+        if near is not None:
             raise GeometryError(f"{d.holes[i].name}: not strictly inside {oname}: touches or "
-                                f"crosses it near {_pt(d, _rep(inter))}")
-        raise GeometryError(f"{d.holes[i].name}: not strictly inside {oname}: it lies "
-                            f"outside, e.g. at {_pt(d, d._fine[1 + i][0])}")
-    a, c = shapely.STRtree(holes).query(holes, predicate="intersects")
-    if (m := _first(a < c)) is not None:
-        i, j = int(a[m]), int(c[m])
+                                f"crosses it near {_pt(d, near)}")
+        if not shapely.contains_properly(outer, h):
+            raise GeometryError(f"{d.holes[i].name}: not strictly inside {oname}: it lies "
+                                f"outside, e.g. at {_pt(d, d._fine[1 + i][0])}")
+    a, c = shapely.STRtree(holes).query(holes, predicate="dwithin",
+                                        distance=CONTACT * d.diameter)
+    for i, j in zip(a[a < c], c[a < c]):
         inter = holes[i].intersection(holes[j])
-        raise GeometryError(f"{d.holes[i].name} and {d.holes[j].name} overlap or touch near "
-                            f"{_pt(d, _rep(inter))}")
+        near = _rep(inter) if not inter.is_empty else _touch(holes[i], holes[j], d)
+        if near is not None:
+            raise GeometryError(f"{d.holes[i].name} and {d.holes[j].name} overlap or touch "
+                                f"near {_pt(d, near)}")
 
 
 def _junction_coords(d: Domain, k: int) -> np.ndarray:
@@ -556,7 +536,9 @@ def _check_interfaces(d: Domain) -> None:
         if not line.is_simple:
             where = _pt(d, _self_touch(d._fine[base + k], bool(d._closed[base + k])))
             raise GeometryError(f"{name}: the interface intersects itself near {where}")
-        bad = _bad_contact(line.intersection(LinearRing(d._fine[0])), jk, junc[0], tol)
+        ring = LinearRing(d._fine[0])
+        bad = _bad_contact(line.intersection(ring), jk, junc[0], tol)
+        bad = bad if bad is not None else _touch(line, ring, d, _shared(jk, junc[0], tol))
         if bad is not None:
             raise GeometryError(f"{name}: touches or crosses the boundary {d.outer.name} near "
                                 f"{_pt(d, bad)} (an interface may not leave the domain)")
@@ -564,17 +546,28 @@ def _check_interfaces(d: Domain) -> None:
             raise GeometryError(f"{name}: lies outside the domain near "
                                 f"{_pt(d, _rep(line.difference(outer)))}")
         for i, h in enumerate(holes):
-            bad = _bad_contact(line.intersection(h), jk, junc[1 + i], tol)
+            jh = junc[1 + i]
+            bad = _bad_contact(line.intersection(h), jk, jh, tol)
+            bad = bad if bad is not None else _touch(line, h.exterior, d, _shared(jk, jh, tol))
             if bad is not None:
                 raise GeometryError(f"{name}: touches, crosses or enters {d.holes[i].name} "
                                     f"near {_pt(d, bad)}")
-    a, c = shapely.STRtree(lines).query(lines, predicate="intersects")
+    a, c = shapely.STRtree(lines).query(lines, predicate="dwithin",
+                                        distance=CONTACT * d.diameter)
     for i, j in zip(a[a < c], c[a < c]):
-        bad = _bad_contact(lines[i].intersection(lines[j]), junc[base + i], junc[base + j], tol)
+        ji, jj = junc[base + i], junc[base + j]
+        bad = _bad_contact(lines[i].intersection(lines[j]), ji, jj, tol)
+        bad = bad if bad is not None else _touch(lines[i], lines[j], d, _shared(ji, jj, tol))
         if bad is not None:
             raise GeometryError(f"{d.interfaces[i].name} and {d.interfaces[j].name} cross or "
                                 f"touch near {_pt(d, bad)} (interfaces may only meet at curve "
                                 f"end points)")
+
+
+def _shared(ja: np.ndarray, jb: np.ndarray, tol: float) -> np.ndarray:
+    """The points of ``ja`` that are also (within ``tol``) points of ``jb``."""
+    dist = np.hypot(ja[:, None, 0] - jb[:, 0], ja[:, None, 1] - jb[:, 1]).min(axis=1)
+    return ja[dist <= tol]
 
 
 def _check_points(d: Domain) -> None:
@@ -582,16 +575,20 @@ def _check_points(d: Domain) -> None:
         return
     names = list(d.points)
     P = np.array([d.points[n] for n in names])
-    inside = d.contains(P) & (d.distance_to_boundary(P, interfaces=False) > d._tol)
-    if (i := _first(~inside)) is not None:
+    clear = CONTACT * d.diameter
+    ends = np.vstack([_junction_coords(d, k) for k in range(len(d._owners))]) + d._origin
+    corner = np.hypot(P[:, None, 0] - ends[:, 0], P[:, None, 1] - ends[:, 1]).min(1) <= d._tol
+    inside = d.contains(P) & (d.distance_to_boundary(P, interfaces=False) > clear)
+    if (i := _first(~inside & ~corner)) is not None:
         raise GeometryError(f"point '{names[i]}' at {fmt_point(P[i])} is not inside the "
-                            f"domain")
+                            f"domain (it is outside, on its boundary or closer than "
+                            f"{fmt_num(clear)} to it, and not a curve end point)")
     base = 1 + len(d.holes)
     for k, path in enumerate(d.interfaces):
         i0, i1 = d._slices[base + k], d._slices[base + k + 1]
-        on = _sub(d.curve_batch, i0, i1).distance(P) <= d._tol
+        on = _sub(d.curve_batch, i0, i1).distance(P) <= clear
         jk = _junction_coords(d, base + k) + d._origin
         at_end = np.hypot(P[:, None, 0] - jk[:, 0], P[:, None, 1] - jk[:, 1]).min(1) <= d._tol
-        if (i := _first(on & ~at_end)) is not None:
+        if (i := _first(on & ~at_end & ~corner)) is not None:
             raise GeometryError(f"point '{names[i]}' at {fmt_point(P[i])} lies on {path.name} "
                                 f"but not at one of its curve end points")

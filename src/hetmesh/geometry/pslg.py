@@ -19,6 +19,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from hetmesh.errors import GeometryError
 
@@ -27,7 +30,7 @@ from .curves import Curve, CurveBatch, SizeLike, fmt_num, fmt_point
 if TYPE_CHECKING:  # domain.py imports this module
     from .domain import Domain
 
-__all__ = ["PSLG", "build_pslg", "sample_parameters"]
+__all__ = ["PSLG", "build_pslg", "fixed_vertices", "sample_parameters"]
 
 MAX_SAMPLES = 50_000_000
 
@@ -82,6 +85,46 @@ class PSLG:
         return np.r_[e[:, 0], e[-1:, 1]]
 
 
+def fixed_vertices(domain: Domain) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+    """The fixed vertices of a domain's PSLG, merged within the domain's tolerance.
+
+    Returns ``coords (K, 2)``, ``start_id (C,)``, ``end_id (C,)`` (fixed vertex of every
+    curve's ends) and ``point_id`` (named point -> fixed vertex). Between two curves the
+    vertex is a segment's exact end point where there is one.
+    """
+    b = domain.curve_batch
+    coords, start_id, end_id = [], np.empty(len(b), np.int64), np.empty(len(b), np.int64)
+    k = 0
+    for j in range(len(domain._owners)):
+        i0, i1 = domain._slices[j], domain._slices[j + 1]
+        n = i1 - i0
+        seg, p0, p1 = ~b.is_arc[i0:i1], b.p0[i0:i1], b.p1[i0:i1]
+        prev = np.arange(n) - 1
+        J = np.where(seg[prev, None], p1[prev], p0)
+        if not domain._closed[j]:
+            J[0] = p0[0]
+            J = np.vstack([J, p1[-1:]])
+        ids = k + np.arange(len(J))
+        start_id[i0:i1] = ids[:n]
+        end_id[i0:i1] = np.roll(ids, -1) if domain._closed[j] else ids[1:]
+        coords.append(J)
+        k += len(J)
+    names = list(domain.points)
+    coords.append(np.array([domain.points[q] for q in names]).reshape(-1, 2))
+    coords = np.vstack(coords)
+    pairs = cKDTree(coords).query_pairs(domain._tol, output_type="ndarray")
+    m = len(coords)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    _, labels = connected_components(graph, directed=False)
+    _, first = np.unique(labels, return_index=True)  # first vertex of every label
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    new = rank[labels]
+    point_id = {q: int(new[k + i]) for i, q in enumerate(names)}
+    return coords[first[order]], new[start_id], new[end_id], point_id
+
+
 def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -> PSLG:
     """Sample every curve of ``domain`` into a PSLG.
 
@@ -100,7 +143,7 @@ def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -
     """
     if chord_tol is None:
         chord_tol = 1e-3 * domain.diameter
-    coords, start_id, end_id, _ = domain._junctions
+    coords, start_id, end_id, _ = domain._junctions  # fixed_vertices(domain), cached
     K = len(coords)
     b = domain.curve_batch
     offsets, t = sample_parameters(b, size, chord_tol)
@@ -169,6 +212,7 @@ def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
 
     Examples
     --------
+    >>> from hetmesh.geometry import Segment
     >>> off, t = sample_parameters([Segment((0, 0), (1, 0))], 0.25)
     >>> off.tolist(), t.tolist()
     ([0, 5], [0.0, 0.25, 0.5, 0.75, 1.0])

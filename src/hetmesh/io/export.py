@@ -1,39 +1,28 @@
 """Mesh export and import: VTU, Gmsh MSH (4.1 and 2.2), XDMF, Abaqus INP, legacy VTK, Medit.
 
-Everything a :class:`~hetmesh.mesh.Mesh` carries is written where the format allows:
+What each format keeps of a :class:`~hetmesh.mesh.Mesh`:
 
-=========  ======================================================================
-format     content
-=========  ======================================================================
-.vtu .vtk  points (x, y, 0); a ``triangle`` and a ``line`` cell block; point data;
-.xdmf      cell data of the triangles plus ``region``, padded on the line block
-           (NaN for floats, -1 for integers); ``marker`` (0 on triangles, the edge
-           marker on lines). XDMF keeps 2-D points and inlines its arrays as XML,
-           so it is one file (no ``.h5`` side file). Marker names are lost.
-.msh       Gmsh 4.1 (default, ``file_format="gmsh41"``) or 2.2 (``"gmsh22"``),
-           ASCII, written by this module. Physical groups: an edge with marker
-           ``m`` is in physical curve ``m`` named after ``mesh.marker_names[m]``
-           (``marker_<m>`` without a name); a triangle of region ``r`` is in
-           physical surface ``1000 + r`` named ``region_<r>`` (the offset is the
-           next power of ten above the largest marker if that is >= 1000, see
-           :func:`region_tag_offset`): disjoint ranges, because some readers
-           ignore the dimension of a physical tag. Every region and every marker
-           is its own geometric entity (tags 1, 2, ... in sorted order). Point
-           data as ``$NodeData``; in 4.1 the triangles' cell data as
-           ``$ElementData`` (NaN on the lines, as meshio wants every element),
-           not in 2.2 (meshio 5.3.5 cannot read it there, meshio#1257). In 4.1
-           the triangles are grouped by region (one element block per entity),
-           so they read back in that order.
-.inp       Abaqus: ``CPE3`` (plane strain) elements, one ``*ELSET`` named
-           ``REGION_<r>`` per region, one ``*NSET`` per edge marker named after the
-           marker (sanitised; ``MARKER_<m>`` without a name). Node sets only: on
-           reading, an edge of the triangulation gets a marker when both its nodes
-           are in the set, and named sets are numbered 1, 2, ... in file order.
-.mesh      Medit: ``medit:ref`` = region on triangles, marker on edges; no data.
-=========  ======================================================================
+- ``.vtu``, ``.vtk``, ``.xdmf`` (meshio): a ``triangle`` and a ``line`` block; point data;
+  the triangles' cell data and ``region``, padded on the lines (NaN, or -1 for integers);
+  ``marker`` (0 on triangles). VTK points are (x, y, 0); XDMF keeps (x, y) and inlines its
+  arrays as XML: one file, no ``.h5`` side file. Marker names are lost.
+- ``.msh`` (ASCII, written here): Gmsh 4.1 by default, 2.2 with ``file_format="gmsh22"``.
+  Edges of marker ``m`` form physical curve ``m`` named ``mesh.marker_names[m]`` (or
+  ``marker_<m>``); triangles of region ``r`` form physical surface ``1000 + r`` named
+  ``region_<r>`` (see :func:`region_tag_offset`) -- disjoint ranges, as some readers ignore
+  the dimension of a physical tag. Each region and marker is one geometric entity (tags
+  1, 2, ... in sorted order). Point data as ``$NodeData``; cell data as ``$ElementData`` in
+  4.1 only (NaN on lines: meshio wants every element; meshio 5.3.5 cannot read 2.2 element
+  data with lines, meshio#1257). 4.1 groups the triangles by region, so they read back in
+  that order.
+- ``.inp`` (written here): Abaqus ``CPE3`` (plane strain) elements, an ``*ELSET``
+  ``REGION_<r>`` per region; per marker, an element-based ``*SURFACE`` and an ``*NSET``
+  named after it (sanitised; ``MARKER_<m>`` without a name), built on internal element
+  sets ``_M<m>_S<side>`` from which the edges read back exactly. No data.
+- ``.mesh`` (Medit, meshio): ``medit:ref`` is the region on triangles, the marker on edges.
 
-meshio 5.3.5 cannot read ``CPE3`` elements; importing this module registers ``CPE3`` as a
-triangle in meshio's Abaqus reader so ``meshio.read`` can read the files we write.
+meshio 5.3.5 cannot read ``CPE3``; importing this module registers it as a triangle in
+meshio's Abaqus reader so ``meshio.read`` reads the files we write.
 """
 
 from __future__ import annotations
@@ -49,9 +38,10 @@ import numpy as np
 
 from ..errors import OutputError
 from ..mesh import Mesh
-from .atomic import atomic_path
+from .atomic import atomic_path, atomic_write  # atomic_write re-exported (docs/internals.md)
 
-__all__ = ["FORMATS", "FILE_FORMATS", "MeshFormat", "write_mesh", "read_mesh", "region_tag_offset"]
+__all__ = ["FORMATS", "FILE_FORMATS", "MeshFormat", "write_mesh", "read_mesh", "region_tag_offset",
+           "atomic_write"]
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +85,11 @@ def _write_rows(f: TextIO, row: str, a: np.ndarray) -> None:
         f.write((row * len(block)) % tuple(block.ravel().tolist()))
 
 
+def _numeric(a) -> np.ndarray:
+    a = np.asarray(a)
+    return a.astype(np.int8) if a.dtype == bool else a
+
+
 def _float_pad(a: np.ndarray, n: int) -> np.ndarray:
     """The padding of a cell data array on a block of ``n`` cells (NaN or -1)."""
     shape = (n,) + a.shape[1:]
@@ -105,17 +100,13 @@ def _float_pad(a: np.ndarray, n: int) -> np.ndarray:
     return np.zeros(shape, a.dtype)
 
 
-def _as_numeric(a: np.ndarray) -> np.ndarray:
-    return a.astype(np.int8) if a.dtype == bool else a
-
-
 def _to_meshio(mesh: Mesh, *, points3d: bool) -> meshio.Mesh:
     """The mesh as a meshio.Mesh: a triangle block and (if there are edges) a line block."""
     p = np.asarray(mesh.points, np.float64)
     if points3d:
         p = np.column_stack([p, np.zeros(len(p))])
     cells = [("triangle", np.asarray(mesh.triangles))]
-    tri_data = {k: _as_numeric(np.asarray(v)) for k, v in mesh.cell_data.items()
+    tri_data = {k: _numeric(v) for k, v in mesh.cell_data.items()
                 if k not in ("region", "marker")}
     tri_data["region"] = np.asarray(mesh.regions)
     k = len(mesh.edges)
@@ -125,7 +116,7 @@ def _to_meshio(mesh: Mesh, *, points3d: bool) -> meshio.Mesh:
         cell_data["marker"] = [np.zeros(mesh.n_elements, np.int32), np.asarray(mesh.edge_markers)]
     else:
         cell_data = {n: [v] for n, v in tri_data.items()}
-    point_data = {n: _as_numeric(np.asarray(v)) for n, v in mesh.point_data.items()}
+    point_data = {n: _numeric(v) for n, v in mesh.point_data.items()}
     return meshio.Mesh(p, cells, point_data=point_data, cell_data=cell_data)
 
 
@@ -156,21 +147,13 @@ def region_tag_offset(markers: np.ndarray) -> int:
     return max(1000, 10 ** len(str(largest)))
 
 
-def _regions(mesh: Mesh, path: Path, what: str) -> np.ndarray:
-    """Sorted unique region ids, which must be >= 0 to name sets and physical groups."""
-    regions = np.unique(mesh.regions)
-    if regions.size and regions[0] < 0:
-        raise OutputError(f"cannot write {path}: {what} needs regions >= 0, got {regions[0]}")
-    return regions
-
-
-def _gmsh_groups(mesh: Mesh, path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Sorted unique regions and markers; both must give positive physical tags."""
-    regions = _regions(mesh, path, "Gmsh")
-    markers = np.unique(mesh.edge_markers)
-    if markers.size and markers[0] < 1:
-        raise OutputError(f"cannot write {path}: Gmsh needs edge markers >= 1, got {markers[0]}")
-    return regions, markers
+def _check_ids(mesh: Mesh, path: Path, what: str, *, markers: bool = False) -> None:
+    """Ids that name sets and physical groups: regions >= 0 (and edge markers >= 1)."""
+    if mesh.n_elements and mesh.regions.min() < 0:
+        raise OutputError(f"cannot write {path}: {what} needs regions >= 0, got {mesh.regions.min()}")
+    if markers and len(mesh.edges) and mesh.edge_markers.min() < 1:
+        raise OutputError(f"cannot write {path}: {what} needs edge markers >= 1, "
+                          f"got {mesh.edge_markers.min()}")
 
 
 def _gmsh_names(mesh: Mesh, regions: np.ndarray, markers: np.ndarray) -> list[tuple[int, int, str]]:
@@ -215,27 +198,22 @@ def _write_gmsh_fields(f: TextIO, mesh: Mesh, order: np.ndarray | None, path: Pa
             _write_gmsh_data(f, "ElementData", name, np.concatenate([v, _float_pad(v, k)]), path)
 
 
-def _entity_of(values: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    """Entity tag (1-based index into the sorted ``groups``) of every value."""
-    return np.searchsorted(groups, values).astype(np.int64) + 1
-
-
 def _write_gmsh22(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
-    regions, markers = _gmsh_groups(mesh, path)
-    m, k = mesh.n_elements, len(mesh.edges)
+    _check_ids(mesh, path, "Gmsh", markers=True)
+    regions, r_entity = np.unique(mesh.regions, return_inverse=True)
+    markers, m_entity = np.unique(mesh.edge_markers, return_inverse=True)
+    m, k, p = mesh.n_elements, len(mesh.edges), mesh.points
     with open(path, "w", encoding="utf-8") as f:
         _write_gmsh_header(f, "2.2", _gmsh_names(mesh, regions, markers))
-        p = mesh.points
         f.write(f"$Nodes\n{len(p)}\n")
         _write_rows(f, "%d %r %r 0\n", np.column_stack([np.arange(1, len(p) + 1), p]))
         f.write(f"$EndNodes\n$Elements\n{m + k}\n")
         tri = np.column_stack([np.arange(1, m + 1), mesh.regions + region_tag_offset(markers),
-                               _entity_of(mesh.regions, regions), mesh.triangles + 1])
+                               r_entity.ravel() + 1, mesh.triangles + 1])
         _write_rows(f, "%d 2 2 %d %d %d %d %d\n", tri)
-        if k:
-            lines = np.column_stack([np.arange(m + 1, m + k + 1), mesh.edge_markers,
-                                     _entity_of(mesh.edge_markers, markers), mesh.edges + 1])
-            _write_rows(f, "%d 1 2 %d %d %d %d\n", lines)
+        lines = np.column_stack([np.arange(m + 1, m + k + 1), mesh.edge_markers,
+                                 m_entity.ravel() + 1, mesh.edges + 1])
+        _write_rows(f, "%d 1 2 %d %d %d %d\n", lines)
         f.write("$EndElements\n")
         # no $ElementData: meshio 5.3.5 cannot read it in MSH 2.2 with lines (meshio#1257)
         _write_gmsh_fields(f, mesh, None, path)
@@ -293,7 +271,7 @@ def _write_gmsh41_elements(f: TextIO, dim: int, cells: np.ndarray, groups, tag0:
 
 
 def _write_gmsh41(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
-    _gmsh_groups(mesh, path)  # validates
+    _check_ids(mesh, path, "Gmsh", markers=True)
     tri_groups, edge_groups = _grouped(mesh.regions), _grouped(mesh.edge_markers)
     regions, markers = tri_groups[0], edge_groups[0]
     m, k = mesh.n_elements, len(mesh.edges)
@@ -337,9 +315,48 @@ def _write_id_list(f: TextIO, ids: np.ndarray) -> None:
         f.write(", ".join(str(int(i)) for i in ids[full:]) + "\n")
 
 
+def _edge_sides(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """A triangle holding every constrained edge and the edge's side in it (0: nodes 1-2,
+    1: nodes 2-3, 2: nodes 3-1, Abaqus' faces S1-S3); -1 for an edge of no triangle."""
+    n = max(mesh.n_points, 1)
+    t = mesh.triangles.astype(np.int64)
+    half = np.sort(np.stack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1), axis=2)
+    keys = (half[..., 0] * n + half[..., 1]).ravel()  # position = 3 * triangle + side
+    order = np.argsort(keys, kind="stable")
+    e = np.sort(mesh.edges.astype(np.int64), axis=1)
+    wanted = e[:, 0] * n + e[:, 1]
+    pos = np.minimum(np.searchsorted(keys[order], wanted), max(len(keys) - 1, 0))
+    hit = keys[order][pos] == wanted if len(keys) else np.zeros(len(e), bool)
+    flat = np.where(hit, order[pos] if len(keys) else -1, -1)
+    return np.where(hit, flat // 3, -1), np.where(hit, flat % 3, -1)
+
+
+def _write_abaqus_edges(f: TextIO, mesh: Mesh, path: Path) -> None:
+    """Per marker: internal element sets ``_M<marker>_S<side>``, an element-based
+    ``*SURFACE`` and an ``*NSET``, both named after the marker."""
+    tri, side = _edge_sides(mesh)
+    if np.any(tri < 0):
+        log.warning("%s: %d constrained edges are no triangle's side; no surface for them",
+                    path, int((tri < 0).sum()))
+    markers, order, bounds = _grouped(mesh.edge_markers)
+    for i, name in enumerate(_abaqus_set_names(mesh, markers)):
+        sel = order[bounds[i]:bounds[i + 1]]
+        faces = []
+        for s in range(3):
+            ids = np.unique(tri[sel][side[sel] == s])
+            if ids.size:
+                faces.append(f"_M{markers[i]}_S{s + 1}")
+                f.write(f"*ELSET, ELSET={faces[-1]}, INTERNAL\n")
+                _write_id_list(f, ids + 1)
+        if faces:
+            f.write(f"*SURFACE, TYPE=ELEMENT, NAME={name}\n" + "".join(f"{s}, {s[-2:]}\n" for s in faces))
+        f.write(f"*NSET, NSET={name}\n")
+        _write_id_list(f, np.unique(mesh.edges[sel]) + 1)
+
+
 def _write_abaqus(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
     p, t = mesh.points, mesh.triangles
-    _regions(mesh, path, "Abaqus")  # validates
+    _check_ids(mesh, path, "Abaqus")
     with open(path, "w", encoding="utf-8") as f:
         f.write("*HEADING\n")
         f.write(f"hetmesh mesh: {len(p)} nodes, {len(t)} CPE3 elements\n")
@@ -351,22 +368,16 @@ def _write_abaqus(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
         for i, r in enumerate(regions):
             f.write(f"*ELSET, ELSET=REGION_{r}\n")
             _write_id_list(f, order[bounds[i]:bounds[i + 1]] + 1)
-        markers, order, bounds = _grouped(mesh.edge_markers)
-        for i, name in enumerate(_abaqus_set_names(mesh, markers)):
-            f.write(f"*NSET, NSET={name}\n")
-            _write_id_list(f, np.unique(mesh.edges[order[bounds[i]:bounds[i + 1]]]) + 1)
+        _write_abaqus_edges(f, mesh, path)
 
 
 def _register_cpe3() -> None:
     """Teach meshio's Abaqus reader the CPE3 element (missing in meshio 5.3.5)."""
-    try:
-        from meshio.abaqus import _abaqus
-    except ImportError:  # pragma: no cover - meshio reorganised
-        log.debug("meshio.abaqus._abaqus not found; cannot register CPE3")
-        return
-    table = getattr(_abaqus, "abaqus_to_meshio_type", None)
+    table = getattr(getattr(meshio.abaqus, "_abaqus", None), "abaqus_to_meshio_type", None)
     if isinstance(table, dict):
         table.setdefault("CPE3", "triangle")
+    else:  # pragma: no cover - meshio reorganised
+        log.debug("meshio's Abaqus type table not found; cannot register CPE3")
 
 
 _register_cpe3()
@@ -388,12 +399,8 @@ FILE_FORMATS: dict[str, MeshFormat] = {
 """Every format by its ``file_format`` name."""
 
 FORMATS: dict[str, MeshFormat] = {
-    ".vtu": FILE_FORMATS["vtu"],
-    ".vtk": FILE_FORMATS["vtk"],
-    ".xdmf": FILE_FORMATS["xdmf"],
-    ".msh": FILE_FORMATS["gmsh41"],
-    ".inp": FILE_FORMATS["abaqus"],
-    ".mesh": FILE_FORMATS["medit"],
+    ext: FILE_FORMATS[name] for ext, name in [(".vtu", "vtu"), (".vtk", "vtk"), (".xdmf", "xdmf"),
+                                              (".msh", "gmsh41"), (".inp", "abaqus"), (".mesh", "medit")]
 }
 """The default format of every known extension."""
 
@@ -411,6 +418,10 @@ def _resolve(path: Path, file_format: str | None) -> MeshFormat:
         known = ", ".join(sorted(FORMATS))
         raise OutputError(f"unknown mesh format {ext!r} for {path} (known: {known})")
     return FORMATS[ext]
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def write_mesh(mesh: Mesh, path: str | Path, *, file_format: str | None = None) -> Path:
@@ -445,8 +456,7 @@ def write_mesh(mesh: Mesh, path: str | Path, *, file_format: str | None = None) 
         with atomic_path(path) as tmp:
             fmt.writer(mesh, tmp, fmt)
     except (meshio.WriteError, ValueError, TypeError) as exc:
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise OutputError(f"cannot write {path} as {fmt.name}: {reason}") from exc
+        raise OutputError(f"cannot write {path} as {fmt.name}: {_one_line(exc)}") from exc
     log.info("wrote %s (%s: %d points, %d triangles)", path, fmt.name, mesh.n_points, mesh.n_elements)
     return path
 
@@ -464,12 +474,9 @@ def _gather(m: meshio.Mesh, name: str, blocks: list[int]) -> np.ndarray | None:
 
 
 def _physical_names(m: meshio.Mesh, dim: int) -> dict[int, str]:
-    out = {}
-    for name, v in m.field_data.items():
-        v = np.asarray(v).ravel()
-        if len(v) >= 2 and int(v[1]) == dim:
-            out[int(v[0])] = str(name)
-    return out
+    """Gmsh physical names of one dimension: ``{tag: name}``."""
+    tags = {name: np.asarray(v).ravel() for name, v in m.field_data.items()}
+    return {int(v[0]): str(name) for name, v in tags.items() if len(v) >= 2 and int(v[1]) == dim}
 
 
 def _read_regions(m: meshio.Mesh, tri: list[int], n: int) -> np.ndarray:
@@ -488,58 +495,57 @@ def _read_regions(m: meshio.Mesh, tri: list[int], n: int) -> np.ndarray:
     return _regions_from_sets(m, tri, n)
 
 
+def _set_cells(m: meshio.Mesh, name: str, tri: list[int]) -> np.ndarray:
+    """Indices (into the concatenated triangle blocks) of the cells of a cell set."""
+    offsets = np.cumsum([0] + [len(m.cells[i]) for i in tri])
+    per_block = m.cell_sets[name]
+    parts = [offsets[j] + np.asarray(per_block[i], np.int64) for j, i in enumerate(tri)
+             if i < len(per_block) and per_block[i] is not None and len(per_block[i])]
+    return np.concatenate(parts) if parts else np.zeros(0, np.int64)
+
+
 def _regions_from_sets(m: meshio.Mesh, tri: list[int], n: int) -> np.ndarray:
     """Regions from Abaqus element sets named ``REGION_<id>``."""
     regions = np.zeros(n, np.int32)
-    offsets = np.cumsum([0] + [len(m.cells[i]) for i in tri])
-    for name, per_block in m.cell_sets.items():
+    for name in m.cell_sets:
         match = re.fullmatch(r"REGION_(-?\d+)", name, flags=re.IGNORECASE)
-        if not match:
-            continue
-        for j, i in enumerate(tri):
-            if i < len(per_block) and per_block[i] is not None and len(per_block[i]):
-                regions[offsets[j] + np.asarray(per_block[i], np.int64)] = int(match.group(1))
+        if match:
+            regions[_set_cells(m, name, tri)] = int(match.group(1))
     return regions
 
 
-def _read_edges(m: meshio.Mesh, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[int, str]]:
-    lines = _blocks(m, "line")
-    if lines:
-        edges = np.concatenate([m.cells[i].data for i in lines])
-        for key in ("marker", "gmsh:physical", "medit:ref"):
-            markers = _gather(m, key, lines)
-            if markers is not None:
-                break
-        else:
-            markers = np.ones(len(edges), np.int32)
-        names = {t: s for t, s in _physical_names(m, 1).items() if s != f"marker_{t}"}
-        return edges, markers.astype(np.int32), names
-    if m.point_sets:
-        return _edges_from_node_sets(m.point_sets, triangles)
-    return np.zeros((0, 2), np.int32), np.zeros(0, np.int32), {}
-
-
-def _edges_from_node_sets(sets: Mapping[str, np.ndarray], triangles: np.ndarray):
-    """Edges of the triangulation with both nodes in one node set (Abaqus)."""
-    e = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-    e = np.unique(e, axis=0)
-    n = int(triangles.max()) + 1 if triangles.size else 0
-    taken = {int(s[7:]) for s in sets if re.fullmatch(r"MARKER_\d+", s, flags=re.IGNORECASE)}
-    free = (i for i in range(1, len(sets) + len(taken) + 2) if i not in taken)
-    edges, markers, names = [], [], {}
-    for name, nodes in sets.items():
-        match = re.fullmatch(r"MARKER_(\d+)", name, flags=re.IGNORECASE)
-        mk = int(match.group(1)) if match else next(free)
-        if not match:
-            names[mk] = name
-        member = np.zeros(max(n, int(np.max(nodes, initial=-1)) + 1), bool)
-        member[np.asarray(nodes, np.int64)] = True
-        sel = e[member[e[:, 0]] & member[e[:, 1]]]
-        edges.append(sel)
-        markers.append(np.full(len(sel), mk, np.int32))
+def _edges_from_surfaces(m: meshio.Mesh, tri: list[int], triangles: np.ndarray):
+    """Edges and markers from the ``_M<marker>_S<side>`` element sets (our Abaqus files);
+    the marker names from the node sets, written in the same (sorted) order."""
+    edges, markers = [], []
+    for name in m.cell_sets:
+        match = re.fullmatch(r"_M(\d+)_S([123])", name, flags=re.IGNORECASE)
+        if match:
+            s = int(match.group(2)) - 1
+            edges.append(triangles[_set_cells(m, name, tri)][:, [s, (s + 1) % 3]])
+            markers.append(np.full(len(edges[-1]), int(match.group(1)), np.int32))
     if not edges:
-        return np.zeros((0, 2), np.int32), np.zeros(0, np.int32), names
-    return np.concatenate(edges), np.concatenate(markers), names
+        return np.zeros((0, 2), np.int32), np.zeros(0, np.int32), {}
+    markers = np.concatenate(markers)
+    ids = np.unique(markers).tolist()
+    names = dict(zip(ids, m.point_sets)) if len(ids) == len(m.point_sets) else {}
+    return np.concatenate(edges), markers, {k: v for k, v in names.items() if v != f"MARKER_{k}"}
+
+
+def _read_edges(m: meshio.Mesh, tri: list[int], triangles: np.ndarray):
+    """``(edges, markers, marker names)`` from line cells or Abaqus surfaces."""
+    lines = _blocks(m, "line")
+    if not lines:
+        return _edges_from_surfaces(m, tri, triangles)
+    edges = np.concatenate([m.cells[i].data for i in lines])
+    for key in ("marker", "gmsh:physical", "medit:ref"):
+        markers = _gather(m, key, lines)
+        if markers is not None:
+            break
+    else:
+        markers = np.ones(len(edges), np.int32)
+    names = {t: s for t, s in _physical_names(m, 1).items() if s != f"marker_{t}"}
+    return edges, markers.astype(np.int32), names
 
 
 def read_mesh(path: str | Path) -> Mesh:
@@ -576,14 +582,13 @@ def read_mesh(path: str | Path) -> Mesh:
     try:
         m = reader(path)
     except Exception as exc:  # malformed input surfaces as anything from ValueError to EOFError
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise OutputError(f"cannot read {path} as {fmt.name}: {reason}") from exc
+        raise OutputError(f"cannot read {path} as {fmt.name}: {_one_line(exc)}") from exc
     tri = _blocks(m, "triangle")
     if not tri:
         raise OutputError(f"cannot read {path}: it has no triangles")
     triangles = np.concatenate([m.cells[i].data for i in tri])
     regions = _read_regions(m, tri, len(triangles))
-    edges, markers, names = _read_edges(m, triangles)
+    edges, markers, names = _read_edges(m, tri, triangles)
     cell_data = {k: _gather(m, k, tri) for k in m.cell_data
                  if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
     point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}

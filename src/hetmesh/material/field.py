@@ -134,10 +134,10 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
     >>> from hetmesh.geometry import Arc, Loop, make_domain
     >>> from hetmesh.material import AnalyticField
     >>> disk = make_domain(Loop((Arc.circle((0, 0), 2.0),), "outer"))
-    >>> check_field(AnalyticField({"b": "x/2"}, ["a", "b"]), disk, "m.toml")
+    >>> check_field(AnalyticField({"b": "x/2"}, ["a", "b"]), disk, "m")
     Traceback (most recent call last):
     ...
-    hetmesh.errors.MaterialError: m.toml: material.composition.b: value -1 at (-2, 0) is outside [0, 1]
+    hetmesh.errors.MaterialError: m: material.composition.b: value -1 at (-2, 0) is outside [0, 1]
     """
     pre = _prefix(where)
     names = tuple(field.constituents)
@@ -168,7 +168,8 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
         excess = np.maximum(c - 1.0, -c)
         i = int(np.argmax(excess))
         if excess[i] > TOLERANCE:
-            raise MaterialError(f"{key}: value {_fmt(c[i])} at {_at(pts[i], scale)} is outside [0, 1]")
+            raise MaterialError(f"{key}: value {_fmt(c[i])} at {_at(pts[i], scale)} is "
+                                f"outside [0, 1]")
     total = comp.sum(axis=1)
     err = np.abs(total - 1.0)
     i = int(np.argmax(err))
