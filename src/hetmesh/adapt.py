@@ -161,19 +161,24 @@ def _sample_interior(ctx: Context, h, rng) -> np.ndarray:
 # --------------------------------------------------------------------------- repair loop
 def _corner_exempt(ws: WorkSet, tris: np.ndarray, ang_deg: float) -> np.ndarray:
     """Triangles whose smallest angle sits at an input corner too sharp to refine (< 2A)."""
-    P = ws.P
-    p = P[tris]
-    ang = np.empty((len(tris), 3))
+    out = np.zeros(len(tris), bool)
+    fixed = ws.vcurve == FIXED
+    touch = np.flatnonzero(fixed[tris].any(axis=1))
+    if touch.size == 0:
+        return out
+    tt = tris[touch]
+    p = ws.P[tt]
+    ang = np.empty((len(tt), 3))
     for k in range(3):
         u = p[:, (k + 1) % 3] - p[:, k]
         v = p[:, (k + 2) % 3] - p[:, k]
         cosv = (u * v).sum(1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
         ang[:, k] = np.degrees(np.arccos(np.clip(cosv, -1, 1)))
-    total = np.bincount(tris.ravel(), ang.ravel(), minlength=len(P))
-    sharp = (ws.vcurve == FIXED) & (total < 2 * ang_deg - 1e-9)
-    kmin = ang.argmin(axis=1)
-    vmin = tris[np.arange(len(tris)), kmin]
-    return sharp[vmin]
+    total = np.bincount(tt.ravel(), ang.ravel(), minlength=ws.n)
+    sharp = fixed & (total < 2 * ang_deg - 1e-9)
+    vmin = tt[np.arange(len(tt)), ang.argmin(axis=1)]
+    out[touch] = sharp[vmin]
+    return out
 
 
 def _constraint_index(ws: WorkSet):
@@ -198,7 +203,7 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str):
 
 
 def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
-           sampling: str, max_elements: int, history: list, smooth_rounds: int = 6,
+           sampling: str, max_elements: int, history: list, smooth_rounds: int = 2,
            max_rounds: int = 200, quality_rounds: int = 8, progress=None,
            check_delta: bool = True):
     """Refine until delta_max < delta_0 (MOR, Eq. 1) and no triangle is below the angle or

@@ -4,7 +4,8 @@ One Lloyd iteration (paper Sec. 3.1.1, steps ii-iii) moves every generator to th
 rho-centroid of its Voronoi cell, Eq. (3). The cell of vertex ``i`` in a Delaunay triangulation
 is assembled from the pieces of its incident triangles: in triangle (i, j, k) with circumcenter
 ``o`` the part closer to ``i`` is the quadrilateral (x_i, m_ij, o, m_ki), split here into two
-signed sub-triangles; integrals use one-point quadrature at the sub-triangle centroids. At the
+signed sub-triangles; integrals use one-point quadrature (rho at the triangle's centroid, moments at the
+sub-triangle centroids). At the
 domain boundary the cell is cut at the boundary edges' midpoints, which is the clipped cell.
 
 Conforming CVT (Ju's CfCVDT, Du & Gunzburger): boundary and interface generators move only
@@ -58,6 +59,8 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     o = np.where(oa[:, None], mbc, o)
     o = np.where(ob[:, None], mca, o)
     o = np.where(oc[:, None], mab, o)
+    # density at the triangle centroid, one evaluation per triangle
+    rt = np.ones(len(t)) if rho is None else rho((a + b + c) / 3.0)
     n = len(points)
     mass = np.zeros(n)
     mom = np.zeros((n, 2))
@@ -68,7 +71,7 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
             ar = 0.5 * np.abs((q[:, 0] - p[:, 0]) * (o[:, 1] - p[:, 1])
                               - (q[:, 1] - p[:, 1]) * (o[:, 0] - p[:, 0]))
             cen = (p + q + o) / 3.0
-            w = ar if rho is None else ar * rho(cen)
+            w = ar * rt
             mass += np.bincount(idx, w, minlength=n)
             mom[:, 0] += np.bincount(idx, w * cen[:, 0], minlength=n)
             mom[:, 1] += np.bincount(idx, w * cen[:, 1], minlength=n)

@@ -44,11 +44,17 @@ def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
     e = np.ascontiguousarray(edges, dtype=np.uintc).reshape(-1, 2)
     t = cdt.Triangulation(cdt.VertexInsertionOrder.AUTO,
                           cdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
+    be = None if boundary_edges is None else np.asarray(boundary_edges).reshape(-1, 2)
+    # without interfaces, the kernel's own even-odd depth flood is exact (outer loop + holes)
+    parity = inside is not None and (be is None or len(be) == len(e))
     try:
         t.insert_vertices(pts)
         if len(e):
             t.insert_edges(e)
-        t.erase_super_triangle()
+        if parity:
+            t.erase_outer_triangles_and_holes()
+        else:
+            t.erase_super_triangle()
     except Exception as exc:  # the kernel reports duplicate points or crossing constraints
         raise MeshingError(f"constrained Delaunay triangulation failed: {exc}") from exc
     if t.vertices_count() != len(pts):
@@ -56,11 +62,10 @@ def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
                            f"({t.vertices_count()} != {len(pts)}): crossing constraint edges?")
     tri = t.triangles_array()
     tris = tri["vertices"].astype(np.int32)
-    if inside is None or len(tris) == 0:
+    if inside is None or parity or len(tris) == 0:
         return _ccw(pts, tris)
     nbr = tri["neighbors"].astype(np.int64)
-    be = e if boundary_edges is None else np.asarray(boundary_edges).reshape(-1, 2)
-    keep = _inside_components(pts, tris, nbr, be, inside)
+    keep = _inside_components(pts, tris, nbr, e if be is None else be, inside)
     return _ccw(pts, tris[keep])
 
 
@@ -73,20 +78,16 @@ def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
 def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     """Flood the triangle adjacency graph without crossing boundary edges; keep the inside pieces."""
     m, n = len(tris), len(pts)
-    # edge j of a CDT triangle is opposite vertex j? find the shared edge explicitly instead
+    # the kernel's neighbour k lies across the edge (v_k, v_k+1)
     src = np.repeat(np.arange(m), 3)
+    k = np.tile(np.arange(3), m)
     dst = nbr.ravel()
     ok = (dst >= 0) & (dst < m)
-    src, dst = src[ok], dst[ok]
-    # vertices common to both triangles give the shared edge
-    ts, td = tris[src], tris[dst]
-    common = (ts[:, :, None] == td[:, None, :]).any(axis=2)  # (k, 3) which of src's vertices are shared
-    # each row has exactly two shared vertices
-    idx = np.argsort(~common, axis=1, kind="stable")[:, :2]
-    va = np.take_along_axis(ts, idx, axis=1)
-    keys = _edge_keys(va[:, 0], va[:, 1], n)
+    src, k, dst = src[ok], k[ok], dst[ok]
+    keys = _edge_keys(tris[src, k], tris[src, (k + 1) % 3], n)
     bkeys = np.unique(_edge_keys(boundary_edges[:, 0], boundary_edges[:, 1], n))
-    cut = np.isin(keys, bkeys)
+    pos = np.minimum(np.searchsorted(bkeys, keys), len(bkeys) - 1)
+    cut = bkeys[pos] == keys if len(bkeys) else np.zeros(len(keys), bool)
     g = coo_matrix((np.ones(int((~cut).sum())), (src[~cut], dst[~cut])), shape=(m, m))
     ncomp, label = connected_components(g, directed=False)
     # one representative centroid per component
