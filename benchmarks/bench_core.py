@@ -121,7 +121,7 @@ def timed(fn, repeats: int):
 
 
 def err_text(e: BaseException) -> str:
-    return f"ERROR {type(e).__name__}: {str(e).splitlines()[0][:60] if str(e) else ''}".strip()
+    return f"ERROR {type(e).__name__}: {str(e).splitlines()[0][:110] if str(e) else ''}".strip()
 
 
 def limit_memory(gb: float) -> None:

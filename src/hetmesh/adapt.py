@@ -34,7 +34,8 @@ from .geometry import build_pslg
 from .mesh import Mesh
 from .metrics import MeshStats, delta_dense, delta_vertices, min_angle, quality, statistics
 from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, edge_keys,
-                     split_constraint_edges, smooth, thin_candidates, triangulate)
+                     split_constraint_edges, smooth, thin_candidates_mask,
+                     triangulate)
 from .triangulate import triangle_neighbors
 
 __all__ = ["generate", "Result", "mesh_statistics", "prepare", "finish", "check_options"]
@@ -203,8 +204,8 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str):
 
 
 def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
-           sampling: str, max_elements: int, history: list, smooth_rounds: int = 2,
-           max_rounds: int = 200, quality_rounds: int = 8, progress=None,
+           sampling: str, max_elements: int, history: list, smooth_rounds: int = 6,
+           max_rounds: int = 200, quality_rounds: int = 8, angle_rounds: int = 40, progress=None,
            check_delta: bool = True):
     """Refine until delta_max < delta_0 (MOR, Eq. 1) and no triangle is below the angle or
     quality floor (GOR). Returns ``(triangles, composition, delta)``.
@@ -212,7 +213,10 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     The minimum angle is enforced by Ruppert's circumcenter insertion, which terminates for
     angles up to ~34 degrees. The quality floor ``min_quality`` also catches obtuse triangles,
     for which circumcenter insertion has no termination guarantee (it can cascade): it is
-    enforced only during the first ``quality_rounds`` rounds, best effort."""
+    enforced only during the first ``quality_rounds`` rounds, best effort. Likewise the angle
+    is enforced for ``angle_rounds`` rounds: new nodes that keep the delta guarantee can
+    interact with Ruppert's insertions; after that only delta-driven splits remain, which end
+    (every split halves an edge with a composition jump >= delta_0 of a continuous field)."""
     thr = ctx.threshold
     for rnd in range(max_rounds):
         tris = triangulate(ws, ctx)
@@ -221,7 +225,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         q = quality(ws.P, tris)
         ang = min_angle(ws.P, tris)
         qfloor = min_quality if rnd < quality_rounds else 0.0
-        badq = ((ang < min_angle_deg) | (q < qfloor)) & ~viol
+        afloor = min_angle_deg if rnd < angle_rounds else 0.0
+        badq = ((ang < afloor) | (q < qfloor)) & ~viol
         if badq.any():
             badq &= ~_corner_exempt(ws, tris, min_angle_deg)
         history.append({"round": rnd, "elements": int(len(tris)), "points": int(ws.n),
@@ -239,8 +244,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         n_before = ws.n
         skeys, sorder = _constraint_index(ws)
         split_c = []
-        cand = []
-        cand_min = []
+        cand, cand_min = [], []
         # MOR: split the edge with the largest composition jump of every violator
         if viol.any():
             tv = tris[viol]
@@ -259,8 +263,10 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             split_c.append(ci[ci >= 0])
             free = ci < 0
             mid = 0.5 * (ws.P[a[free]] + ws.P[b[free]])
+            elen = np.hypot(*(ws.P[a[free]] - ws.P[b[free]]).T)
             cand.append(mid)
-            cand_min.append(0.05 * np.hypot(*(ws.P[a[free]] - ws.P[b[free]]).T))
+            cand_min.append(0.05 * elen)
+
         # GOR: circumcenters of bad-quality triangles (Ruppert), encroachment -> split edges
         if badq.any():
             cc, r = _circumcircles(ws.P, tris[badq])
@@ -273,12 +279,13 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
                 split_c.append(_nearest_constraint(ws, cc[~inside]))
             cand.append(cc[inside])
             cand_min.append(0.3 * r[inside])
+
         sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
         new_c = split_constraint_edges(ws, ctx, sc)
         pts = np.concatenate(cand) if cand else np.zeros((0, 2))
         md = np.concatenate(cand_min) if cand_min else np.zeros(0)
-        pts = thin_candidates(ws, pts, md)
-        add_free_points(ws, pts)
+        keep = thin_candidates_mask(ws, pts, md)
+        add_free_points(ws, pts[keep])
         if ws.n == n_before:
             raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
                                f"elements at delta >= {thr:g} and {int(badq.sum())} below the "

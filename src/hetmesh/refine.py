@@ -155,25 +155,27 @@ def add_free_points(ws: WorkSet, pts: np.ndarray, level: np.ndarray | None = Non
 
 def thin_candidates(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray) -> np.ndarray:
     """Drop candidates closer than ``min_dist`` to existing points or to an earlier candidate."""
+    return cand[thin_candidates_mask(ws, cand, min_dist)]
+
+
+def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray) -> np.ndarray:
+    """Which candidates to keep (see :func:`thin_candidates`)."""
+    out = np.zeros(len(cand), bool)
     if len(cand) == 0:
-        return cand
-    tree = cKDTree(ws.P)
-    d, _ = tree.query(cand)
-    keep = d > min_dist
+        return out
+    d, _ = cKDTree(ws.P).query(cand)
+    keep = np.flatnonzero(d > min_dist)
     cand, md = cand[keep], min_dist[keep]
     if len(cand) < 2:
-        return cand
-    t2 = cKDTree(cand)
-    pairs = t2.query_pairs(r=float(md.max()), output_type="ndarray")
-    if len(pairs):
-        dd = np.hypot(*(cand[pairs[:, 0]] - cand[pairs[:, 1]]).T)
-        close = dd < np.minimum(md[pairs[:, 0]], md[pairs[:, 1]])
-        drop = np.zeros(len(cand), bool)
-        for i, j in pairs[close]:  # greedy, in order: deterministic
-            if not drop[i]:
-                drop[j] = True
-        cand = cand[~drop]
-    return cand
+        out[keep] = True
+        return out
+    # a candidate yields to an earlier one within either's distance (deterministic)
+    k = min(6, len(cand))
+    d, j = cKDTree(cand).query(cand, k=k)
+    i = np.arange(len(cand))[:, None]
+    clash = (j < i) & (d < np.minimum(md[:, None], md[j]))
+    out[keep[~clash.any(axis=1)]] = True
+    return out
 
 
 def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: int = 3) -> np.ndarray:
