@@ -29,7 +29,7 @@ def check_invariants(result, model, threshold, min_angle_deg=30.0):
     comp = model.material.composition(mesh.points)
     delta = delta_vertices(comp, mesh.triangles)
     assert delta.max() < threshold
-    np.testing.assert_allclose(delta, mesh.cell_data["delta"], atol=1e-12)
+    assert np.all(delta <= mesh.cell_data["delta"] + 1e-12)  # dense sampling only adds
     # every constraint edge is an edge of the triangulation (conforming)
     t = mesh.triangles
     tri_edges = {tuple(sorted(e)) for e in np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]).tolist()}

@@ -269,7 +269,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
 
         # GOR: circumcenters of bad-quality triangles (Ruppert), encroachment -> split edges
         if badq.any():
-            cc, r = _circumcircles(ws.P, tris[badq])
+            cc, r = _off_centers(ws.P, tris[badq], max(afloor, 20.0) + 2.0)
             enc = _encroached(ws, cc, r)
             split_c.append(enc[enc >= 0])
             ok = enc < 0
@@ -316,6 +316,32 @@ def _circumcircles(P, t):
     ux = (ca[:, 1] * bl - ba[:, 1] * cl) / d
     uy = (ba[:, 0] * cl - ca[:, 0] * bl) / d
     return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
+
+
+def _off_centers(P, t, angle_deg: float):
+    """Üngör's off-centers: on the shortest edge's bisector, no farther than needed.
+
+    The point x makes the triangle (p, q, x) on the shortest edge pq have its apex angle
+    equal to ``angle_deg``; where the circumcenter is nearer, it is used (Ruppert). Off-centers
+    give fewer Steiner points and end sooner than circumcenters. Returns (points, radius),
+    the radius being the circumradius of the bad triangle (for spacing checks).
+    """
+    cc, r = _circumcircles(P, t)
+    p3 = P[t]
+    ln = np.stack([np.linalg.norm(p3[:, (k + 2) % 3] - p3[:, (k + 1) % 3], axis=1) for k in range(3)], 1)
+    k = ln.argmin(axis=1)
+    i = np.arange(len(t))
+    p = p3[i, (k + 1) % 3]
+    q = p3[i, (k + 2) % 3]
+    m = 0.5 * (p + q)
+    l = ln[i, k]
+    d = cc - m
+    dc = np.linalg.norm(d, axis=1)
+    h = l / (2.0 * np.tan(np.radians(angle_deg) / 2.0))
+    use = (h < dc) & (dc > 0)
+    out = cc.copy()
+    out[use] = m[use] + (d[use] / dc[use, None]) * h[use, None]
+    return out, r
 
 
 def _encroached(ws: WorkSet, pts: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -389,6 +415,13 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, model, *, sampl
             problems.append(f"boundary nodes are off their curve by {off:.3g}")
     if problems:
         raise MeshingError("the mesh failed verification: " + "; ".join(problems))
+    low = min_angle(P, tris) < min_angle_deg - 1e-9
+    if low.any():
+        low &= ~_corner_exempt(ws, tris, min_angle_deg)
+        if low.any():
+            log.warning("%d triangles are below the minimum angle %g (smallest %.2f degrees): "
+                        "the angle refinement was stopped to keep the loop finite",
+                        int(low.sum()), min_angle_deg, float(min_angle(P, tris).min()))
     return mesh
 
 
