@@ -31,12 +31,7 @@ def test_examples_dense_sampling(path):
     assert delta_dense(model.material, r.mesh.points, r.mesh.triangles).max() < 0.05
 
 
-KNOWN_ANGLE_MISS = {9: "after 40 rounds the angle floor is given up (refinement must end); "
-                       "this field ends at 29.3 degrees: open issue, see the closing note"}
-
-
-@pytest.mark.parametrize("seed", [pytest.param(s, marks=pytest.mark.xfail(reason=KNOWN_ANGLE_MISS[s], strict=True))
-                                  if s in KNOWN_ANGLE_MISS else s for s in range(4, 16)])
+@pytest.mark.parametrize("seed", range(4, 16))
 def test_more_random_fields(seed):
     rng = np.random.default_rng(seed)
     kx, ky = rng.uniform(-3, 3, size=2)

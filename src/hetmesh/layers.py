@@ -288,22 +288,12 @@ def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     log.info("layers: %d boundary nodes, %d row nodes", int((ws.vcurve != FREE).sum()),
              int(np.isfinite(ws.level).sum()))
     tris = _fill(ws, ctx, dprime)
-    smooth(ws, ctx, tris, iters=4)
+    smooth(ws, ctx, tris, iters=8, retriangulate_every=4)
     return ws
 
 
 def _thin_rows(ws: WorkSet, rows: np.ndarray, md: np.ndarray) -> np.ndarray:
-    from scipy.spatial import cKDTree
+    """Row nodes to keep: away from existing nodes, and from earlier row nodes (kNN test)."""
+    from .refine import thin_candidates_mask
 
-    keep = np.ones(len(rows), bool)
-    d, _ = cKDTree(ws.P).query(rows)
-    keep &= d > md
-    t = cKDTree(rows)
-    pairs = t.query_pairs(r=float(md.max()) if len(md) else 0.0, output_type="ndarray")
-    if len(pairs):
-        dd = np.linalg.norm(rows[pairs[:, 0]] - rows[pairs[:, 1]], axis=1)
-        pairs = pairs[dd < np.minimum(md[pairs[:, 0]], md[pairs[:, 1]])]
-        for i, j in pairs:
-            if keep[i] and keep[j]:
-                keep[j] = False
-    return keep
+    return thin_candidates_mask(ws, rows, md)

@@ -194,12 +194,14 @@ def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: in
 
 
 def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
-           active: np.ndarray | None = None) -> np.ndarray:
+           active: np.ndarray | None = None, retriangulate_every: int = 1) -> np.ndarray:
     """Conforming density-weighted Lloyd iterations (Sec. 3.2.3); returns the last triangles.
 
     Free nodes move to their cell's rho-centroid; curve nodes slide along their curve; nodes
     carrying a composition level slide along that level curve (tangential move, then Newton
     back onto it); fixed and pinned nodes stay. ``active`` limits the moves to some vertices.
+    The Delaunay connectivity is rebuilt every ``retriangulate_every`` iterations and at the
+    end; in between, moves limited to each vertex's star keep the old connectivity valid.
     """
     for it in range(iters):
         cent, mass = cvt.cell_centroids(ws.P, tris, ctx.rho)
@@ -232,5 +234,6 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
             moved[back] = ws.P[back]
         # a node that left the domain (or crossed an interface cell) is put back
         ws.P = moved
-        tris = triangulate(ws, ctx)
+        if (it + 1) % retriangulate_every == 0 or it == iters - 1:
+            tris = triangulate(ws, ctx)
     return tris
