@@ -32,7 +32,8 @@ from . import density as dens
 from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
 from .mesh import Mesh
-from .metrics import MeshStats, delta_dense, delta_vertices, min_angle, quality, statistics
+from .metrics import (MeshStats, delta_dense, delta_vertices, min_angle, quality,
+                      quality_and_angle, statistics)
 from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, edge_keys,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
@@ -218,12 +219,13 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     interact with Ruppert's insertions; after that only delta-driven splits remain, which end
     (every split halves an edge with a composition jump >= delta_0 of a continuous field)."""
     thr = ctx.threshold
+    tris = None
     for rnd in range(max_rounds):
-        tris = triangulate(ws, ctx)
+        if tris is None:
+            tris = triangulate(ws, ctx)
         comp, delta = evaluate(ctx, ws, tris, sampling)
         viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
-        q = quality(ws.P, tris)
-        ang = min_angle(ws.P, tris)
+        q, ang = quality_and_angle(ws.P, tris)
         qfloor = min_quality if rnd < quality_rounds else 0.0
         afloor = min_angle_deg if rnd < angle_rounds else 0.0
         badq = ((ang < afloor) | (q < qfloor)) & ~viol
@@ -296,7 +298,9 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             new[new_c] = True
             tris = triangulate(ws, ctx)
             active = _rings(tris, new, 2)
-            smooth(ws, ctx, tris, iters=2, active=active)
+            tris = smooth(ws, ctx, tris, iters=2, active=active)
+        else:
+            tris = None
     raise MeshingError(f"refinement did not converge in {max_rounds} rounds")
 
 

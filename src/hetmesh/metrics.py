@@ -12,6 +12,7 @@ import numpy as np
 __all__ = [
     "quality",
     "min_angle",
+    "quality_and_angle",
     "delta_vertices",
     "delta_dense",
     "lattice_barycentric",
@@ -43,6 +44,22 @@ def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         q = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
     return np.clip(q, 0.0, 1.0)
+
+
+def quality_and_angle(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(quality, min_angle)`` of every triangle from one computation of the side lengths."""
+    s = side_lengths(points, triangles)
+    a, b, c = s.T
+    num = (b + c - a) * (c + a - b) * (a + b - c)
+    den = a * b * c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q = np.clip(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
+    s.sort(axis=1)
+    a, b, c = s.T
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cosA = (b * b + c * c - a * a) / (2 * b * c)
+    ang = np.degrees(np.arccos(np.clip(np.nan_to_num(cosA, nan=1.0), -1, 1)))
+    return q, ang
 
 
 def min_angle(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

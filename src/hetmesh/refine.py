@@ -204,7 +204,9 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
     end; in between, moves limited to each vertex's star keep the old connectivity valid.
     """
     for it in range(iters):
-        cent, mass = cvt.cell_centroids(ws.P, tris, ctx.rho)
+        # only the triangles around moving vertices matter (all of them without `active`)
+        sub = tris if active is None else tris[active[tris].any(axis=1)]
+        cent, mass = cvt.cell_centroids(ws.P, sub, ctx.rho)
         movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
         if active is not None:
             movable &= active
@@ -225,7 +227,7 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
             slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, ws.vcurve, -1), ws.vt,
                                              ctx.curves, lo, hi)
             target = np.where(oncurve[:, None], slid, target)
-        moved = cvt.limit_to_star(ws.P, tris, target, movable)
+        moved = cvt.limit_to_star(ws.P, sub, target, movable)
         if oncurve.any():
             # keep the parameter of curve nodes consistent with where they ended up
             ok = oncurve & np.all(moved == target, axis=1)
