@@ -363,3 +363,15 @@ def test_demo_writes_four_files(tmp_path, capsys):
     assert names == ["power_plate.png", "power_plate.vtu", "power_plate_delta.png",
                      "power_plate_uniform.vtu"]
     assert stdout == ""
+
+
+def test_format_option_writes_gmsh22(tmp_path):
+    from hetmesh.cli import main
+
+    out = tmp_path / "m.msh"
+    import hetmesh
+
+    rc = main(["mesh", str(hetmesh.example_path("unit_square")), "-d", "0.1", "-o", str(out),
+               "--format", "gmsh22", "--quiet"])
+    assert rc == 0
+    assert out.read_text().splitlines()[1].startswith("2.2")

@@ -43,6 +43,9 @@ def _count(text: str) -> int:
 _count.__name__ = "count"
 
 
+from ..io.export import FILE_FORMATS
+
+
 def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
     """The options of ``mesh`` (``adaptive=True``) and ``uniform``."""
     p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML)")
@@ -52,6 +55,9 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
     p.add_argument("--output", "-o", type=Path, required=True, metavar="OUT",
                    help="mesh file to write; the format follows the extension: .vtu, .vtk, "
                         ".msh (Gmsh 4.1), .xdmf, .inp (Abaqus), .mesh (Medit)")
+    p.add_argument("--format", choices=sorted(FILE_FORMATS), default=None, metavar="FMT",
+                   help="write this format whatever the extension, e.g. gmsh22 for Gmsh 2.2 "
+                        f"(one of: {', '.join(sorted(FILE_FORMATS))})")
     p.add_argument("--min-angle", type=float, metavar="A",
                    help="smallest angle (degrees) the quality refinement aims for, "
                         "0 < A <= 34 (default: 30)")
@@ -241,7 +247,7 @@ def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> li
     """Write the mesh, then the optional plot and stats JSON (all atomically)."""
     from ..io.export import write_mesh
 
-    written = [write_mesh(result.mesh, args.output)]
+    written = [write_mesh(result.mesh, args.output, file_format=args.format)]
     if args.plot is not None:
         from ..plot import plot_mesh
 
