@@ -196,8 +196,12 @@ def _lookup(sorted_keys, order, keys):
     return np.where(hit, order[pos], -1)
 
 
-def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str):
-    comp = ctx.field.composition(ws.P)
+def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=None):
+    """Compositions at the nodes and delta(T); ``known`` holds those of the first nodes, unmoved."""
+    if known is not None and len(known) <= ws.n:
+        comp = np.vstack([known, ctx.field.composition(ws.P[len(known):])])
+    else:
+        comp = ctx.field.composition(ws.P)
     delta = delta_vertices(comp, tris)
     if sampling == "dense":
         delta = np.maximum(delta, delta_dense(ctx.field, ws.P, tris))
@@ -220,10 +224,12 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     (every split halves an edge with a composition jump >= delta_0 of a continuous field)."""
     thr = ctx.threshold
     tris = None
+    known = None  # compositions of nodes that have not moved since they were evaluated
     for rnd in range(max_rounds):
         if tris is None:
             tris = triangulate(ws, ctx)
-        comp, delta = evaluate(ctx, ws, tris, sampling)
+        comp, delta = evaluate(ctx, ws, tris, sampling, known)
+        known = comp
         viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
         q, ang = quality_and_angle(ws.P, tris)
         qfloor = min_quality if rnd < quality_rounds else 0.0
@@ -299,6 +305,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             tris = triangulate(ws, ctx)
             active = _rings(tris, new, 2)
             tris = smooth(ws, ctx, tris, iters=2, active=active)
+            known = None
         else:
             tris = None
     raise MeshingError(f"refinement did not converge in {max_rounds} rounds")

@@ -62,11 +62,12 @@ def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
                            f"({t.vertices_count()} != {len(pts)}): crossing constraint edges?")
     tri = t.triangles_array()
     tris = tri["vertices"].astype(np.int32)
+    # the kernel returns counter-clockwise triangles (checked in tests/test_triangulate.py)
     if inside is None or parity or len(tris) == 0:
-        return _ccw(pts, tris)
+        return np.ascontiguousarray(tris)
     nbr = tri["neighbors"].astype(np.int64)
     keep = _inside_components(pts, tris, nbr, e if be is None else be, inside)
-    return _ccw(pts, tris[keep])
+    return np.ascontiguousarray(tris[keep])
 
 
 def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
