@@ -409,8 +409,9 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, model, *, sampl
                 marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
                 point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
                 cell_data={"delta": delta, "quality": quality(P, tris)})
-    problems = Mesh(P, tris).problems()
-    area = float(Mesh(P, tris).area)
+    local = Mesh(P, tris)
+    problems = local.problems()
+    area = float(local.area)
     exact = ctx.domain.area
     if abs(area - exact) > 2e-3 * exact:
         problems.append(f"mesh area {area:.9g} differs from the domain's {exact:.9g}")

@@ -288,7 +288,7 @@ def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     log.info("layers: %d boundary nodes, %d row nodes", int((ws.vcurve != FREE).sum()),
              int(np.isfinite(ws.level).sum()))
     tris = _fill(ws, ctx, dprime)
-    smooth(ws, ctx, tris, iters=8, retriangulate_every=4)
+    smooth(ws, ctx, tris, iters=6, retriangulate_every=3)
     return ws
 
 

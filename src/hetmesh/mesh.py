@@ -130,9 +130,13 @@ class Mesh:
     @cached_property
     def unique_edges(self) -> tuple[np.ndarray, np.ndarray]:
         """``(edges (E, 2) sorted, count (E,))``: every edge and how many triangles hold it."""
-        t = self.triangles
-        e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-        u, c = np.unique(e, axis=0, return_counts=True)
+        t = self.triangles.astype(np.int64)
+        a = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
+        b = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
+        n = max(len(self.points), 1)
+        keys = np.minimum(a, b) * n + np.maximum(a, b)  # one int64 per edge: fast unique
+        k, c = np.unique(keys, return_counts=True)
+        u = np.column_stack([k // n, k % n]).astype(np.int32)
         return u, c
 
     @cached_property
@@ -176,7 +180,9 @@ class Mesh:
         used[t.ravel()] = True
         if not used.all():
             out.append(f"{int((~used).sum())} points are not used by any triangle")
-        if len(np.unique(p, axis=0)) != len(p):
+        order = np.lexsort((p[:, 1], p[:, 0]))
+        ps = p[order]
+        if len(ps) > 1 and np.any(np.all(ps[1:] == ps[:-1], axis=1)):
             out.append("repeated points")
         u, c = self.unique_edges
         if np.any(c > 2):
