@@ -252,7 +252,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         n_before = ws.n
         skeys, sorder = _constraint_index(ws)
         split_c = []
-        cand, cand_min = [], []
+        cand, cand_min, cand_clash = [], [], []
         # MOR: split the edge with the largest composition jump of every violator
         if viol.any():
             tv = tris[viol]
@@ -274,6 +274,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             elen = np.hypot(*(ws.P[a[free]] - ws.P[b[free]]).T)
             cand.append(mid)
             cand_min.append(0.05 * elen)
+            cand_clash.append(0.5 * elen)
 
         # GOR: circumcenters of bad-quality triangles (Ruppert), encroachment -> split edges
         if badq.any():
@@ -287,12 +288,14 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
                 split_c.append(_nearest_constraint(ws, cc[~inside]))
             cand.append(cc[inside])
             cand_min.append(0.3 * r[inside])
+            cand_clash.append(r[inside])
 
         sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
         new_c = split_constraint_edges(ws, ctx, sc)
         pts = np.concatenate(cand) if cand else np.zeros((0, 2))
         md = np.concatenate(cand_min) if cand_min else np.zeros(0)
-        keep = thin_candidates_mask(ws, pts, md)
+        clash = np.concatenate(cand_clash) if cand_clash else md
+        keep = thin_candidates_mask(ws, pts, md, clash)
         add_free_points(ws, pts[keep])
         if ws.n == n_before:
             raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
@@ -335,7 +338,8 @@ def _off_centers(P, t, angle_deg: float):
     The point x makes the triangle (p, q, x) on the shortest edge pq have its apex angle
     equal to ``angle_deg``; where the circumcenter is nearer, it is used (Ruppert). Off-centers
     give fewer Steiner points and end sooner than circumcenters. Returns (points, radius),
-    the radius being the circumradius of the bad triangle (for spacing checks).
+    the radius being the distance from the point to the shortest edge's ends: the radius of
+    the empty circle it is inserted at (for spacing checks).
     """
     cc, r = _circumcircles(P, t)
     p3 = P[t]
@@ -352,7 +356,7 @@ def _off_centers(P, t, angle_deg: float):
     use = (h < dc) & (dc > 0)
     out = cc.copy()
     out[use] = m[use] + (d[use] / dc[use, None]) * h[use, None]
-    return out, r
+    return out, np.linalg.norm(out - p, axis=1)
 
 
 def _encroached(ws: WorkSet, pts: np.ndarray, r: np.ndarray) -> np.ndarray:

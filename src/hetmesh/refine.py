@@ -158,14 +158,22 @@ def thin_candidates(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray) -> np.n
     return cand[thin_candidates_mask(ws, cand, min_dist)]
 
 
-def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray) -> np.ndarray:
-    """Which candidates to keep (see :func:`thin_candidates`)."""
+def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
+                         clash_dist: np.ndarray | None = None) -> np.ndarray:
+    """Which candidates to keep (see :func:`thin_candidates`).
+
+    ``clash_dist`` (default ``min_dist``) separates candidates of the same round: inserting
+    two nearby Steiner points at once makes a short edge and a new skinny triangle, which is
+    how parallel refinement can cascade; the dropped one is reconsidered next round.
+    """
+    if clash_dist is None:
+        clash_dist = min_dist
     out = np.zeros(len(cand), bool)
     if len(cand) == 0:
         return out
     d, _ = cKDTree(ws.P).query(cand)
     keep = np.flatnonzero(d > min_dist)
-    cand, md = cand[keep], min_dist[keep]
+    cand, md = cand[keep], clash_dist[keep]
     if len(cand) < 2:
         out[keep] = True
         return out
