@@ -37,7 +37,6 @@ from .metrics import (MeshStats, delta_dense, delta_vertices, min_angle, quality
 from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, edge_keys,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
-from .triangulate import triangle_neighbors
 
 __all__ = ["generate", "Result", "mesh_statistics", "prepare", "finish", "check_options"]
 

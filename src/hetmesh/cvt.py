@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cell_centroids", "limit_to_star", "slide_on_curves", "incident_counts"]
+__all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 
 
 def _circumcenters(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -79,10 +79,6 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     cent = points.copy()
     cent[ok] = mom[ok] / mass[ok, None]
     return cent, mass
-
-
-def incident_counts(triangles: np.ndarray, n: int) -> np.ndarray:
-    return np.bincount(triangles.ravel(), minlength=n)
 
 
 def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray,

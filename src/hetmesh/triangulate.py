@@ -15,7 +15,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .errors import MeshingError
 
-__all__ = ["constrained_delaunay", "triangle_neighbors"]
+__all__ = ["constrained_delaunay"]
 
 log = logging.getLogger(__name__)
 
@@ -98,36 +98,3 @@ def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     cent = pts[tris[first]].mean(axis=1)
     comp_inside = np.asarray(inside(cent), dtype=bool)
     return comp_inside[label]
-
-
-def _ccw(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
-    cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    out = tris.copy()
-    neg = cross < 0
-    out[neg, 1], out[neg, 2] = tris[neg, 2], tris[neg, 1]
-    return np.ascontiguousarray(out, dtype=np.int32)
-
-
-def triangle_neighbors(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unique edges and, for each, the two adjacent triangles (-1 where only one).
-
-    Returns ``(edges (E, 2) sorted, tri_of_edge (E, 2))``, plus nothing else; used for flips and
-    edge-based refinement.
-    """
-    m = len(triangles)
-    e = np.concatenate([triangles[:, [1, 2]], triangles[:, [2, 0]], triangles[:, [0, 1]]])
-    e = np.sort(e, axis=1)
-    owner = np.tile(np.arange(m), 3)
-    order = np.lexsort((e[:, 1], e[:, 0]))
-    e, owner = e[order], owner[order]
-    new = np.ones(len(e), bool)
-    new[1:] = np.any(e[1:] != e[:-1], axis=1)
-    start = np.flatnonzero(new)
-    uniq = e[start]
-    cnt = np.diff(np.append(start, len(e)))
-    t2 = np.full((len(uniq), 2), -1, np.int64)
-    t2[:, 0] = owner[start]
-    two = cnt == 2
-    t2[two, 1] = owner[start[two] + 1]
-    return uniq, t2
