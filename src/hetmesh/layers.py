@@ -285,38 +285,43 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
     """
     from . import cvt
 
-    for it in range(iters):
-        lev = ws.level
-        row = np.isfinite(lev) & ~ws.pinned
-        L = lev[tris]  # (M, 3)
-        tgt = np.zeros_like(ws.P)
-        cnt = np.zeros(ws.n)
+    def facing(tris):
+        """(apex, a, b) index arrays of the row-to-row triangles, and the movable apexes."""
+        L = ws.level[tris]
+        parts = []
         for k in range(3):
             a, b = (k + 1) % 3, (k + 2) % 3
             la, lb, lc = L[:, a], L[:, b], L[:, k]
-            ok = np.isfinite(la) & np.isfinite(lc) & (la == lb) & (np.abs(np.abs(lc - la) - dprime) < 1e-6 * dprime)
-            c = tris[ok, k]
-            mid = 0.5 * (ws.P[tris[ok, a]] + ws.P[tris[ok, b]])
-            tgt[:, 0] += np.bincount(c, mid[:, 0], minlength=ws.n)
-            tgt[:, 1] += np.bincount(c, mid[:, 1], minlength=ws.n)
-            cnt += np.bincount(c, minlength=ws.n)
+            ok = (np.isfinite(la) & np.isfinite(lc) & (la == lb)
+                  & (np.abs(np.abs(lc - la) - dprime) < 1e-6 * dprime))
+            parts.append(tris[ok][:, [k, a, b]])
+        fac = np.concatenate(parts)
         # row ends next to the boundary keep their place: moving them squeezes boundary triangles
         near_bnd = np.zeros(ws.n, bool)
         near_bnd[tris[(ws.vcurve[tris] != FREE).any(axis=1)].ravel()] = True
-        mov = row & (cnt > 0) & ~near_bnd
+        cnt = np.bincount(fac[:, 0], minlength=ws.n)
+        mov = np.isfinite(ws.level) & ~ws.pinned & (cnt > 0) & ~near_bnd
+        return fac, cnt, mov
+
+    fac, cnt, mov = facing(tris)
+    for it in range(iters):
         if not mov.any():
             break
+        mid = 0.5 * (ws.P[fac[:, 1]] + ws.P[fac[:, 2]])
+        tx = np.bincount(fac[:, 0], mid[:, 0], minlength=ws.n)[mov]
+        ty = np.bincount(fac[:, 0], mid[:, 1], minlength=ws.n)[mov]
         x = ws.P[mov]
-        t = tgt[mov] / cnt[mov, None]
+        t = np.column_stack([tx, ty]) / cnt[mov, None]
         gr = ctx.field.gradient(x)[:, ctx.scalar, :]
         nrm = np.linalg.norm(gr, axis=1, keepdims=True)
         tng = np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(nrm, 1e-300)
         step = relax * ((t - x) * tng).sum(1, keepdims=True) * tng
         target = ws.P.copy()
-        target[mov] = project_to_level(ctx, x + step, lev[mov], iters=2)
-        ws.P = cvt.limit_to_star(ws.P, tris, target, mov)
+        target[mov] = project_to_level(ctx, x + step, ws.level[mov], iters=2)
+        ws.P = cvt.limit_to_star(ws.P, tris, target, mov, halvings=2)
         if (it + 1) % 4 == 0 or it == iters - 1:  # between rebuilds the star limit keeps it valid
             tris = triangulate(ws, ctx)
+            fac, cnt, mov = facing(tris)
     return tris
 
 
@@ -339,7 +344,7 @@ def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     log.info("layers: %d boundary nodes, %d row nodes", int((ws.vcurve != FREE).sum()),
              int(np.isfinite(ws.level).sum()))
     tris = _fill(ws, ctx, dprime)
-    tris = smooth(ws, ctx, tris, iters=6, retriangulate_every=3)
+    tris = smooth(ws, ctx, tris, iters=4, retriangulate_every=2)
     stagger(ws, ctx, tris, dprime, iters=STAGGER_ITERS)
     return ws
 
