@@ -306,7 +306,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             new[new_c] = True
             tris = triangulate(ws, ctx)
             active = _rings(tris, new, 2)
-            tris = smooth(ws, ctx, tris, iters=2, active=active)
+            tris = smooth(ws, ctx, tris, iters=2, active=active, retriangulate_every=2)
             known = None
         else:
             tris = None
