@@ -227,10 +227,11 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     for rnd in range(max_rounds):
         if tris is None:
             tris = triangulate(ws, ctx)
-        comp, delta = evaluate(ctx, ws, tris, sampling, known)
-        known = comp
-        viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
-        q, ang = quality_and_angle(ws.P, tris)
+        with ctx.timed("evaluate"):
+            comp, delta = evaluate(ctx, ws, tris, sampling, known)
+            known = comp
+            viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
+            q, ang = quality_and_angle(ws.P, tris)
         qfloor = min_quality if rnd < quality_rounds else 0.0
         afloor = min_angle_deg if rnd < angle_rounds else 0.0
         badq = ((ang < afloor) | (q < qfloor)) & ~viol
@@ -248,6 +249,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         if len(tris) > max_elements:
             raise BudgetError(f"refinement exceeded the element budget ({len(tris)} > "
                               f"{max_elements} elements); raise --max-elements or the threshold")
+        t_ins = time.perf_counter()
         n_before = ws.n
         skeys, sorder = _constraint_index(ws)
         split_c = []
@@ -296,6 +298,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         clash = np.concatenate(cand_clash) if cand_clash else md
         keep = thin_candidates_mask(ws, pts, md, clash)
         add_free_points(ws, pts[keep])
+        ctx.clock["insertion"] = ctx.clock.get("insertion", 0.0) + time.perf_counter() - t_ins
         if ws.n == n_before:
             raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
                                f"elements at delta >= {thr:g} and {int(badq.sum())} below the "
@@ -505,6 +508,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     stats = statistics(ws.P, tris, delta)
     timings["verify"] = time.perf_counter() - t3
     timings["total"] = time.perf_counter() - t0
+    # where the time went, across the phases above (seconds): Delaunay rebuilds, Lloyd steps
+    # (CVT and row staggering), refinement-point computation, delta/quality evaluation
+    timings.update({f"{k}_s": v for k, v in sorted(ctx.clock.items())})
     opts = dict(threshold=threshold, min_angle=min_angle, max_size=ctx.h_max,
                 max_elements=max_elements, sampling=sampling, method=method, seed=seed,
                 min_quality=min_quality, estimate=float(est))

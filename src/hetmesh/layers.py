@@ -16,6 +16,7 @@ fixes whatever is left, so the guarantee does not depend on this placement.
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 
@@ -304,6 +305,7 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
         return fac, cnt, mov
 
     fac, cnt, mov = facing(tris)
+    t0 = time.perf_counter()
     for it in range(iters):
         if not mov.any():
             break
@@ -320,8 +322,10 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
         target[mov] = project_to_level(ctx, x + step, ws.level[mov], iters=2)
         ws.P = cvt.limit_to_star(ws.P, tris, target, mov, halvings=2)
         if (it + 1) % 4 == 0 or it == iters - 1:  # between rebuilds the star limit keeps it valid
+            ctx.clock["stagger"] = ctx.clock.get("stagger", 0.0) + time.perf_counter() - t0
             tris = triangulate(ws, ctx)
             fac, cnt, mov = facing(tris)
+            t0 = time.perf_counter()
     return tris
 
 
@@ -334,7 +338,8 @@ def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     from .density import estimate_elements
 
     budget = int(2 * estimate_elements(ctx.field, ctx.domain, ctx.threshold, ctx.h_max)) + 1000
-    rows, rlev = _trace_rows(ctx, cid, tt, lv, dprime, budget)
+    with ctx.timed("rows"):
+        rows, rlev = _trace_rows(ctx, cid, tt, lv, dprime, budget)
     if len(rows):
         # rows of one level traced twice (from both ends) or crossing: thin them
         g = np.linalg.norm(_scalar_grad(ctx, rows), axis=1)

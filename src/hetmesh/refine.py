@@ -10,6 +10,8 @@ conforming CVT smoothing of :mod:`hetmesh.cvt`.
 
 from __future__ import annotations
 
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,6 +38,15 @@ class Context:
     threshold: float
     h_max: float
     scalar: int | None = None  # constituent whose level sets carry nodes (layers)
+    clock: dict = field(default_factory=dict)  # seconds spent per kind of work (phase split)
+
+    @contextmanager
+    def timed(self, key: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.clock[key] = self.clock.get(key, 0.0) + time.perf_counter() - t0
 
     def inside(self, pts: np.ndarray) -> np.ndarray:
         return self.domain.contains(pts)
@@ -112,8 +123,9 @@ def curve_bounds(ws: WorkSet, ctx: Context) -> tuple[np.ndarray, np.ndarray]:
 
 
 def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
-    bmask = ctx.boundary_curve[ws.ecurve]
-    return constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
+    with ctx.timed("cdt"):
+        bmask = ctx.boundary_curve[ws.ecurve]
+        return constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
 
 
 def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray) -> np.ndarray:
@@ -213,6 +225,7 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
     """
     for it in range(iters):
         # only the triangles around moving vertices matter (all of them without `active`)
+        t_cvt = time.perf_counter()
         sub = tris if active is None else tris[active[tris].any(axis=1)]
         cent, mass = cvt.cell_centroids(ws.P, sub, ctx.rho)
         movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
@@ -242,8 +255,8 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
             ws.vt = np.where(ok, tnew, ws.vt)
             back = oncurve & ~ok
             moved[back] = ws.P[back]
-        # a node that left the domain (or crossed an interface cell) is put back
         ws.P = moved
+        ctx.clock["cvt"] = ctx.clock.get("cvt", 0.0) + time.perf_counter() - t_cvt
         if (it + 1) % retriangulate_every == 0 or it == iters - 1:
             tris = triangulate(ws, ctx)
     return tris
