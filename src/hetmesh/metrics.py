@@ -54,11 +54,12 @@ def quality_and_angle(points: np.ndarray, triangles: np.ndarray) -> tuple[np.nda
     den = a * b * c
     with np.errstate(invalid="ignore", divide="ignore"):
         q = np.clip(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
-    s.sort(axis=1)
-    a, b, c = s.T
+    # the smallest angle has the largest cosine (law of cosines, no sort needed)
+    a2, b2, c2 = a * a, b * b, c * c
     with np.errstate(invalid="ignore", divide="ignore"):
-        cosA = (b * b + c * c - a * a) / (2 * b * c)
-    ang = np.degrees(np.arccos(np.clip(np.nan_to_num(cosA, nan=1.0), -1, 1)))
+        cosmax = np.maximum(np.maximum((b2 + c2 - a2) / (2 * b * c), (c2 + a2 - b2) / (2 * c * a)),
+                            (a2 + b2 - c2) / (2 * a * b))
+    ang = np.degrees(np.arccos(np.clip(np.nan_to_num(cosmax, nan=1.0), -1, 1)))
     return q, ang
 
 
@@ -79,6 +80,9 @@ def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray
     difference over vertex pairs equals the largest per-constituent range over the vertices.
     """
     c = composition if composition.ndim == 2 else composition[:, None]
+    if c.shape[1] == 2:  # two fractions summing to 1 have the same range: use one
+        v = c[:, 1][triangles]
+        return v.max(axis=1) - v.min(axis=1)
     v = c[triangles]  # (M, 3, m)
     return (v.max(axis=1) - v.min(axis=1)).max(axis=1)
 
