@@ -34,7 +34,7 @@ from .geometry import build_pslg
 from .mesh import Mesh
 from .metrics import (MeshStats, delta_dense, delta_vertices, min_angle, quality,
                       quality_and_angle, statistics)
-from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, edge_keys,
+from .refine import (FIXED, Context, WorkSet, add_free_points, edge_keys,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
 
@@ -111,7 +111,7 @@ class _Shifted:
         return self.base.gradient(np.asarray(points) + self.offset, **kw)
 
 
-def workset_from_pslg(pslg, pinned_names=None) -> WorkSet:
+def workset_from_pslg(pslg) -> WorkSet:
     n = len(pslg.vertices)
     return WorkSet(P=np.array(pslg.vertices, float), vcurve=np.array(pslg.vertex_curve, np.int64),
                    vt=np.array(pslg.vertex_t, float), pinned=np.zeros(n, bool),

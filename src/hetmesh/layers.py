@@ -93,7 +93,7 @@ def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
         seg, kk = seg[keep], kk[keep]
         level = anchor + sign * kk * dprime
         a, b = ts[seg], ts[seg + 1]
-        fa, fb = f[seg] - level, f[seg + 1] - level
+        fa = f[seg] - level
         for _ in range(40):  # bisection on t, vectorised
             m = 0.5 * (a + b)
             fm = _scalar(ctx, c.point(m)) - level

@@ -142,7 +142,7 @@ def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray) -> np.nda
         newp[s] = ctx.curves[cid].point(tm[s])
     n0 = ws.n
     nid = n0 + np.arange(len(idx))
-    a, b = ws.E[idx, 0].copy(), ws.E[idx, 1].copy()
+    b = ws.E[idx, 1].copy()
     ws.P = np.vstack([ws.P, newp])
     ws.vcurve = np.concatenate([ws.vcurve, c])
     ws.vt = np.concatenate([ws.vt, tm])
