@@ -32,7 +32,7 @@ from . import density as dens
 from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
 from .mesh import Mesh
-from .metrics import (MeshStats, delta_dense, delta_vertices, min_angle, quality,
+from .metrics import (MeshStats, circumcircles, delta_dense, delta_vertices, min_angle, quality,
                       quality_and_angle, statistics)
 from .refine import (FIXED, Context, WorkSet, add_free_points, edge_keys,
                      split_constraint_edges, smooth, thin_candidates_mask,
@@ -324,16 +324,6 @@ def _rings(tris: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
-def _circumcircles(P, t):
-    a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
-    ba, ca = b - a, c - a
-    d = 2.0 * (ba[:, 0] * ca[:, 1] - ba[:, 1] * ca[:, 0])
-    bl, cl = (ba ** 2).sum(1), (ca ** 2).sum(1)
-    ux = (ca[:, 1] * bl - ba[:, 1] * cl) / d
-    uy = (ba[:, 0] * cl - ca[:, 0] * bl) / d
-    return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
-
-
 def _off_centers(P, t, angle_deg: float):
     """Üngör's off-centers: on the shortest edge's bisector, no farther than needed.
 
@@ -343,7 +333,7 @@ def _off_centers(P, t, angle_deg: float):
     the radius being the distance from the point to the shortest edge's ends: the radius of
     the empty circle it is inserted at (for spacing checks).
     """
-    cc, r = _circumcircles(P, t)
+    cc, r = circumcircles(P, t)
     p3 = P[t]
     ln = np.stack([np.linalg.norm(p3[:, (k + 2) % 3] - p3[:, (k + 1) % 3], axis=1) for k in range(3)], 1)
     k = ln.argmin(axis=1)

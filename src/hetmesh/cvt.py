@@ -18,17 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .metrics import circumcircles
+
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
-
-
-def _circumcenters(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    ba, ca = b - a, c - a
-    d = 2.0 * (ba[:, 0] * ca[:, 1] - ba[:, 1] * ca[:, 0])
-    bl, cl = (ba ** 2).sum(1), (ca ** 2).sum(1)
-    d = np.where(np.abs(d) < 1e-300, 1e-300, d)
-    ux = (ca[:, 1] * bl - ba[:, 1] * cl) / d
-    uy = (ba[:, 0] * cl - ca[:, 0] * bl) / d
-    return a + np.column_stack([ux, uy])
 
 
 def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.ndarray, np.ndarray]:
@@ -49,7 +41,7 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     """
     t = triangles
     a, b, c = points[t[:, 0]], points[t[:, 1]], points[t[:, 2]]
-    o = _circumcenters(a, b, c)
+    o, _ = circumcircles(points, t)
     # obtuse: clamp the circumcenter to the midpoint of the longest edge
     la, lb, lc = ((b - c) ** 2).sum(1), ((c - a) ** 2).sum(1), ((a - b) ** 2).sum(1)
     mab, mbc, mca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)

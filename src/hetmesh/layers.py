@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from .metrics import circumcircles
 from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, project_to_level, smooth,
                      thin_candidates, triangulate)
 
@@ -247,13 +248,8 @@ def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
     """Fill flat zones: insert circumcenters of triangles larger than the local size."""
     for _ in range(rounds):
         tris = triangulate(ws, ctx)
-        a, b, c = ws.P[tris[:, 0]], ws.P[tris[:, 1]], ws.P[tris[:, 2]]
-        ba, ca = b - a, c - a
-        d = 2.0 * (ba[:, 0] * ca[:, 1] - ba[:, 1] * ca[:, 0])
-        bl, cl = (ba ** 2).sum(1), (ca ** 2).sum(1)
-        cc = a + np.column_stack([(ca[:, 1] * bl - ba[:, 1] * cl) / d, (ba[:, 0] * cl - ca[:, 0] * bl) / d])
-        R = np.linalg.norm(cc - a, axis=1)
-        cen = (a + b + c) / 3.0
+        cc, R = circumcircles(ws.P, tris)
+        cen = ws.P[tris].mean(axis=1)
         hloc = np.minimum(ctx.h_max, _row_step(ctx, np.linalg.norm(_scalar_grad(ctx, cen), axis=1), dprime))
         big = R > 0.75 * hloc
         if not big.any():

@@ -19,6 +19,7 @@ __all__ = [
     "MeshStats",
     "statistics",
     "side_lengths",
+    "circumcircles",
 ]
 
 
@@ -29,6 +30,18 @@ def side_lengths(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     b = np.hypot(*(p[:, 0] - p[:, 2]).T)
     c = np.hypot(*(p[:, 1] - p[:, 0]).T)
     return np.stack([a, b, c], axis=1)
+
+
+def circumcircles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Circumcenters ``(M, 2)`` and circumradii ``(M,)`` of the triangles."""
+    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    ba, ca = b - a, c - a
+    d = 2.0 * (ba[:, 0] * ca[:, 1] - ba[:, 1] * ca[:, 0])
+    d = np.where(np.abs(d) < 1e-300, 1e-300, d)
+    bl, cl = (ba ** 2).sum(1), (ca ** 2).sum(1)
+    ux = (ca[:, 1] * bl - ba[:, 1] * cl) / d
+    uy = (ba[:, 0] * cl - ca[:, 0] * bl) / d
+    return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
 
 
 def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
