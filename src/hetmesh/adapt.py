@@ -34,7 +34,7 @@ from .geometry import build_pslg
 from .mesh import Mesh
 from .metrics import (MeshStats, circumcircles, delta_dense, delta_vertices, min_angle, quality,
                       quality_and_angle, statistics)
-from .refine import (FIXED, Context, WorkSet, add_free_points, edge_keys,
+from .refine import (FIXED, Context, WorkSet, add_free_points, edge_keys, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
 
@@ -109,14 +109,6 @@ class _Shifted:
 
     def gradient(self, points, **kw):
         return self.base.gradient(np.asarray(points) + self.offset, **kw)
-
-
-def workset_from_pslg(pslg) -> WorkSet:
-    n = len(pslg.vertices)
-    return WorkSet(P=np.array(pslg.vertices, float), vcurve=np.array(pslg.vertex_curve, np.int64),
-                   vt=np.array(pslg.vertex_t, float), pinned=np.zeros(n, bool),
-                   level=np.full(n, np.nan), E=np.array(pslg.edges, np.int64),
-                   ecurve=np.array(pslg.edge_curve, np.int64))
 
 
 # --------------------------------------------------------------------------- placement

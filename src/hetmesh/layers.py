@@ -20,9 +20,10 @@ import time
 
 import numpy as np
 
+from .geometry import pslg_from_parameters
 from .metrics import circumcircles
-from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, project_to_level, smooth,
-                     thin_candidates, triangulate)
+from .refine import (FREE, Context, WorkSet, add_free_points, project_to_level, smooth,
+                     thin_candidates, triangulate, workset_from_pslg)
 
 __all__ = ["place_layers", "BETA"]
 
@@ -142,42 +143,11 @@ def _curve_params(ctx: Context, cid, tt, dprime):
 
 
 def _pslg_workset(ctx: Context, params) -> WorkSet:
-    """Build the work set from per-curve parameter lists (curve end points shared)."""
-    scale = ctx.domain.diameter
-    P, vc, vt, pin, E, ec = [], [], [], [], [], []
-    ends: dict = {}
-
-    def end_vertex(p):
-        key = tuple(np.round(np.asarray(p) / (1e-9 * scale)).astype(np.int64))
-        if key not in ends:
-            ends[key] = len(P)
-            P.append(np.asarray(p, float))
-            vc.append(FIXED)
-            vt.append(np.nan)
-            pin.append(True)
-        return ends[key]
-
-    for k, (c, (t, pinned_t)) in enumerate(zip(ctx.curves, params)):
-        ids = [end_vertex(c.start)]
-        inner = t[1:-1]
-        pts = c.point(inner) if len(inner) else np.zeros((0, 2))
-        pinset = np.isin(inner, pinned_t)
-        for p, ti, pi in zip(pts, inner, pinset):
-            ids.append(len(P))
-            P.append(p)
-            vc.append(k)
-            vt.append(ti)
-            pin.append(bool(pi))
-        ids.append(end_vertex(c.end))
-        ids = np.array(ids)
-        E.append(np.column_stack([ids[:-1], ids[1:]]))
-        ec.append(np.full(len(ids) - 1, k))
-    for name, p in getattr(ctx.domain, "points", {}).items():
-        end_vertex(p)
-    n = len(P)
-    return WorkSet(P=np.array(P), vcurve=np.array(vc, np.int64), vt=np.array(vt, float),
-                   pinned=np.array(pin, bool), level=np.full(n, np.nan),
-                   E=np.concatenate(E).astype(np.int64), ecurve=np.concatenate(ec).astype(np.int64))
+    """The work set for per-curve ``(parameters, pinned parameters)`` (curve ends shared)."""
+    ts = [p[0] for p in params]
+    offsets = np.r_[0, np.cumsum([len(x) for x in ts])]
+    pslg = pslg_from_parameters(ctx.domain, offsets, np.concatenate(ts))
+    return workset_from_pslg(pslg, [p[1] for p in params])
 
 
 def _distances(ctx: Context, pts: np.ndarray):

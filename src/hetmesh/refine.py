@@ -76,6 +76,21 @@ class WorkSet:
         return len(self.P)
 
 
+def workset_from_pslg(pslg, pinned_t=None) -> WorkSet:
+    """A work set from a PSLG; curve nodes whose parameter is in ``pinned_t[curve]`` stay put."""
+    n = len(pslg.vertices)
+    vc = np.array(pslg.vertex_curve, np.int64)
+    vt = np.array(pslg.vertex_t, float)
+    pinned = vc == FIXED
+    for k, tk in enumerate(pinned_t or ()):
+        if len(tk):
+            s = vc == k
+            pinned[s] |= np.isin(vt[s], tk)
+    return WorkSet(P=np.array(pslg.vertices, float), vcurve=vc, vt=vt, pinned=pinned,
+                   level=np.full(n, np.nan), E=np.array(pslg.edges, np.int64),
+                   ecurve=np.array(pslg.edge_curve, np.int64))
+
+
 def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     lo = np.minimum(a, b).astype(np.int64)
     hi = np.maximum(a, b).astype(np.int64)

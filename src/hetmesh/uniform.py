@@ -47,7 +47,6 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
             n = max(n, 4)
         params.append((np.linspace(0, 1, n + 1), np.zeros(0)))
     ws = _pslg_workset(uc, params)
-    ws.pinned[:] = ws.vcurve < 0
     x0, y0, x1, y1 = ctx.domain.bounds
     dy = h * np.sqrt(3) / 2
     ny = int(np.ceil((y1 - y0) / dy)) + 1

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from .curves import Arc, Curve, CurveBatch, Segment, SizeLike, segments_through
 from .domain import CurveInfo, Domain, Loop, Path, make_domain
-from .pslg import PSLG, build_pslg, sample_parameters
+from .pslg import PSLG, build_pslg, pslg_from_parameters, sample_parameters
 
 __all__ = [
     "Arc",
@@ -27,6 +27,7 @@ __all__ = [
     "Segment",
     "SizeLike",
     "build_pslg",
+    "pslg_from_parameters",
     "make_domain",
     "sample_parameters",
     "segments_through",

@@ -30,7 +30,7 @@ from .curves import Curve, CurveBatch, SizeLike, fmt_num, fmt_point
 if TYPE_CHECKING:  # domain.py imports this module
     from .domain import Domain
 
-__all__ = ["PSLG", "build_pslg", "fixed_vertices", "sample_parameters"]
+__all__ = ["pslg_from_parameters", "PSLG", "build_pslg", "fixed_vertices", "sample_parameters"]
 
 MAX_SAMPLES = 50_000_000
 
@@ -143,10 +143,23 @@ def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -
     """
     if chord_tol is None:
         chord_tol = 1e-3 * domain.diameter
+    offsets, t = sample_parameters(domain.curve_batch, size, chord_tol)
+    return pslg_from_parameters(domain, offsets, t)
+
+
+def pslg_from_parameters(domain: Domain, offsets: np.ndarray, t: np.ndarray) -> PSLG:
+    """The PSLG whose curve ``i`` is sampled at ``t[offsets[i]:offsets[i + 1]]``.
+
+    Every curve's parameters must increase from 0 to 1 (both included); curve end points and
+    named points become the shared fixed vertices. Lets a caller choose the samples itself
+    (e.g. where iso-composition rows cross the boundary) and still get the same PSLG layout
+    as :func:`build_pslg`.
+    """
+    offsets = np.asarray(offsets, dtype=np.int64)
+    t = np.asarray(t, dtype=np.float64)
     coords, start_id, end_id, _ = domain._junctions  # fixed_vertices(domain), cached
     K = len(coords)
     b = domain.curve_batch
-    offsets, t = sample_parameters(b, size, chord_tol)
     counts = np.diff(offsets)
     idx = np.repeat(np.arange(len(b), dtype=np.int64), counts)
     inner = np.ones(len(t), dtype=bool)
