@@ -28,6 +28,7 @@ from ..expr import FUNCTIONS
 from ..geometry import Arc, Loop, Segment, make_domain
 from ..geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
+from ..material.hft import parse_hft
 
 __all__ = ["Model", "load_model", "parse_model", "MATERIAL_TYPES", "MAX_FILE_BYTES"]
 
@@ -475,6 +476,7 @@ def _analytic(ctx: _Ctx, table: dict, domain, parameters: dict) -> MaterialField
 #: Parsers of the ``[material]`` table by its ``type`` key:
 #: ``parser(ctx, table, domain, parameters) -> MaterialField``.
 MATERIAL_TYPES: dict[str, Callable] = {"analytic": _analytic}
+MATERIAL_TYPES["hft"] = parse_hft  # feature trees (paper Sec. 3.3)
 
 
 def _material(ctx: _Ctx, value, domain, parameters: dict) -> MaterialField:
