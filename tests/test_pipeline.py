@@ -98,3 +98,50 @@ def test_uniform_baseline_meets_threshold_and_is_uniform():
     check_invariants(u, model, 0.1)
     a = hetmesh.generate(model, 0.1)
     assert a.mesh.n_elements < u.mesh.n_elements
+
+
+def test_regions_follow_the_closed_interface():
+    model = hetmesh.load_model(hetmesh.example_path("plate_with_holes"))
+    mesh = hetmesh.generate(model, 0.1).mesh
+    assert sorted(np.unique(mesh.regions).tolist()) == [0, 1]
+    # the interface edges separate the two regions: no triangle pair across one shares a region
+    from hetmesh.mesh import edge_keys
+
+    iface = [i + 1 for i, ci in enumerate(model.domain.curves) if ci.kind == "interface"]
+    e = mesh.edges[np.isin(mesh.edge_markers, iface)]
+    assert len(e) > 0
+    t = mesh.triangles
+    keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]), np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
+    owner = np.tile(np.arange(len(t)), 3)
+    hit = np.isin(keys, edge_keys(e[:, 0], e[:, 1]))
+    order = np.argsort(keys[hit], kind="stable")
+    pairs = owner[hit][order].reshape(-1, 2)  # the two triangles on either side of each edge
+    assert len(pairs) == len(e)
+    assert np.all(mesh.regions[pairs[:, 0]] != mesh.regions[pairs[:, 1]])
+
+
+def test_a_mesh_that_lost_an_interface_edge_is_rejected(monkeypatch):
+    import hetmesh.adapt as A
+    from hetmesh.errors import MeshingError
+    from hetmesh.mesh import edge_keys
+
+    model = hetmesh.load_model(hetmesh.example_path("plate_with_holes"))
+    real = A.repair
+
+    def flip_one_interface_edge(ws, ctx, **kw):
+        tris, comp, delta = real(ws, ctx, **kw)
+        e = ws.E[~ctx.boundary_curve[ws.ecurve]][0]
+        key = edge_keys(np.array([e[0]]), np.array([e[1]]))[0]
+        two = [i for i, tr in enumerate(tris.tolist())
+               if edge_keys(np.array(tr), np.roll(np.array(tr), -1)).tolist().count(key)]
+        a, b = tris[two[0]], tris[two[1]]
+        c = [v for v in a if v not in e][0]
+        d = [v for v in b if v not in e][0]
+        tris = tris.copy()
+        tris[two[0]] = [c, d, e[0]]
+        tris[two[1]] = [d, c, e[1]]
+        return tris, comp, delta
+
+    monkeypatch.setattr(A, "repair", flip_one_interface_edge)
+    with pytest.raises(MeshingError, match="not mesh edges"):
+        hetmesh.generate(model, 0.1)

@@ -31,10 +31,11 @@ from scipy.spatial import cKDTree
 from . import density as dens
 from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
-from .mesh import Mesh
-from .metrics import (MeshStats, circumcircles, delta_dense, delta_vertices, min_angle, quality,
-                      quality_and_angle, statistics)
-from .refine import (FIXED, Context, WorkSet, add_free_points, edge_keys, workset_from_pslg,
+from .mesh import Mesh, edge_keys
+from .metrics import (MeshStats, circumcircles, delta_dense, delta_vertices, quality_and_angle,
+                      statistics)
+from .triangulate import components
+from .refine import (FIXED, Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
 
@@ -368,39 +369,25 @@ def _nearest_constraint(ws: WorkSet, pts: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- output
-def region_ids(domain, centroids: np.ndarray) -> np.ndarray:
-    """Region of every triangle: which closed interface curves enclose its centroid."""
-    import shapely
+def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, min_angle_deg,
+           check_delta=True) -> tuple[Mesh, MeshStats]:
+    """Verify every claim on the final mesh; build the :class:`Mesh` (user coordinates) and
+    its statistics.
 
-    code = np.zeros(len(centroids), np.int64)
-    bit = 0
-    for path in getattr(domain, "interfaces", ()):
-        cs = path.curves
-        if np.hypot(*(cs[0].start - cs[-1].end)) > 1e-9 * domain.diameter:
-            continue
-        ring = np.concatenate([c.point(np.linspace(0, 1, 65)[:-1]) for c in cs])
-        poly = shapely.Polygon(ring)
-        inside = shapely.contains_xy(poly, centroids[:, 0], centroids[:, 1])
-        code |= inside.astype(np.int64) << bit
-        bit += 1
-    _, inv = np.unique(code, return_inverse=True)
-    return inv.astype(np.int32)
-
-
-def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, model, *, sampling,
-           threshold, min_angle_deg, check_delta=True) -> Mesh:
-    """Verify every claim on the final mesh and build the :class:`Mesh` (local -> user coords)."""
+    Claims checked: a valid triangulation (:meth:`Mesh.problems`), every boundary and
+    interface edge an edge of it (conforming), its area the domain's, delta_max < delta_0
+    strictly, curve nodes on their curves. A failure raises :class:`MeshingError`.
+    """
     P = ws.P
-    cent = P[tris].mean(axis=1)
-    mesh = Mesh(points=P + offset, triangles=tris, regions=region_ids(ctx.domain, cent),
-                edges=ws.E, edge_markers=ws.ecurve + 1,
-                marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
-                point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
-                cell_data={"delta": delta, "quality": quality(P, tris)})
-    local = Mesh(P, tris)
+    q, ang = quality_and_angle(P, tris)
+    local = Mesh(P, tris)  # checked in local coordinates: no loss of precision far from 0
     problems = local.problems()
-    area = float(local.area)
-    exact = ctx.domain.area
+    mesh_edges, _ = local.unique_edges
+    missing = ~np.isin(edge_keys(ws.E[:, 0], ws.E[:, 1]),
+                       edge_keys(mesh_edges[:, 0], mesh_edges[:, 1]))
+    if missing.any():
+        problems.append(f"{int(missing.sum())} boundary or interface edges are not mesh edges")
+    area, exact = float(local.area), ctx.domain.area
     if abs(area - exact) > 2e-3 * exact:
         problems.append(f"mesh area {area:.9g} differs from the domain's {exact:.9g}")
     if check_delta and delta.max() >= threshold:
@@ -415,14 +402,20 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, model, *, sampl
             problems.append(f"boundary nodes are off their curve by {off:.3g}")
     if problems:
         raise MeshingError("the mesh failed verification: " + "; ".join(problems))
-    low = min_angle(P, tris) < min_angle_deg - 1e-9
+    low = ang < min_angle_deg - 1e-9
     if low.any():
         low &= ~_corner_exempt(ws, tris, min_angle_deg)
         if low.any():
             log.warning("%d triangles are below the minimum angle %g (smallest %.2f degrees): "
                         "the angle refinement was stopped to keep the loop finite",
-                        int(low.sum()), min_angle_deg, float(min_angle(P, tris).min()))
-    return mesh
+                        int(low.sum()), min_angle_deg, float(ang.min()))
+    interfaces = ws.E[~ctx.boundary_curve[ws.ecurve]]
+    mesh = Mesh(points=P + offset, triangles=tris, regions=components(tris, interfaces),
+                edges=ws.E, edge_markers=ws.ecurve + 1,
+                marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
+                point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
+                cell_data={"delta": delta, "quality": q})
+    return mesh, statistics(P, tris, delta, quality=q, angle=ang)
 
 
 # --------------------------------------------------------------------------- the pipeline
@@ -485,9 +478,8 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
                                progress=progress)
     timings["refine"] = time.perf_counter() - t2
     t3 = time.perf_counter()
-    mesh = finish(ws, ctx, tris, comp, delta, offset, model, sampling=sampling,
-                  threshold=threshold, min_angle_deg=min_angle)
-    stats = statistics(ws.P, tris, delta)
+    mesh, stats = finish(ws, ctx, tris, comp, delta, offset, threshold=threshold,
+                         min_angle_deg=min_angle)
     timings["verify"] = time.perf_counter() - t3
     timings["total"] = time.perf_counter() - t0
     # where the time went, across the phases above (seconds): Delaunay rebuilds, Lloyd steps

@@ -17,7 +17,18 @@ import numpy as np
 
 from .errors import MeshingError
 
-__all__ = ["Mesh"]
+__all__ = ["Mesh", "edge_keys"]
+
+
+def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """One int64 per undirected edge (a, b): the smaller id in the high 32 bits.
+
+    The one edge encoding of the package: sort, unique and membership tests on edges become
+    1-D integer operations. Vertex ids must be below 2**31.
+    """
+    lo = np.minimum(a, b).astype(np.int64)
+    hi = np.maximum(a, b).astype(np.int64)
+    return (lo << 32) | hi
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -130,13 +141,11 @@ class Mesh:
     @cached_property
     def unique_edges(self) -> tuple[np.ndarray, np.ndarray]:
         """``(edges (E, 2) sorted, count (E,))``: every edge and how many triangles hold it."""
-        t = self.triangles.astype(np.int64)
-        a = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
-        b = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
-        n = max(len(self.points), 1)
-        keys = np.minimum(a, b) * n + np.maximum(a, b)  # one int64 per edge: fast unique
+        t = self.triangles
+        keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]),
+                         np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
         k, c = np.unique(keys, return_counts=True)
-        u = np.column_stack([k // n, k % n]).astype(np.int32)
+        u = np.column_stack([k >> 32, k & 0xFFFFFFFF]).astype(np.int32)
         return u, c
 
     @cached_property

@@ -154,17 +154,18 @@ class MeshStats:
         return asdict(self)
 
 
-def statistics(points: np.ndarray, triangles: np.ndarray, delta: np.ndarray) -> MeshStats:
-    """Statistics of a mesh given the per-element delta."""
-    q = quality(points, triangles)
-    ang = min_angle(points, triangles)
+def statistics(points: np.ndarray, triangles: np.ndarray, delta: np.ndarray, *,
+               quality: np.ndarray | None = None, angle: np.ndarray | None = None) -> MeshStats:
+    """Statistics of a mesh given the per-element delta (and, if known, q and min angle)."""
+    if quality is None or angle is None:
+        quality, angle = quality_and_angle(points, triangles)
     return MeshStats(
         n_points=int(len(points)),
         n_elements=int(len(triangles)),
-        q_min=float(q.min()),
-        q_avg=float(q.mean()),
+        q_min=float(quality.min()),
+        q_avg=float(quality.mean()),
         delta_min=float(delta.min()),
         delta_avg=float(delta.mean()),
         delta_max=float(delta.max()),
-        angle_min=float(ang.min()),
+        angle_min=float(angle.min()),
     )

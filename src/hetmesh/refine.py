@@ -21,7 +21,7 @@ from . import cvt
 from .triangulate import constrained_delaunay
 
 __all__ = ["WorkSet", "Context", "triangulate", "split_constraint_edges", "add_free_points",
-           "smooth", "edge_keys"]
+           "smooth"]
 
 FREE, FIXED = -2, -1
 
@@ -89,12 +89,6 @@ def workset_from_pslg(pslg, pinned_t=None) -> WorkSet:
     return WorkSet(P=np.array(pslg.vertices, float), vcurve=vc, vt=vt, pinned=pinned,
                    level=np.full(n, np.nan), E=np.array(pslg.edges, np.int64),
                    ecurve=np.array(pslg.edge_curve, np.int64))
-
-
-def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    lo = np.minimum(a, b).astype(np.int64)
-    hi = np.maximum(a, b).astype(np.int64)
-    return (lo << 32) | hi
 
 
 def edge_params(ws: WorkSet, ctx: Context) -> np.ndarray:

@@ -14,8 +14,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .errors import MeshingError
+from .mesh import edge_keys
 
-__all__ = ["constrained_delaunay"]
+__all__ = ["constrained_delaunay", "components"]
 
 log = logging.getLogger(__name__)
 
@@ -70,31 +71,51 @@ def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
     return np.ascontiguousarray(tris[keep])
 
 
-def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    lo = np.minimum(a, b).astype(np.int64)
-    hi = np.maximum(a, b).astype(np.int64)
-    return lo * n + hi
+def _label(m: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Connected-component label of each of ``m`` triangles joined by (src, dst) pairs,
+    numbered in the order of each component's first triangle."""
+    g = coo_matrix((np.ones(len(src)), (src, dst)), shape=(m, m))
+    _, label = connected_components(g, directed=False)
+    _, first, inv = np.unique(label, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return rank[inv]
+
+
+def components(triangles: np.ndarray, cut_edges: np.ndarray) -> np.ndarray:
+    """Pieces of a triangulation separated by ``cut_edges``: an id ``(M,)`` per triangle.
+
+    Two triangles are in one piece when a chain of shared edges, none of them in
+    ``cut_edges``, joins them. With the interface edges as cuts, these are the regions
+    between closed interfaces, exactly as meshed (no re-sampling of curved interfaces).
+    """
+    m = len(triangles)
+    t = triangles.astype(np.int64)
+    keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]),
+                     np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
+    owner = np.tile(np.arange(m), 3)
+    order = np.argsort(keys, kind="stable")
+    keys, owner = keys[order], owner[order]
+    pair = np.flatnonzero(keys[1:] == keys[:-1])  # interior edges: two owners in a row
+    cut = np.isin(keys[pair], edge_keys(cut_edges[:, 0], cut_edges[:, 1]))
+    pair = pair[~cut]
+    return _label(m, owner[pair], owner[pair + 1])
 
 
 def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     """Flood the triangle adjacency graph without crossing boundary edges; keep the inside pieces."""
-    m, n = len(tris), len(pts)
+    m = len(tris)
     # the kernel's neighbour k lies across the edge (v_k, v_k+1)
     src = np.repeat(np.arange(m), 3)
     k = np.tile(np.arange(3), m)
     dst = nbr.ravel()
     ok = (dst >= 0) & (dst < m)
     src, k, dst = src[ok], k[ok], dst[ok]
-    keys = _edge_keys(tris[src, k], tris[src, (k + 1) % 3], n)
-    bkeys = np.unique(_edge_keys(boundary_edges[:, 0], boundary_edges[:, 1], n))
+    keys = edge_keys(tris[src, k], tris[src, (k + 1) % 3])
+    bkeys = np.unique(edge_keys(boundary_edges[:, 0], boundary_edges[:, 1]))
     pos = np.minimum(np.searchsorted(bkeys, keys), len(bkeys) - 1)
     cut = bkeys[pos] == keys if len(bkeys) else np.zeros(len(keys), bool)
-    g = coo_matrix((np.ones(int((~cut).sum())), (src[~cut], dst[~cut])), shape=(m, m))
-    ncomp, label = connected_components(g, directed=False)
-    # one representative centroid per component
-    first = np.full(ncomp, -1)
-    order = np.arange(m)[::-1]
-    first[label[order]] = order
-    cent = pts[tris[first]].mean(axis=1)
-    comp_inside = np.asarray(inside(cent), dtype=bool)
+    label = _label(m, src[~cut], dst[~cut])
+    _, first = np.unique(label, return_index=True)  # one representative triangle per piece
+    comp_inside = np.asarray(inside(pts[tris[first]].mean(axis=1)), dtype=bool)
     return comp_inside[label]

@@ -17,7 +17,6 @@ from .adapt import (DEFAULT_MAX_ELEMENTS, Result, check_options, evaluate, finis
                     repair)
 from .errors import BudgetError
 from .layers import _pslg_workset
-from .metrics import statistics
 from .refine import Context, add_free_points, smooth, triangulate
 
 __all__ = ["uniform", "uniform_at"]
@@ -120,9 +119,8 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     if best is None:
         raise BudgetError(f"no uniform mesh met delta_max < {threshold:g} within {tries} tries")
     ws, tris, comp, delta, h = best
-    mesh = finish(ws, ctx, tris, comp, delta, offset, model, sampling=sampling,
-                  threshold=threshold, min_angle_deg=min_angle)
-    stats = statistics(ws.P, tris, delta)
+    mesh, stats = finish(ws, ctx, tris, comp, delta, offset, threshold=threshold,
+                         min_angle_deg=min_angle)
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings={"total": time.perf_counter() - t0},
                   options=dict(threshold=threshold, size=h, min_angle=min_angle,
