@@ -71,7 +71,8 @@ def test_budget_is_checked_before_meshing():
 @pytest.mark.parametrize("kw, msg", [({"threshold": 0}, "threshold"), ({"threshold": -1}, "threshold"),
                                      ({"threshold": 0.1, "min_angle": 40}, "min angle"),
                                      ({"threshold": 0.1, "sampling": "grid"}, "sampling"),
-                                     ({"threshold": 0.1, "method": "magic"}, "method")])
+                                     ({"threshold": 0.1, "method": "magic"}, "method"),
+                                     ({"threshold": 0.1, "seed": -1}, "seed")])
 def test_bad_options(kw, msg):
     model = hetmesh.load_model(hetmesh.example_path("unit_square"))
     with pytest.raises(OptionError, match=msg):

@@ -32,6 +32,7 @@ from . import density as dens
 from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
 from .mesh import Mesh, edge_keys
+from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
 from .metrics import (MeshStats, circumcircles, delta_dense, delta_vertices, quality_and_angle,
                       statistics)
 from .triangulate import components
@@ -43,8 +44,6 @@ __all__ = ["generate", "Result", "mesh_statistics", "prepare", "finish", "check_
 
 log = logging.getLogger(__name__)
 
-DEFAULT_MAX_ELEMENTS = 5_000_000
-SAMPLINGS = ("vertices", "dense")
 
 
 @dataclass
@@ -57,28 +56,6 @@ class Result:
     history: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
-
-
-def check_options(threshold, min_angle_deg, max_elements, max_size, sampling, min_quality=0.0):
-    """Validate user options; raises :class:`OptionError` naming the option."""
-    try:
-        threshold = float(threshold)
-    except (TypeError, ValueError):
-        raise OptionError(f"threshold must be a number, got {threshold!r}") from None
-    if not np.isfinite(threshold) or threshold <= 0 or threshold >= 1:
-        raise OptionError(f"threshold {threshold:g} is outside (0, 1): delta_0 must be positive "
-                          "and below the largest possible composition difference")
-    if not (0 < float(min_angle_deg) <= 34):
-        raise OptionError(f"min angle {min_angle_deg:g} is outside (0, 34] degrees")
-    if int(max_elements) < 1:
-        raise OptionError(f"max elements must be positive, got {max_elements}")
-    if max_size is not None and not (np.isfinite(max_size) and max_size > 0):
-        raise OptionError(f"max size must be positive, got {max_size}")
-    if sampling not in SAMPLINGS:
-        raise OptionError(f"sampling {sampling!r} is not one of {', '.join(SAMPLINGS)}")
-    if not (0 <= min_quality < 0.9):
-        raise OptionError(f"min quality {min_quality:g} is outside [0, 0.9)")
-    return threshold
 
 
 def prepare(model, threshold, max_size):
@@ -453,7 +430,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     from .layers import place_layers
 
     PLACEMENTS.setdefault("layers", place_layers)
-    threshold = check_options(threshold, min_angle, max_elements, max_size, sampling, min_quality)
+    threshold = check_options(threshold, min_angle=min_angle, max_elements=max_elements,
+                              max_size=max_size, sampling=sampling, min_quality=min_quality,
+                              seed=seed)
     if method not in PLACEMENTS:
         raise OptionError(f"method {method!r} is not one of {', '.join(sorted(PLACEMENTS))}")
     timings: dict = {}

@@ -13,9 +13,9 @@ import time
 
 import numpy as np
 
-from .adapt import (DEFAULT_MAX_ELEMENTS, Result, check_options, evaluate, finish, prepare,
-                    repair)
+from .adapt import Result, evaluate, finish, prepare, repair
 from .errors import BudgetError
+from .options import DEFAULT_MAX_ELEMENTS, check_options
 from .layers import _pslg_workset
 from .refine import Context, add_free_points, smooth, triangulate
 
@@ -81,7 +81,8 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     >>> r.stats.delta_max < 0.05           # doctest: +SKIP
     True
     """
-    threshold = check_options(threshold, min_angle, max_elements, None, sampling, min_quality)
+    threshold = check_options(threshold, min_angle=min_angle, max_elements=max_elements,
+                              sampling=sampling, min_quality=min_quality)
     t0 = time.perf_counter()
     ctx, offset = prepare(model, threshold, None)
     from .density import background_points, gradient_norm

@@ -18,7 +18,8 @@ from typing import Any, Callable
 import numpy as np
 from rich.console import Console
 
-from ..errors import OptionError, OutputError
+from ..errors import OutputError
+from ..options import check_options
 from .progress import progress_reporter
 
 __all__ = [
@@ -100,38 +101,27 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 # -- validation (before any meshing) ----------------------------------------
 
+#: how the CLI names the options in error messages
+FLAGS = {"threshold": "--threshold", "min_angle": "--min-angle", "max_elements": "--max-elements",
+         "max_size": "--max-size", "sampling": "--sampling", "seed": "--seed"}
+
+
 def check_threshold(value: float) -> None:
-    if not 0.0 < value < 1.0:
-        raise OptionError(f"--threshold {value:g} is outside (0, 1)")
+    check_options(value, names=FLAGS)
 
 
 def meshing_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """The keyword arguments of ``generate``/``uniform`` the user gave, validated.
+    """The keyword arguments of ``generate``/``uniform`` the user gave, validated by the
+    library's own rules (:func:`hetmesh.options.check_options`) under the CLI's flag names.
 
     Options not given are left out, so the library's defaults apply.
     """
-    check_threshold(args.threshold)
     kw: dict[str, Any] = {}
-    if args.min_angle is not None:
-        if not 0.0 < args.min_angle <= 34.0:
-            raise OptionError(f"--min-angle {args.min_angle:g} is outside (0, 34]")
-        kw["min_angle"] = args.min_angle
-    if getattr(args, "max_size", None) is not None:
-        if not 0.0 < args.max_size < math.inf:
-            raise OptionError(f"--max-size {args.max_size:g} must be a positive length")
-        kw["max_size"] = args.max_size
-    if args.max_elements is not None:
-        if args.max_elements <= 0:
-            raise OptionError(f"--max-elements {args.max_elements} must be a positive integer")
-        kw["max_elements"] = args.max_elements
-    if args.sampling is not None:
-        kw["sampling"] = args.sampling
-    if getattr(args, "method", None) is not None:
-        kw["method"] = args.method
-    if getattr(args, "seed", None) is not None:
-        if args.seed < 0:
-            raise OptionError(f"--seed {args.seed} must be >= 0")
-        kw["seed"] = args.seed
+    for key in ("min_angle", "max_size", "max_elements", "sampling", "method", "seed"):
+        value = getattr(args, key, None)
+        if value is not None:
+            kw[key] = value
+    check_options(args.threshold, names=FLAGS, **{k: v for k, v in kw.items() if k != "method"})
     return kw
 
 
