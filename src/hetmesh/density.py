@@ -34,11 +34,9 @@ def size_at(g: np.ndarray, threshold: float, h_max: float, factor: float = 1.0) 
     return np.minimum(np.nan_to_num(h, nan=h_max, posinf=h_max), h_max)
 
 
-def background_points(domain, n: int = 160) -> tuple[np.ndarray, np.ndarray]:
-    """A cell-centred grid over the domain's bounding box, clipped to the domain.
-
-    Returns ``(points (K, 2), cell_area)``; for quadrature of smooth integrands.
-    """
+def background_points(domain, n: int = 160) -> np.ndarray:
+    """A cell-centred grid (``n`` cells along the longer side of the bounding box), clipped
+    to the domain: ``(K, 2)`` points for the quadrature of smooth integrands."""
     x0, y0, x1, y1 = domain.bounds
     w, h = x1 - x0, y1 - y0
     hx = max(w, h) / n
@@ -47,13 +45,10 @@ def background_points(domain, n: int = 160) -> tuple[np.ndarray, np.ndarray]:
     ys = y0 + (np.arange(ny) + 0.5) * (h / ny)
     X, Y = np.meshgrid(xs, ys)
     pts = np.column_stack([X.ravel(), Y.ravel()])
-    inside = domain.contains(pts)
-    pts = pts[inside]
-    cell = (w / nx) * (h / ny)
-    return pts, cell
+    return pts[domain.contains(pts)]
 
 
-def integrate(values: np.ndarray, cell_area: float, domain) -> float:
+def integrate(values: np.ndarray, domain) -> float:
     """Mid-point quadrature on the background grid, rescaled to the exact domain area."""
     if len(values) == 0:
         return 0.0
@@ -66,14 +61,11 @@ def n_iso(field, domain, threshold: float, n: int = 400) -> float:
     The number of equilateral elements of side delta_0 / |grad f| that tile the domain: the
     reference count of the issue's closeness-to-the-limit target.
     """
-    pts, cell = background_points(domain, n)
-    g = gradient_norm(field, pts)
-    return 4.0 / np.sqrt(3.0) * integrate(g ** 2, cell, domain) / threshold ** 2
+    g = gradient_norm(field, background_points(domain, n))
+    return 4.0 / np.sqrt(3.0) * integrate(g ** 2, domain) / threshold ** 2
 
 
 def estimate_elements(field, domain, threshold: float, h_max: float, n: int = 200) -> float:
     """A-priori element count: equilateral elements of side min(delta_0/g, h_max)."""
-    pts, cell = background_points(domain, n)
-    g = gradient_norm(field, pts)
-    h = size_at(g, threshold, h_max)
-    return 4.0 / np.sqrt(3.0) * integrate(1.0 / h ** 2, cell, domain)
+    h = size_at(gradient_norm(field, background_points(domain, n)), threshold, h_max)
+    return 4.0 / np.sqrt(3.0) * integrate(1.0 / h ** 2, domain)

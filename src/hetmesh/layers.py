@@ -16,14 +16,16 @@ fixes whatever is left, so the guarantee does not depend on this placement.
 from __future__ import annotations
 
 import logging
-import time
 
 import numpy as np
 
 from .geometry import pslg_from_parameters
 from .metrics import circumcircles
-from .refine import (FREE, Context, WorkSet, add_free_points, project_to_level, smooth,
-                     thin_candidates, triangulate, workset_from_pslg)
+from . import cvt
+from .density import background_points, estimate_elements
+from .refine import (FREE, Context, WorkSet, add_free_points, project_to_level, row_tangent,
+                     slide_along_rows, smooth, thin_candidates_mask, triangulate,
+                     workset_from_pslg)
 
 __all__ = ["place_layers", "BETA"]
 
@@ -33,21 +35,20 @@ STAGGER_ITERS = 8
 BETA = 0.985  # row spacing in composition, as a fraction of delta_0
 
 
-def _scalar(ctx: Context, pts: np.ndarray) -> np.ndarray:
-    return ctx.field.composition(pts)[:, ctx.scalar]
-
-
-def _scalar_grad(ctx: Context, pts: np.ndarray) -> np.ndarray:
-    return ctx.field.gradient(pts)[:, ctx.scalar, :]
-
-
 def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float) -> np.ndarray:
+    """Node spacing along a row, 2 w / sqrt(3) with w = delta' / |grad f| (capped at h_max)."""
     with np.errstate(divide="ignore"):
         s = 2.0 * dprime / (np.sqrt(3.0) * gnorm)
     return np.minimum(np.nan_to_num(s, nan=ctx.h_max, posinf=ctx.h_max), ctx.h_max)
 
 
-def _levels_and_anchor(ctx: Context, dprime: float):
+def _row_step_at(ctx: Context, pts: np.ndarray, dprime: float) -> np.ndarray:
+    return _row_step(ctx, np.linalg.norm(ctx.grad_f(pts), axis=1), dprime)
+
+
+def _anchor(ctx: Context) -> tuple[float, float]:
+    """The level the rows count from and their direction: the extreme value of f that the
+    boundary holds over the longer stretch (a boundary that is a level curve is a row)."""
     dom = ctx.domain
     ts = np.linspace(0, 1, 401)
     bpts, blen = [], []
@@ -57,17 +58,14 @@ def _levels_and_anchor(ctx: Context, dprime: float):
             blen.append(np.full(len(ts), c.length / len(ts)))
     bpts = np.concatenate(bpts)
     blen = np.concatenate(blen)
-    from .density import background_points
-
-    ipts, _ = background_points(dom, 200)
-    f_all = _scalar(ctx, np.vstack([bpts, ipts]))
+    ipts = background_points(dom, 200)
+    f_all = ctx.f(np.vstack([bpts, ipts]))
     fmin, fmax = float(f_all.min()), float(f_all.max())
-    fb = _scalar(ctx, bpts)
+    fb = ctx.f(bpts)
     tol = 1e-9
     at_max = blen[np.abs(fb - fmax) < tol].sum()
     at_min = blen[np.abs(fb - fmin) < tol].sum()
-    anchor, sign = (fmax, -1.0) if at_max >= at_min else (fmin, 1.0)
-    return anchor, sign, fmin, fmax
+    return (fmax, -1.0) if at_max >= at_min else (fmin, 1.0)
 
 
 def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
@@ -76,11 +74,11 @@ def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
     for k, c in enumerate(ctx.curves):
         n = 64
         ts = np.linspace(0, 1, n + 1)
-        g = np.sqrt((_scalar_grad(ctx, c.point(ts)) ** 2).sum(1)).max()
+        g = np.linalg.norm(ctx.grad_f(c.point(ts)), axis=1).max()
         # resolve the rows: at least 8 samples per row crossing
         n = int(min(200_000, max(256, 8 * c.length * g / dprime)))
         ts = np.linspace(0, 1, n + 1)
-        f = _scalar(ctx, c.point(ts))
+        f = ctx.f(c.point(ts))
         u = (f - anchor) * sign / dprime  # row coordinate: crossing of row k where u == k
         fl = np.floor(u + 1e-12)
         i = np.flatnonzero(fl[1:] != fl[:-1])
@@ -98,7 +96,7 @@ def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
         fa = f[seg] - level
         for _ in range(40):  # bisection on t, vectorised
             m = 0.5 * (a + b)
-            fm = _scalar(ctx, c.point(m)) - level
+            fm = ctx.f(c.point(m)) - level
             left = np.sign(fm) == np.sign(fa)
             a = np.where(left, m, a)
             fa = np.where(left, fm, fa)
@@ -111,34 +109,32 @@ def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
     return np.concatenate(cid), np.concatenate(tt), np.concatenate(lv)
 
 
-def _curve_params(ctx: Context, cid, tt, dprime):
-    """Per-curve sorted parameters: 0, crossings, 1, plus fill to the local row step."""
+def _curve_params(ctx: Context, cid, tt, dprime, chord_tol):
+    """Per-curve sorted parameters: 0, crossings, 1, and between them nodes at the local row
+    step (and the chord tolerance, and the minimum interval counts, of :mod:`geometry`)."""
+    batch = ctx.domain.curve_batch
+    cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
     out = []
     for k, c in enumerate(ctx.curves):
         t = np.sort(tt[cid == k])
-        # drop crossings too close to the curve's ends or to each other
-        pts = c.point(t) if len(t) else np.zeros((0, 2))
-        s = _row_step(ctx, np.sqrt((_scalar_grad(ctx, pts) ** 2).sum(1)), dprime) if len(t) else t
-        if len(t):
-            gap_end = np.minimum(t, 1 - t) * c.length
-            ok = gap_end > 0.3 * s
+        if len(t):  # drop crossings too close to the curve's ends or to each other
+            s = _row_step_at(ctx, c.point(t), dprime)
+            ok = np.minimum(t, 1 - t) * c.length > 0.3 * s
             t, s = t[ok], s[ok]
         if len(t) > 1:
             keep = np.ones(len(t), bool)
             keep[1:] = np.diff(t) * c.length > 0.3 * np.minimum(s[1:], s[:-1])
             t = t[keep]
-        pinned_t = t
         full = np.concatenate([[0.0], t, [1.0]])
-        filled = [full[:1]]
-        for a, b in zip(full[:-1], full[1:]):
-            mid = c.point(np.array([0.5 * (a + b)]))
-            h = _row_step(ctx, np.sqrt((_scalar_grad(ctx, mid) ** 2).sum(1)), dprime)[0]
-            h = min(h, np.sqrt(8 * getattr(c, "radius", np.inf) * 1e-3 * ctx.domain.diameter))
-            nseg = max(1, int(np.ceil((b - a) * c.length / (1.15 * h))))
-            if getattr(c, "radius", None) is not None and abs(b - a) > 0.99:
-                nseg = max(nseg, 4)
-            filled.append(np.linspace(a, b, nseg + 1)[1:])
-        out.append((np.concatenate(filled), pinned_t))
+        a, b = full[:-1], full[1:]
+        h = np.minimum(_row_step_at(ctx, c.point(0.5 * (a + b)), dprime), cap[k])
+        nseg = np.maximum(np.ceil((b - a) * c.length / (1.15 * h)), np.ceil(nmin[k] * (b - a)))
+        nseg = np.maximum(nseg, 1).astype(np.int64)
+        gap = np.repeat(np.arange(len(a)), nseg)
+        step = np.arange(nseg.sum()) - np.repeat(np.cumsum(nseg) - nseg, nseg) + 1
+        inner = a[gap] + step * ((b - a) / nseg)[gap]  # as np.linspace(a, b, nseg + 1)[1:]
+        inner[np.cumsum(nseg) - 1] = b  # each gap ends exactly on its crossing (or 1)
+        out.append((np.concatenate([[0.0], inner]), t))
     return out
 
 
@@ -170,10 +166,9 @@ def _trace_rows(ctx: Context, cid, tt, lv, dprime, budget: int):
     seeds, lv = seeds[isb], lv[isb]
     if len(seeds) == 0:
         return np.zeros((0, 2)), np.zeros(0)
-    gr = _scalar_grad(ctx, seeds)
-    gn = np.linalg.norm(gr, axis=1)
-    tau = np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(gn, 1e-300)[:, None]
-    s = _row_step(ctx, gn, dprime)
+    gr = ctx.grad_f(seeds)
+    tau = row_tangent(gr)
+    s = _row_step(ctx, np.linalg.norm(gr, axis=1), dprime)
     probe = seeds + 0.05 * s[:, None] * tau
     inward = ctx.inside(probe)
     x, lev = seeds[inward], lv[inward]
@@ -186,13 +181,11 @@ def _trace_rows(ctx: Context, cid, tt, lv, dprime, budget: int):
         if not active.any() or total > budget:
             break
         xa, la = x[active], lev[active]
-        g = _scalar_grad(ctx, xa)
+        g = ctx.grad_f(xa)
         gn = np.linalg.norm(g, axis=1)
         h = _row_step(ctx, gn, dprime)
-        tau = np.column_stack([-g[:, 1], g[:, 0]]) / np.maximum(gn, 1e-300)[:, None]
-        xm = xa + 0.5 * h[:, None] * tau  # midpoint predictor
-        gm = _scalar_grad(ctx, xm)
-        tm = np.column_stack([-gm[:, 1], gm[:, 0]]) / np.maximum(np.linalg.norm(gm, axis=1), 1e-300)[:, None]
+        xm = xa + 0.5 * h[:, None] * row_tangent(g)  # midpoint predictor
+        tm = row_tangent(ctx.grad_f(xm))
         xn = project_to_level(ctx, xa + h[:, None] * tm, la, iters=3)
         moved = np.linalg.norm(xn - xa, axis=1)
         inside = ctx.inside(xn)
@@ -220,7 +213,7 @@ def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
         tris = triangulate(ws, ctx)
         cc, R = circumcircles(ws.P, tris)
         cen = ws.P[tris].mean(axis=1)
-        hloc = np.minimum(ctx.h_max, _row_step(ctx, np.linalg.norm(_scalar_grad(ctx, cen), axis=1), dprime))
+        hloc = _row_step_at(ctx, cen, dprime)
         big = R > 0.75 * hloc
         if not big.any():
             return tris
@@ -228,9 +221,10 @@ def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
         ok = ctx.inside(cc)
         cc, R = cc[ok], R[ok]
         db, di = _distances(ctx, cc)
-        hh = np.minimum(ctx.h_max, _row_step(ctx, np.linalg.norm(_scalar_grad(ctx, cc), axis=1), dprime))
+        hh = _row_step_at(ctx, cc, dprime)
         ok = (db > 0.5 * hh) & (di > 0.5 * hh)
-        cand = thin_candidates(ws, cc[ok], 0.5 * R[ok])
+        cc, R = cc[ok], R[ok]
+        cand = cc[thin_candidates_mask(ws, cc, 0.5 * R)]
         if len(cand) == 0:
             return tris
         add_free_points(ws, cand)
@@ -250,8 +244,6 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
     moves along its row towards their mean, then back onto its level (Newton); moves are
     limited to the vertex's star. Returns the new triangles.
     """
-    from . import cvt
-
     def facing(tris):
         """(apex, a, b) index arrays of the row-to-row triangles, and the movable apexes."""
         L = ws.level[tris]
@@ -271,46 +263,35 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
         return fac, cnt, mov
 
     fac, cnt, mov = facing(tris)
-    t0 = time.perf_counter()
     for it in range(iters):
         if not mov.any():
             break
-        mid = 0.5 * (ws.P[fac[:, 1]] + ws.P[fac[:, 2]])
-        tx = np.bincount(fac[:, 0], mid[:, 0], minlength=ws.n)[mov]
-        ty = np.bincount(fac[:, 0], mid[:, 1], minlength=ws.n)[mov]
-        x = ws.P[mov]
-        t = np.column_stack([tx, ty]) / cnt[mov, None]
-        gr = ctx.field.gradient(x)[:, ctx.scalar, :]
-        nrm = np.linalg.norm(gr, axis=1, keepdims=True)
-        tng = np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(nrm, 1e-300)
-        step = relax * ((t - x) * tng).sum(1, keepdims=True) * tng
-        target = ws.P.copy()
-        target[mov] = project_to_level(ctx, x + step, ws.level[mov], iters=2)
-        ws.P = cvt.limit_to_star(ws.P, tris, target, mov, halvings=2)
+        with ctx.timed("stagger"):
+            mid = 0.5 * (ws.P[fac[:, 1]] + ws.P[fac[:, 2]])
+            tx = np.bincount(fac[:, 0], mid[:, 0], minlength=ws.n)[mov]
+            ty = np.bincount(fac[:, 0], mid[:, 1], minlength=ws.n)[mov]
+            target = ws.P.copy()
+            target[mov] = slide_along_rows(ctx, ws.P[mov], np.column_stack([tx, ty]) / cnt[mov, None],
+                                           ws.level[mov], relax=relax, iters=2)
+            ws.P = cvt.limit_to_star(ws.P, tris, target, mov, halvings=2)
         if (it + 1) % 4 == 0 or it == iters - 1:  # between rebuilds the star limit keeps it valid
-            ctx.clock["stagger"] = ctx.clock.get("stagger", 0.0) + time.perf_counter() - t0
             tris = triangulate(ws, ctx)
             fac, cnt, mov = facing(tris)
-            t0 = time.perf_counter()
     return tris
 
 
 def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     """Place nodes on rows along the iso-composition curves (see the module docstring)."""
     dprime = BETA * ctx.threshold
-    anchor, sign, fmin, fmax = _levels_and_anchor(ctx, dprime)
+    anchor, sign = _anchor(ctx)
     cid, tt, lv = _crossings(ctx, anchor, sign, dprime)
-    ws = _pslg_workset(ctx, _curve_params(ctx, cid, tt, dprime))
-    from .density import estimate_elements
-
+    ws = _pslg_workset(ctx, _curve_params(ctx, cid, tt, dprime, chord_tol))
     budget = int(2 * estimate_elements(ctx.field, ctx.domain, ctx.threshold, ctx.h_max)) + 1000
     with ctx.timed("rows"):
         rows, rlev = _trace_rows(ctx, cid, tt, lv, dprime, budget)
     if len(rows):
         # rows of one level traced twice (from both ends) or crossing: thin them
-        g = np.linalg.norm(_scalar_grad(ctx, rows), axis=1)
-        md = 0.4 * _row_step(ctx, g, dprime)
-        keep = _thin_rows(ws, rows, md)
+        keep = thin_candidates_mask(ws, rows, 0.4 * _row_step_at(ctx, rows, dprime))
         add_free_points(ws, rows[keep], level=rlev[keep])
     log.info("layers: %d boundary nodes, %d row nodes", int((ws.vcurve != FREE).sum()),
              int(np.isfinite(ws.level).sum()))
@@ -318,10 +299,3 @@ def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     tris = smooth(ws, ctx, tris, iters=4, retriangulate_every=2)
     stagger(ws, ctx, tris, dprime, iters=STAGGER_ITERS)
     return ws
-
-
-def _thin_rows(ws: WorkSet, rows: np.ndarray, md: np.ndarray) -> np.ndarray:
-    """Row nodes to keep: away from existing nodes, and from earlier row nodes (kNN test)."""
-    from .refine import thin_candidates_mask
-
-    return thin_candidates_mask(ws, rows, md)

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import cvt
+from . import density as dens
 from .triangulate import constrained_delaunay
 
 __all__ = ["WorkSet", "Context", "triangulate", "split_constraint_edges", "add_free_points",
@@ -52,12 +53,17 @@ class Context:
         return self.domain.contains(pts)
 
     def g(self, pts: np.ndarray) -> np.ndarray:
-        gr = self.field.gradient(pts)
-        return np.sqrt((gr ** 2).sum(axis=2)).max(axis=1)
+        return dens.gradient_norm(self.field, pts)  # Eq. (5)
 
     def rho(self, pts: np.ndarray) -> np.ndarray:
-        g = np.maximum(self.g(pts), self.threshold / self.h_max)
-        return g ** 4  # Eq. (9), d = 2
+        return dens.density(self.g(pts), self.h_max, self.threshold)  # Eq. (9)
+
+    # the scalar composition whose level curves carry node rows (two constituents)
+    def f(self, pts: np.ndarray) -> np.ndarray:
+        return self.field.composition(pts)[:, self.scalar]
+
+    def grad_f(self, pts: np.ndarray) -> np.ndarray:
+        return self.field.gradient(pts)[:, self.scalar, :]
 
 
 @dataclass
@@ -69,7 +75,6 @@ class WorkSet:
     level: np.ndarray  # (N,) composition level carried (nan otherwise)
     E: np.ndarray  # (K, 2) constraint edges
     ecurve: np.ndarray  # (K,) curve of every constraint edge
-    ET: np.ndarray = field(default=None)  # (K, 2) parameters of the edge ends on ecurve
 
     @property
     def n(self) -> int:
@@ -174,14 +179,9 @@ def add_free_points(ws: WorkSet, pts: np.ndarray, level: np.ndarray | None = Non
     return n0 + np.arange(k)
 
 
-def thin_candidates(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray) -> np.ndarray:
-    """Drop candidates closer than ``min_dist`` to existing points or to an earlier candidate."""
-    return cand[thin_candidates_mask(ws, cand, min_dist)]
-
-
 def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
                          clash_dist: np.ndarray | None = None) -> np.ndarray:
-    """Which candidates to keep (see :func:`thin_candidates`).
+    """Which candidates to keep: away from existing points (``min_dist``) and from each other.
 
     ``clash_dist`` (default ``min_dist``) separates candidates of the same round: inserting
     two nearby Steiner points at once makes a short edge and a new skinny triangle, which is
@@ -209,17 +209,31 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
 
 def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: int = 3) -> np.ndarray:
     """Newton steps along the gradient onto f = level (for nodes on iso-composition curves)."""
-    j = ctx.scalar
     p = pts.copy()
     for _ in range(iters):
-        f = ctx.field.composition(p)[:, j]
-        gr = ctx.field.gradient(p)[:, j, :]
+        f = ctx.f(p)
+        gr = ctx.grad_f(p)
         g2 = (gr ** 2).sum(1)
         ok = g2 > 1e-30
         step = np.zeros_like(p)
         step[ok] = ((f[ok] - level[ok]) / g2[ok])[:, None] * gr[ok]
         p = p - step
     return p
+
+
+def row_tangent(gr: np.ndarray) -> np.ndarray:
+    """Unit tangents ``(N, 2)`` of the level curves with gradients ``gr`` (gradient turned +90°)."""
+    nrm = np.linalg.norm(gr, axis=1, keepdims=True)
+    return np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(nrm, 1e-300)
+
+
+def slide_along_rows(ctx: Context, x: np.ndarray, target: np.ndarray, level: np.ndarray,
+                     relax: float = 1.0, iters: int = 3) -> np.ndarray:
+    """Move row nodes ``x`` towards ``target`` along their row only: the tangential part of
+    the move (times ``relax``), then Newton back onto the level curve f = ``level``."""
+    tng = row_tangent(ctx.grad_f(x))
+    step = relax * ((target - x) * tng).sum(1, keepdims=True) * tng
+    return project_to_level(ctx, x + step, level, iters=iters)
 
 
 def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
@@ -233,39 +247,37 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
     end; in between, moves limited to each vertex's star keep the old connectivity valid.
     """
     for it in range(iters):
-        # only the triangles around moving vertices matter (all of them without `active`)
-        t_cvt = time.perf_counter()
-        sub = tris if active is None else tris[active[tris].any(axis=1)]
-        cent, mass = cvt.cell_centroids(ws.P, sub, ctx.rho)
-        movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
-        if active is not None:
-            movable &= active
-        target = cent
-        lev = np.isfinite(ws.level) & movable & (ws.vcurve == FREE)
-        if lev.any():
-            j = ctx.scalar
-            gr = ctx.field.gradient(ws.P[lev])[:, j, :]
-            nrm = np.linalg.norm(gr, axis=1, keepdims=True)
-            tng = np.column_stack([-gr[:, 1], gr[:, 0]]) / np.maximum(nrm, 1e-300)
-            d = cent[lev] - ws.P[lev]
-            tgt = ws.P[lev] + (d * tng).sum(1, keepdims=True) * tng
-            target = target.copy()
-            target[lev] = project_to_level(ctx, tgt, ws.level[lev])
-        oncurve = movable & (ws.vcurve >= 0)
-        if oncurve.any():
-            lo, hi = curve_bounds(ws, ctx)
-            slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, ws.vcurve, -1), ws.vt,
-                                             ctx.curves, lo, hi)
-            target = np.where(oncurve[:, None], slid, target)
-        moved = cvt.limit_to_star(ws.P, sub, target, movable)
-        if oncurve.any():
-            # keep the parameter of curve nodes consistent with where they ended up
-            ok = oncurve & np.all(moved == target, axis=1)
-            ws.vt = np.where(ok, tnew, ws.vt)
-            back = oncurve & ~ok
-            moved[back] = ws.P[back]
-        ws.P = moved
-        ctx.clock["cvt"] = ctx.clock.get("cvt", 0.0) + time.perf_counter() - t_cvt
+        with ctx.timed("cvt"):
+            _lloyd_step(ws, ctx, tris, active)
         if (it + 1) % retriangulate_every == 0 or it == iters - 1:
             tris = triangulate(ws, ctx)
     return tris
+
+
+def _lloyd_step(ws: WorkSet, ctx: Context, tris: np.ndarray, active: np.ndarray | None) -> None:
+    """One conforming Lloyd move of the work set on the connectivity ``tris`` (see smooth)."""
+    # only the triangles around moving vertices matter (all of them without `active`)
+    sub = tris if active is None else tris[active[tris].any(axis=1)]
+    cent, mass = cvt.cell_centroids(ws.P, sub, ctx.rho)
+    movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
+    if active is not None:
+        movable &= active
+    target = cent
+    lev = np.isfinite(ws.level) & movable & (ws.vcurve == FREE)
+    if lev.any():
+        target = target.copy()
+        target[lev] = slide_along_rows(ctx, ws.P[lev], cent[lev], ws.level[lev])
+    oncurve = movable & (ws.vcurve >= 0)
+    if oncurve.any():
+        lo, hi = curve_bounds(ws, ctx)
+        slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, ws.vcurve, -1), ws.vt,
+                                         ctx.curves, lo, hi)
+        target = np.where(oncurve[:, None], slid, target)
+    moved = cvt.limit_to_star(ws.P, sub, target, movable)
+    if oncurve.any():
+        # keep the parameter of curve nodes consistent with where they ended up
+        ok = oncurve & np.all(moved == target, axis=1)
+        ws.vt = np.where(ok, tnew, ws.vt)
+        back = oncurve & ~ok
+        moved[back] = ws.P[back]
+    ws.P = moved

@@ -16,8 +16,9 @@ import numpy as np
 from .adapt import Result, evaluate, finish, prepare, repair
 from .errors import BudgetError
 from .options import DEFAULT_MAX_ELEMENTS, check_options
-from .layers import _pslg_workset
-from .refine import Context, add_free_points, smooth, triangulate
+from .density import background_points, gradient_norm
+from .geometry import build_pslg
+from .refine import Context, add_free_points, smooth, triangulate, workset_from_pslg
 
 __all__ = ["uniform", "uniform_at"]
 
@@ -37,15 +38,7 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
                max_elements=DEFAULT_MAX_ELEMENTS):
     """A quality mesh with edges ~h everywhere; returns ``(workset, triangles)``."""
     uc = _uniform_ctx(ctx)
-    chord = 1e-3 * ctx.domain.diameter
-    params = []
-    for c in ctx.curves:
-        hc = min(h, np.sqrt(8 * getattr(c, "radius", np.inf) * chord))
-        n = max(1, int(np.ceil(c.length / hc)))
-        if getattr(c, "radius", None) is not None and np.hypot(*(c.start - c.end)) < 1e-12 * ctx.domain.diameter:
-            n = max(n, 4)
-        params.append((np.linspace(0, 1, n + 1), np.zeros(0)))
-    ws = _pslg_workset(uc, params)
+    ws = workset_from_pslg(build_pslg(ctx.domain, h, 1e-3 * ctx.domain.diameter))
     x0, y0, x1, y1 = ctx.domain.bounds
     dy = h * np.sqrt(3) / 2
     ny = int(np.ceil((y1 - y0) / dy)) + 1
@@ -85,9 +78,7 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
                               sampling=sampling, min_quality=min_quality)
     t0 = time.perf_counter()
     ctx, offset = prepare(model, threshold, None)
-    from .density import background_points, gradient_norm
-
-    pts, _ = background_points(ctx.domain, 200)
+    pts = background_points(ctx.domain, 200)
     gmax = float(gradient_norm(ctx.field, pts).max()) if len(pts) else 0.0
     h = threshold / gmax if gmax > 0 else ctx.domain.diameter / 10
     h = min(h, ctx.domain.diameter / 4)
