@@ -33,8 +33,8 @@ from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
 from .mesh import Mesh, edge_keys
 from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
-from .metrics import (MeshStats, circumcircles, delta_dense, delta_vertices, quality_and_angle,
-                      statistics)
+from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle, statistics,
+                      triangle_angles)
 from .triangulate import components
 from .refine import (FIXED, Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
@@ -138,13 +138,7 @@ def _corner_exempt(ws: WorkSet, tris: np.ndarray, ang_deg: float) -> np.ndarray:
     if touch.size == 0:
         return out
     tt = tris[touch]
-    p = ws.P[tt]
-    ang = np.empty((len(tt), 3))
-    for k in range(3):
-        u = p[:, (k + 1) % 3] - p[:, k]
-        v = p[:, (k + 2) % 3] - p[:, k]
-        cosv = (u * v).sum(1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
-        ang[:, k] = np.degrees(np.arccos(np.clip(cosv, -1, 1)))
+    ang = triangle_angles(ws.P, tt)
     total = np.bincount(tt.ravel(), ang.ravel(), minlength=ws.n)
     sharp = fixed & (total < 2 * ang_deg - 1e-9)
     vmin = tt[np.arange(len(tt)), ang.argmin(axis=1)]
@@ -171,10 +165,7 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
         comp = np.vstack([known, ctx.field.composition(ws.P[len(known):])])
     else:
         comp = ctx.field.composition(ws.P)
-    delta = delta_vertices(comp, tris)
-    if sampling == "dense":
-        delta = np.maximum(delta, delta_dense(ctx.field, ws.P, tris))
-    return comp, delta
+    return comp, element_delta(ctx.field, ws.P, tris, sampling, comp)
 
 
 def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
@@ -219,56 +210,9 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         if len(tris) > max_elements:
             raise BudgetError(f"refinement exceeded the element budget ({len(tris)} > "
                               f"{max_elements} elements); raise --max-elements or the threshold")
-        t_ins = time.perf_counter()
         n_before = ws.n
-        skeys, sorder = _constraint_index(ws)
-        split_c = []
-        cand, cand_min, cand_clash = [], [], []
-        # MOR: split the edge with the largest composition jump of every violator
-        if viol.any():
-            tv = tris[viol]
-            cv = comp[tv]  # (k, 3, m)
-            jumps = np.stack([np.abs(cv[:, (k + 1) % 3] - cv[:, (k + 2) % 3]).max(axis=1)
-                              for k in range(3)], axis=1)
-            lens = np.stack([np.hypot(*(ws.P[tv[:, (k + 1) % 3]] - ws.P[tv[:, (k + 2) % 3]]).T)
-                             for k in range(3)], axis=1)
-            score = jumps + 1e-9 * lens / lens.max()
-            kk = score.argmax(axis=1)
-            a = tv[np.arange(len(tv)), (kk + 1) % 3]
-            b = tv[np.arange(len(tv)), (kk + 2) % 3]
-            ek, first = np.unique(edge_keys(a, b), return_index=True)
-            a, b = a[first], b[first]
-            ci = _lookup(skeys, sorder, ek)
-            split_c.append(ci[ci >= 0])
-            free = ci < 0
-            mid = 0.5 * (ws.P[a[free]] + ws.P[b[free]])
-            elen = np.hypot(*(ws.P[a[free]] - ws.P[b[free]]).T)
-            cand.append(mid)
-            cand_min.append(0.05 * elen)
-            cand_clash.append(0.5 * elen)
-
-        # GOR: circumcenters of bad-quality triangles (Ruppert), encroachment -> split edges
-        if badq.any():
-            cc, r = _off_centers(ws.P, tris[badq], max(afloor, 20.0) + 2.0)
-            enc = _encroached(ws, cc, r)
-            split_c.append(enc[enc >= 0])
-            ok = enc < 0
-            cc, r = cc[ok], r[ok]
-            inside = ctx.inside(cc) if len(cc) else np.zeros(0, bool)
-            if (~inside).any():  # outside but not encroaching: split the nearest constraint edge
-                split_c.append(_nearest_constraint(ws, cc[~inside]))
-            cand.append(cc[inside])
-            cand_min.append(0.3 * r[inside])
-            cand_clash.append(r[inside])
-
-        sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
-        new_c = split_constraint_edges(ws, ctx, sc)
-        pts = np.concatenate(cand) if cand else np.zeros((0, 2))
-        md = np.concatenate(cand_min) if cand_min else np.zeros(0)
-        clash = np.concatenate(cand_clash) if cand_clash else md
-        keep = thin_candidates_mask(ws, pts, md, clash)
-        add_free_points(ws, pts[keep])
-        ctx.clock["insertion"] = ctx.clock.get("insertion", 0.0) + time.perf_counter() - t_ins
+        with ctx.timed("insertion"):
+            new_c = _insert_refinement_points(ws, ctx, tris, comp, viol, badq, afloor)
         if ws.n == n_before:
             raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
                                f"elements at delta >= {thr:g} and {int(badq.sum())} below the "
@@ -284,6 +228,56 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         else:
             tris = None
     raise MeshingError(f"refinement did not converge in {max_rounds} rounds")
+
+
+def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
+                              afloor: float) -> np.ndarray:
+    """One round's new nodes; returns the ids of the nodes that split constraint edges.
+
+    MOR: each violator's edge with the largest composition jump is split (on its curve if it
+    is a constraint edge). GOR: bad triangles get an off-center; one that encroaches a
+    constraint edge, or falls outside, splits that edge instead (Ruppert).
+    """
+    skeys, sorder = _constraint_index(ws)
+    split_c = []
+    cand, cand_min, cand_clash = [], [], []
+    if viol.any():
+        tv = tris[viol]
+        cv = comp[tv]  # (k, 3, m)
+        jumps = np.stack([np.abs(cv[:, (k + 1) % 3] - cv[:, (k + 2) % 3]).max(axis=1)
+                          for k in range(3)], axis=1)
+        lens = np.stack([np.hypot(*(ws.P[tv[:, (k + 1) % 3]] - ws.P[tv[:, (k + 2) % 3]]).T)
+                         for k in range(3)], axis=1)
+        kk = (jumps + 1e-9 * lens / lens.max()).argmax(axis=1)
+        a = tv[np.arange(len(tv)), (kk + 1) % 3]
+        b = tv[np.arange(len(tv)), (kk + 2) % 3]
+        ek, first = np.unique(edge_keys(a, b), return_index=True)
+        a, b = a[first], b[first]
+        ci = _lookup(skeys, sorder, ek)
+        split_c.append(ci[ci >= 0])
+        free = ci < 0
+        elen = np.hypot(*(ws.P[a[free]] - ws.P[b[free]]).T)
+        cand.append(0.5 * (ws.P[a[free]] + ws.P[b[free]]))
+        cand_min.append(0.05 * elen)
+        cand_clash.append(0.5 * elen)
+    if badq.any():
+        cc, r = _off_centers(ws.P, tris[badq], max(afloor, 20.0) + 2.0)
+        enc = _encroached(ws, cc, r)
+        split_c.append(enc[enc >= 0])
+        cc, r = cc[enc < 0], r[enc < 0]
+        inside = ctx.inside(cc) if len(cc) else np.zeros(0, bool)
+        if (~inside).any():  # outside but not encroaching: split the nearest constraint edge
+            split_c.append(_nearest_constraint(ws, cc[~inside]))
+        cand.append(cc[inside])
+        cand_min.append(0.3 * r[inside])
+        cand_clash.append(r[inside])
+    sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
+    new_c = split_constraint_edges(ws, ctx, sc)
+    if cand:
+        pts = np.concatenate(cand)
+        keep = thin_candidates_mask(ws, pts, np.concatenate(cand_min), np.concatenate(cand_clash))
+        add_free_points(ws, pts[keep])
+    return new_c
 
 
 def _rings(tris: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
@@ -475,8 +469,5 @@ def mesh_statistics(mesh: Mesh, model, sampling: str = "vertices") -> MeshStats:
     """Recompute q and delta of any mesh from the model (Eqs. 1, 16-18)."""
     if sampling not in SAMPLINGS:
         raise OptionError(f"sampling {sampling!r} is not one of {', '.join(SAMPLINGS)}")
-    comp = model.material.composition(mesh.points)
-    delta = delta_vertices(comp, mesh.triangles)
-    if sampling == "dense":
-        delta = np.maximum(delta, delta_dense(model.material, mesh.points, mesh.triangles))
+    delta = element_delta(model.material, mesh.points, mesh.triangles, sampling)
     return statistics(mesh.points, mesh.triangles, delta)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .metrics import circumcircles
+from .metrics import circumcircles, signed_area2
 
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 
@@ -90,7 +90,7 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
     step[idx] = 1.0
     t = triangles
     p = points
-    area0 = _area2(p[t[:, 0]], p[t[:, 1]], p[t[:, 2]])
+    area0 = signed_area2(p[t[:, 0]], p[t[:, 1]], p[t[:, 2]])
     for _ in range(halvings + 1):
         cand = p + step[:, None] * (targets - p)
         bad = np.zeros(len(p), bool)
@@ -98,7 +98,7 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
             v = t[:, k]
             q = [p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]]
             q[k] = cand[v]
-            ar = _area2(*q)
+            ar = signed_area2(*q)
             fail = ar < min_area_ratio * area0
             bad[v[fail]] = True
         bad &= step > 0
@@ -110,17 +110,13 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
     new = p + step[:, None] * (targets - p)
     # joint check: adjacent movers may fold a triangle together
     for _ in range(4):
-        ar = _area2(new[t[:, 0]], new[t[:, 1]], new[t[:, 2]])
+        ar = signed_area2(new[t[:, 0]], new[t[:, 1]], new[t[:, 2]])
         fail = ar < min_area_ratio * 0.5 * area0
         if not fail.any():
             break
         hold = np.unique(t[fail].ravel())
         new[hold] = p[hold]
     return new
-
-
-def _area2(a, b, c):
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
 def slide_on_curves(targets: np.ndarray, vertex_curve: np.ndarray, vertex_t: np.ndarray,

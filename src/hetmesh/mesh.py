@@ -16,6 +16,7 @@ from typing import Mapping
 import numpy as np
 
 from .errors import MeshingError
+from .metrics import signed_area2
 
 __all__ = ["Mesh", "edge_keys"]
 
@@ -214,5 +215,4 @@ class Mesh:
 
 
 def _signed_area2(p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    return signed_area2(p[t[:, 0]], p[t[:, 1]], p[t[:, 2]])

@@ -13,6 +13,9 @@ __all__ = [
     "quality",
     "min_angle",
     "quality_and_angle",
+    "triangle_angles",
+    "signed_area2",
+    "element_delta",
     "delta_vertices",
     "delta_dense",
     "lattice_barycentric",
@@ -44,13 +47,7 @@ def circumcircles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray
     return a + np.column_stack([ux, uy]), np.hypot(ux, uy)
 
 
-def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """q(T) = 2 r/R = (b+c-a)(c+a-b)(a+b-c)/(abc), Eq. (17); 1 for an equilateral triangle.
-
-    >>> quality(np.array([[0, 0], [1, 0], [0.5, 3 ** 0.5 / 2]]), np.array([[0, 1, 2]])).round(12)
-    array([1.])
-    """
-    s = side_lengths(points, triangles)
+def _quality(s: np.ndarray) -> np.ndarray:
     a, b, c = s.T
     num = (b + c - a) * (c + a - b) * (a + b - c)
     den = a * b * c
@@ -59,31 +56,56 @@ def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.clip(q, 0.0, 1.0)
 
 
+def _angles(s: np.ndarray) -> np.ndarray:
+    """Interior angles ``(M, 3)`` in degrees at vertices 0, 1, 2 from the side lengths."""
+    a, b, c = s.T
+    a2, b2, c2 = a * a, b * b, c * c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.stack([(b2 + c2 - a2) / (2 * b * c), (c2 + a2 - b2) / (2 * c * a),
+                        (a2 + b2 - c2) / (2 * a * b)], axis=1)
+    return np.degrees(np.arccos(np.clip(np.nan_to_num(cos, nan=1.0), -1, 1)))
+
+
+def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """q(T) = 2 r/R = (b+c-a)(c+a-b)(a+b-c)/(abc), Eq. (17); 1 for an equilateral triangle.
+
+    >>> quality(np.array([[0, 0], [1, 0], [0.5, 3 ** 0.5 / 2]]), np.array([[0, 1, 2]])).round(12)
+    array([1.])
+    """
+    return _quality(side_lengths(points, triangles))
+
+
+def triangle_angles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Interior angles ``(M, 3)`` in degrees, at the triangles' vertices 0, 1, 2."""
+    return _angles(side_lengths(points, triangles))
+
+
 def quality_and_angle(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(quality, min_angle)`` of every triangle from one computation of the side lengths."""
     s = side_lengths(points, triangles)
-    a, b, c = s.T
-    num = (b + c - a) * (c + a - b) * (a + b - c)
-    den = a * b * c
-    with np.errstate(invalid="ignore", divide="ignore"):
-        q = np.clip(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
-    # the smallest angle has the largest cosine (law of cosines, no sort needed)
-    a2, b2, c2 = a * a, b * b, c * c
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cosmax = np.maximum(np.maximum((b2 + c2 - a2) / (2 * b * c), (c2 + a2 - b2) / (2 * c * a)),
-                            (a2 + b2 - c2) / (2 * a * b))
-    ang = np.degrees(np.arccos(np.clip(np.nan_to_num(cosmax, nan=1.0), -1, 1)))
-    return q, ang
+    return _quality(s), _angles(s).min(axis=1)
 
 
 def min_angle(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Smallest interior angle of every triangle, in degrees."""
-    s = side_lengths(points, triangles)
-    s = np.sort(s, axis=1)
-    a, b, c = s.T  # a smallest: opposite the smallest angle
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cosA = (b * b + c * c - a * a) / (2 * b * c)
-    return np.degrees(np.arccos(np.clip(np.nan_to_num(cosA, nan=1.0), -1, 1)))
+    return triangle_angles(points, triangles).min(axis=1)
+
+
+def signed_area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Twice the signed area of triangles (a, b, c) given as ``(M, 2)`` corner arrays;
+    positive when counter-clockwise."""
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+
+def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: str = "vertices",
+                  composition: np.ndarray | None = None) -> np.ndarray:
+    """delta(T) of every element, from the vertices (Eqs. 14-15) or, with ``sampling="dense"``,
+    also from a lattice inside it; ``composition`` at the points if already known."""
+    comp = field.composition(points) if composition is None else composition
+    delta = delta_vertices(comp, triangles)
+    if sampling == "dense":
+        delta = np.maximum(delta, delta_dense(field, points, triangles))
+    return delta
 
 
 def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray:
