@@ -56,14 +56,19 @@ def _quality(s: np.ndarray) -> np.ndarray:
     return np.clip(q, 0.0, 1.0)
 
 
-def _angles(s: np.ndarray) -> np.ndarray:
-    """Interior angles ``(M, 3)`` in degrees at vertices 0, 1, 2 from the side lengths."""
+def _cosines(s: np.ndarray) -> np.ndarray:
+    """Cosines ``(M, 3)`` of the angles at vertices 0, 1, 2 (law of cosines)."""
     a, b, c = s.T
     a2, b2, c2 = a * a, b * b, c * c
     with np.errstate(invalid="ignore", divide="ignore"):
         cos = np.stack([(b2 + c2 - a2) / (2 * b * c), (c2 + a2 - b2) / (2 * c * a),
                         (a2 + b2 - c2) / (2 * a * b)], axis=1)
-    return np.degrees(np.arccos(np.clip(np.nan_to_num(cos, nan=1.0), -1, 1)))
+    return np.clip(np.nan_to_num(cos, nan=1.0), -1, 1)
+
+
+def _min_angle(s: np.ndarray) -> np.ndarray:
+    # the smallest angle has the largest cosine: one arccos per triangle
+    return np.degrees(np.arccos(_cosines(s).max(axis=1)))
 
 
 def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -77,18 +82,18 @@ def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def triangle_angles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Interior angles ``(M, 3)`` in degrees, at the triangles' vertices 0, 1, 2."""
-    return _angles(side_lengths(points, triangles))
+    return np.degrees(np.arccos(_cosines(side_lengths(points, triangles))))
 
 
 def quality_and_angle(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(quality, min_angle)`` of every triangle from one computation of the side lengths."""
     s = side_lengths(points, triangles)
-    return _quality(s), _angles(s).min(axis=1)
+    return _quality(s), _min_angle(s)
 
 
 def min_angle(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Smallest interior angle of every triangle, in degrees."""
-    return triangle_angles(points, triangles).min(axis=1)
+    return _min_angle(side_lengths(points, triangles))
 
 
 def signed_area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
