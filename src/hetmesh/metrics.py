@@ -56,19 +56,23 @@ def _quality(s: np.ndarray) -> np.ndarray:
     return np.clip(q, 0.0, 1.0)
 
 
-def _cosines(s: np.ndarray) -> np.ndarray:
-    """Cosines ``(M, 3)`` of the angles at vertices 0, 1, 2 (law of cosines)."""
+def _cosines(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cosines of the angles at vertices 0, 1, 2 (law of cosines), unclipped."""
     a, b, c = s.T
     a2, b2, c2 = a * a, b * b, c * c
     with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.stack([(b2 + c2 - a2) / (2 * b * c), (c2 + a2 - b2) / (2 * c * a),
-                        (a2 + b2 - c2) / (2 * a * b)], axis=1)
-    return np.clip(np.nan_to_num(cos, nan=1.0), -1, 1)
+        return ((b2 + c2 - a2) / (2 * b * c), (c2 + a2 - b2) / (2 * c * a),
+                (a2 + b2 - c2) / (2 * a * b))
+
+
+def _degrees(cos: np.ndarray) -> np.ndarray:
+    return np.degrees(np.arccos(np.clip(np.nan_to_num(cos, nan=1.0), -1, 1)))
 
 
 def _min_angle(s: np.ndarray) -> np.ndarray:
     # the smallest angle has the largest cosine: one arccos per triangle
-    return np.degrees(np.arccos(_cosines(s).max(axis=1)))
+    c0, c1, c2 = _cosines(s)
+    return _degrees(np.maximum(np.maximum(c0, c1), c2))
 
 
 def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -82,7 +86,7 @@ def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def triangle_angles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Interior angles ``(M, 3)`` in degrees, at the triangles' vertices 0, 1, 2."""
-    return np.degrees(np.arccos(_cosines(side_lengths(points, triangles))))
+    return _degrees(np.stack(_cosines(side_lengths(points, triangles)), axis=1))
 
 
 def quality_and_angle(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
