@@ -35,7 +35,6 @@ from .mesh import Mesh, edge_keys
 from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
 from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle, statistics,
                       triangle_angles)
-from .triangulate import components
 from .refine import (FIXED, Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
@@ -353,9 +352,7 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, m
     q, ang = quality_and_angle(P, tris)
     local = Mesh(P, tris)  # checked in local coordinates: no loss of precision far from 0
     problems = local.problems()
-    mesh_edges, _ = local.unique_edges
-    missing = ~np.isin(edge_keys(ws.E[:, 0], ws.E[:, 1]),
-                       edge_keys(mesh_edges[:, 0], mesh_edges[:, 1]))
+    missing = ~local.has_edges(ws.E)
     if missing.any():
         problems.append(f"{int(missing.sum())} boundary or interface edges are not mesh edges")
     area, exact = float(local.area), ctx.domain.area
@@ -381,7 +378,7 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, m
                         "the angle refinement was stopped to keep the loop finite",
                         int(low.sum()), min_angle_deg, float(ang.min()))
     interfaces = ws.E[~ctx.boundary_curve[ws.ecurve]]
-    mesh = Mesh(points=P + offset, triangles=tris, regions=components(tris, interfaces),
+    mesh = Mesh(points=P + offset, triangles=tris, regions=local.pieces(interfaces),
                 edges=ws.E, edge_markers=ws.ecurve + 1,
                 marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
                 point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},

@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Mapping
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .errors import MeshingError
 from .metrics import signed_area2
@@ -140,14 +142,51 @@ class Mesh:
         return float(self.areas.sum())
 
     @cached_property
-    def unique_edges(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(edges (E, 2) sorted, count (E,))``: every edge and how many triangles hold it."""
+    def edge_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(keys (3M,), owner (3M,))``: the edge key (:func:`edge_keys`) of every side of
+        every triangle, sorted, and the triangle it belongs to. Interior edges appear twice in
+        a row. The one sort that edge queries on this mesh share."""
         t = self.triangles
         keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]),
                          np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
-        k, c = np.unique(keys, return_counts=True)
+        order = np.argsort(keys, kind="stable")
+        return keys[order], np.tile(np.arange(len(t)), 3)[order]
+
+    @cached_property
+    def unique_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(edges (E, 2) sorted, count (E,))``: every edge and how many triangles hold it."""
+        keys, _ = self.edge_table
+        new = np.r_[True, keys[1:] != keys[:-1]]
+        k = keys[new]
+        c = np.diff(np.r_[np.flatnonzero(new), len(keys)])
         u = np.column_stack([k >> 32, k & 0xFFFFFFFF]).astype(np.int32)
         return u, c
+
+    def has_edges(self, edges: np.ndarray) -> np.ndarray:
+        """Whether each of ``edges (K, 2)`` is an edge of the mesh, ``(K,)`` bool."""
+        keys, _ = self.edge_table
+        q = edge_keys(edges[:, 0], edges[:, 1])
+        pos = np.minimum(np.searchsorted(keys, q), max(len(keys) - 1, 0))
+        return keys[pos] == q if len(keys) else np.zeros(len(q), bool)
+
+    def pieces(self, cut_edges: np.ndarray) -> np.ndarray:
+        """Pieces of the mesh separated by ``cut_edges``: an id ``(M,)`` per triangle.
+
+        Two triangles are in one piece when a chain of shared edges, none of them in
+        ``cut_edges``, joins them; with the interface edges as cuts these are the regions
+        between closed interfaces, exactly as meshed. Ids follow each piece's first triangle.
+        """
+        keys, owner = self.edge_table
+        pair = np.flatnonzero(keys[1:] == keys[:-1])  # interior edges: two owners in a row
+        cut = np.isin(keys[pair], edge_keys(cut_edges[:, 0], cut_edges[:, 1]))
+        pair = pair[~cut]
+        m = len(self.triangles)
+        g = coo_matrix((np.ones(len(pair)), (owner[pair], owner[pair + 1])), shape=(m, m))
+        _, label = connected_components(g, directed=False)
+        _, first, inv = np.unique(label, return_index=True, return_inverse=True)
+        rank = np.empty(len(first), np.int64)
+        rank[np.argsort(first)] = np.arange(len(first))
+        return rank[inv].astype(np.int32)
 
     @cached_property
     def boundary_edges(self) -> np.ndarray:

@@ -16,7 +16,7 @@ from scipy.sparse.csgraph import connected_components
 from .errors import MeshingError
 from .mesh import edge_keys
 
-__all__ = ["constrained_delaunay", "components"]
+__all__ = ["constrained_delaunay"]
 
 log = logging.getLogger(__name__)
 
@@ -80,26 +80,6 @@ def _label(m: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     rank = np.empty(len(first), np.int64)
     rank[np.argsort(first)] = np.arange(len(first))
     return rank[inv]
-
-
-def components(triangles: np.ndarray, cut_edges: np.ndarray) -> np.ndarray:
-    """Pieces of a triangulation separated by ``cut_edges``: an id ``(M,)`` per triangle.
-
-    Two triangles are in one piece when a chain of shared edges, none of them in
-    ``cut_edges``, joins them. With the interface edges as cuts, these are the regions
-    between closed interfaces, exactly as meshed (no re-sampling of curved interfaces).
-    """
-    m = len(triangles)
-    t = triangles.astype(np.int64)
-    keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]),
-                     np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
-    owner = np.tile(np.arange(m), 3)
-    order = np.argsort(keys, kind="stable")
-    keys, owner = keys[order], owner[order]
-    pair = np.flatnonzero(keys[1:] == keys[:-1])  # interior edges: two owners in a row
-    cut = np.isin(keys[pair], edge_keys(cut_edges[:, 0], cut_edges[:, 1]))
-    pair = pair[~cut]
-    return _label(m, owner[pair], owner[pair + 1])
 
 
 def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
