@@ -31,6 +31,7 @@ from scipy.spatial import cKDTree
 from . import density as dens
 from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
+from .layers import place_layers
 from .mesh import Mesh, edge_keys
 from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
 from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle, statistics,
@@ -387,7 +388,8 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, m
 
 
 # --------------------------------------------------------------------------- the pipeline
-PLACEMENTS = {"cvt": place_cvt}
+#: node placements of MOR, by ``method`` name
+PLACEMENTS = {"cvt": place_cvt, "layers": place_layers}
 
 
 def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: float | None = None,
@@ -418,9 +420,6 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     >>> r.stats.delta_max < 0.05                                        # doctest: +SKIP
     True
     """
-    from .layers import place_layers
-
-    PLACEMENTS.setdefault("layers", place_layers)
     threshold = check_options(threshold, min_angle=min_angle, max_elements=max_elements,
                               max_size=max_size, sampling=sampling, min_quality=min_quality,
                               seed=seed)
