@@ -106,11 +106,11 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import GeometryError, MaterialError, ModelFileError
-from ..expr import compile_expr
-from ..geometry import Arc, Segment
-from .analytic import _Shiftable, check_constituents
-from .field import as_points, sample_domain
+from ...errors import GeometryError, MaterialError, ModelFileError
+from ...expr import compile_expr
+from ...geometry import Arc, Segment
+from ..analytic import _Shiftable, check_constituents
+from ..field import as_points, sample_domain
 
 __all__ = ["HFTField", "PointFeature", "CurveFeature", "NearestFeature", "SelectFeature",
            "BlendFeature", "inside_predicate", "parse_hft"]
@@ -677,7 +677,7 @@ _KINDS = ("point", "segment", "arc", "circle", "nearest", "composite", "select",
 
 def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
     """The ``[material]`` parser of ``type = "hft"`` (see the module docstring)."""
-    from ..io.model import _describe  # local: io.model imports this module
+    from ...io.model import _describe  # local: io.model imports this module
 
     t = ctx.table(table, "material", required=("type", "constituents", "root", "features"))
     cons = t["constituents"]
