@@ -92,6 +92,10 @@ class _Leaf:
             dcomp = np.zeros((len(p), len(self.c0), 2))
         return _Eval(d, unit, comp, dcomp, np.zeros(len(p), dtype=np.int64))
 
+    def sample(self, n: int = 64) -> np.ndarray:
+        """Points ``(K, 2)`` on the feature: its point, or ``n`` points along its curve."""
+        raise NotImplementedError
+
     def region_path(self, r: int) -> list[str]:
         return [self.id]
 
@@ -108,6 +112,9 @@ class PointFeature(_Leaf):
     def __init__(self, fid: str, at, composition):
         super().__init__(fid, composition)
         self.at = np.asarray(at, dtype=float).reshape(2)
+
+    def sample(self, n: int = 64) -> np.ndarray:
+        return self.at[None, :].copy()
 
     def _geom(self, p, need_grad):
         n = len(p)
@@ -137,6 +144,9 @@ class CurveFeature(_Leaf):
 
     def curves(self) -> list:
         return [self.curve]
+
+    def sample(self, n: int = 64) -> np.ndarray:
+        return np.asarray(self.curve.point(np.linspace(0.0, 1.0, n)), dtype=float).reshape(-1, 2)
 
     def _geom(self, p, need_grad):
         if isinstance(self.curve, Segment):
@@ -262,9 +272,24 @@ def _width(feature) -> int:
     return len(feature.c0)
 
 
+def _constant(feature) -> np.ndarray | None:
+    """The composition of a feature that is the same at every point (a leaf with one
+    composition, or a uniform :class:`NearestFeature`), else None."""
+    if isinstance(feature, _Leaf):
+        return None if np.any(feature.dc) else feature.c0
+    return getattr(feature, "constant", None)
+
+
 class NearestFeature(_Parent):
     """A parent whose owning child is the one holding the nearest point (ties: the first
-    child). Models a composite curve; its distance is the minimum of its children's."""
+    child). Models a composite curve; its distance is the minimum of its children's.
+
+    If every child carries one and the same constant composition (a stadium or a rounded
+    rectangle made of segments and arcs, all at ``M_C``), the choice of child changes
+    nothing in the material: the feature is then *uniform*, a single subregion (named by
+    its own id), and no subregion boundary runs along the medial curves between its
+    children (Sec. 3.3.1: a subregion is a part with one material distribution).
+    """
 
     def __init__(self, fid: str, children: Sequence):
         super().__init__(fid, children)
@@ -272,6 +297,29 @@ class NearestFeature(_Parent):
         if bad:
             raise ModelFileError(f"feature {fid!r}: child {bad[0]!r} is a blend, which has no "
                                  f"distance (a 'nearest' parent needs curves or points)")
+        comps = [_constant(c) for c in self.children]
+        self.constant = comps[0] if all(c is not None and np.array_equal(c, comps[0])
+                                        for c in comps) else None
+        if self.constant is not None:  # one subregion: every child maps to id 0
+            self.offsets = np.zeros(len(self.children) + 1, dtype=np.int64)
+            self.n_regions = 1
+
+    @property
+    def uniform(self) -> bool:
+        """Whether all children carry the same constant composition (one subregion)."""
+        return self.constant is not None
+
+    def distance(self, p, region=None):
+        return super().distance(p, None if self.uniform else region)
+
+    def evaluate(self, p, region=None) -> _Eval:
+        return super().evaluate(p, None if self.uniform else region)
+
+    def region_path(self, r: int) -> list[str]:
+        return [self.id] if self.uniform else super().region_path(r)
+
+    def region_name(self, r: int) -> str:
+        return self.id if self.uniform else super().region_name(r)
 
     def _owner(self, p):
         if len(self.children) == 1:
@@ -287,18 +335,25 @@ class NearestFeature(_Parent):
 
 
 class SelectFeature(_Parent):
-    """A parent whose owning child is given by rules ``(child index, predicate)``; the
+    """A parent whose owning child is given by rules ``(child index, predicate)``: the
     first rule whose ``predicate(points) -> bool (N,)`` holds wins, ``None`` always holds
-    (the last rule must be such a default)."""
+    (a default). The rules are the paper's case-specific boundary feature (Sec. 3.3.1,
+    Fig. 7(c): "between C_A and C_C -> C_C, between C_A and C_B -> C_B").
+
+    Without a default the rules may leave points unowned. Such a point is never evaluated
+    with owner -1: :meth:`owners` returns -1 there, and every evaluation raises
+    :class:`~hetmesh.errors.MaterialError` naming the feature and the first such point
+    (``parse_hft`` checks the domain's sample points when the model is loaded).
+    """
 
     def __init__(self, fid: str, children: Sequence, rules: Sequence[tuple[int, Callable | None]]):
         super().__init__(fid, children)
-        if not rules or rules[-1][1] is not None:
-            raise ModelFileError(f"feature {fid!r}: the last rule must have no condition "
-                                 f"(the default child)")
+        if not rules:
+            raise ModelFileError(f"feature {fid!r}: a select needs at least one rule")
         self.rules = list(rules)
 
-    def _owner(self, p):
+    def owners(self, p) -> np.ndarray:
+        """Index of the owning child per point, -1 where no rule holds."""
         owner = np.full(len(p), -1, dtype=np.int64)
         for k, pred in self.rules:
             todo = owner < 0
@@ -309,11 +364,30 @@ class SelectFeature(_Parent):
             owner[hit] = k
         return owner
 
+    def _owner(self, p):
+        owner = self.owners(p)
+        free = np.flatnonzero(owner < 0)
+        if free.size:
+            x, y = p[free[0]]
+            raise MaterialError(f"feature {self.id!r}: region rule leaves part of the domain "
+                                f"unowned: no rule holds at ({x:.6g}, {y:.6g}) (add a default "
+                                f"rule without a condition, or cover that point)")
+        return owner
+
 
 def inside_predicate(curves: Sequence, fid: str = "") -> Callable[[np.ndarray], np.ndarray]:
     """A vectorised ``inside(points) -> bool (N,)`` for closed chains of segments and arcs
     (in any order and orientation): crossing parity of the chord polygon, toggled inside
-    each arc's circular segment (exact for arcs, no polygonal approximation)."""
+    each arc's circular segment (exact for arcs, no polygonal approximation). Points on
+    the curves themselves may fall either way; points on an arc's chord (inside the shape,
+    e.g. on the line joining a stadium's straight sides) are classified consistently by
+    the two tests.
+
+    >>> from hetmesh.geometry import Arc, Segment
+    >>> half = [Segment((-1, 0), (1, 0)), Arc.from_center((1, 0), (-1, 0), (0, 0))]
+    >>> inside_predicate(half)(np.array([[0.0, 0.5], [0.0, -0.5], [0.0, 1.5]])).tolist()
+    [True, False, False]
+    """
     ends = []
     chords = []
     segs = []
@@ -349,6 +423,10 @@ def inside_predicate(curves: Sequence, fid: str = "") -> Callable[[np.ndarray], 
             if s is not None:
                 side = ch[0] * (y - s[1]) - ch[1] * (x - s[0])
                 ref = ch[0] * (mid[1] - s[1]) - ch[1] * (mid[0] - s[0])
+                # On the chord (side == 0) decide as the crossing test above does for a
+                # point on a polygon edge, i.e. as if the point were nudged to +x (to +y
+                # for a horizontal chord): the chord is then counted exactly once.
+                side = np.where(side == 0.0, -ch[1] if ch[1] != 0 else ch[0], side)
                 inn &= side * ref > 0
             odd ^= inn
         return odd

@@ -10,10 +10,12 @@ import numpy as np
 
 from ...errors import MaterialError
 from ..analytic import _Shiftable, check_constituents
-from ..field import as_points
-from .features import BlendFeature, _walk
+from ..field import as_points, sample_domain
+from .features import BlendFeature, PointFeature, _Leaf, _walk
 
-__all__ = ["HFTField"]
+__all__ = ["HFTField", "OUTSIDE_TOL"]
+
+OUTSIDE_TOL = 1e-6  # a feature sample farther than this x diameter outside the domain is an error
 
 
 class HFTField(_Shiftable):
@@ -92,6 +94,49 @@ class HFTField(_Shiftable):
     def region(self, points) -> np.ndarray:
         """The subregion id ``(N,)`` owning each point (see :attr:`region_names`)."""
         return self.root.region(self._global(points))
+
+    def check_domain(self, domain, where: str = "", n: int = 60) -> None:
+        """The checks of a tree against its domain (``where`` prefixes the messages), in
+        order: :meth:`check_features_inside`, then on ``sample_domain(domain, n)``
+        :meth:`check_owned` and :meth:`check_weights`. Raises :class:`MaterialError`."""
+        self.check_features_inside(domain, where)
+        points = sample_domain(domain, n)
+        self.check_owned(points, where)
+        self.check_weights(points, where)
+
+    def check_features_inside(self, domain, where: str = "", n: int = 64) -> None:
+        """Raise :class:`MaterialError` if a leaf the root depends on lies outside ``domain``.
+
+        Each leaf is sampled (its point, or ``n`` points along its curve); a sample is
+        outside when ``domain.contains`` is False and its distance to the domain's boundary
+        exceeds ``OUTSIDE_TOL`` x the domain's diameter, so features on the boundary (the
+        ring's circles, the plate's top edge) pass. The message names the feature and the
+        first such point.
+        """
+        pre = f"{where}: " if where else ""
+        tol = OUTSIDE_TOL * float(domain.diameter)
+        for leaf in (f for f in _walk(self.root) if isinstance(f, _Leaf)):
+            pts = leaf.sample(n)
+            out = ~np.asarray(domain.contains(pts), dtype=bool)
+            if out.any():
+                dist = np.asarray(domain.distance_to_boundary(pts[out], interfaces=False))
+                far = np.flatnonzero(dist > tol)
+                if far.size:
+                    x, y = pts[out][far[0]]
+                    what = "point" if isinstance(leaf, PointFeature) else "curve"
+                    raise MaterialError(f"{pre}feature {leaf.id!r}: {what} lies outside the "
+                                        f"domain at ({x:.6g}, {y:.6g}), "
+                                        f"{dist[far[0]]:.3g} from its boundary")
+
+    def check_owned(self, points, where: str = "") -> None:
+        """Raise :class:`MaterialError` if a ``select`` feature's rules leave one of
+        ``points`` unowned (the tree is evaluated, so each select sees the points routed to
+        it); the message names the feature and the first unowned point."""
+        p = as_points(points)
+        try:
+            self.root.evaluate(p)
+        except MaterialError as exc:
+            raise MaterialError(f"{where}: {exc}" if where else str(exc)) from None
 
     def check_weights(self, points, where: str = "") -> None:
         """Raise :class:`MaterialError` if a blend's W leaves [0, 1] at ``points``."""

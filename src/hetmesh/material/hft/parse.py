@@ -13,7 +13,6 @@ from ...errors import GeometryError, MaterialError, ModelFileError
 from ...expr import compile_expr
 from ...geometry import Arc, Segment
 from ..analytic import check_constituents
-from ..field import sample_domain
 from .features import (BlendFeature, CurveFeature, NearestFeature, PointFeature,
                        SelectFeature, inside_predicate)
 from .field import HFTField
@@ -213,9 +212,6 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
                                      where=f"{here}: rules[{j}].where {text!r}")
                     pred = (lambda p, _e=e: _e(x=p[:, 0], y=p[:, 1]) > 0.5)
                 rules.append((index[id(child)], pred))
-            if rules[-1][1] is not None:
-                raise ctx.fail(f"{key}.rules", "the last rule must have no condition "
-                                               "(the default child)")
             feat = SelectFeature(fid, children, rules)
         else:  # blend
             ctx.table(item, key, required=("id", "kind", "first", "second", "distances"),
@@ -270,5 +266,5 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
         build(fid, [])
     field = HFTField(root, cons)
     if domain is not None:
-        field.check_weights(sample_domain(domain, 60), ctx.where)
+        field.check_domain(domain, ctx.where)
     return field
