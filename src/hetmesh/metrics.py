@@ -107,14 +107,38 @@ def signed_area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 
 def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: str = "vertices",
-                  composition: np.ndarray | None = None) -> np.ndarray:
+                  composition: np.ndarray | None = None,
+                  regions: np.ndarray | None = None) -> np.ndarray:
     """delta(T) of every element, from the vertices (Eqs. 14-15) or, with ``sampling="dense"``,
-    also from a lattice inside it; ``composition`` at the points if already known."""
+    also from a lattice inside it; ``composition`` at the points if already known.
+
+    ``regions`` (the subregion of every element, for a feature-tree field) makes every
+    element use its own subregion's composition at all its vertices: a vertex on a material
+    discontinuity takes, in each element around it, the value of that element's side.
+    """
     comp = field.composition(points) if composition is None else composition
     delta = delta_vertices(comp, triangles)
+    if regions is not None:
+        delta = _delta_own_region(field, points, triangles, comp, regions, delta)
     if sampling == "dense":
-        delta = np.maximum(delta, delta_dense(field, points, triangles))
+        delta = np.maximum(delta, delta_dense(field, points, triangles, regions=regions))
     return delta
+
+
+def _delta_own_region(field, points, triangles, comp, regions, delta) -> np.ndarray:
+    """:func:`delta_vertices` redone for the elements with a vertex owned by another
+    subregion (on a discontinuity), with that vertex evaluated in the element's subregion."""
+    vreg = field.region(points)
+    e, k = np.nonzero(vreg[triangles] != regions[:, None])
+    if len(e) == 0:
+        return delta
+    rows, inv = np.unique(e, return_inverse=True)
+    c = comp if comp.ndim == 2 else comp[:, None]
+    v = c[triangles[rows]].copy()  # (R, 3, m)
+    v[inv, k] = field.composition(points[triangles[e, k]], region=regions[e])
+    out = delta.copy()
+    out[rows] = (v.max(axis=1) - v.min(axis=1)).max(axis=1)
+    return out
 
 
 def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -142,13 +142,15 @@ def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
         return constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
 
 
-def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray) -> np.ndarray:
-    """Split constraint edges ``idx`` at their curve midpoint; returns the new vertex ids."""
+def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray,
+                           where=None) -> np.ndarray:
+    """Split constraint edges ``idx`` on their curve, at the parameter midpoint or at
+    ``where(idx, et) -> t`` (``et`` the ends' parameters); returns the new vertex ids."""
     idx = np.unique(idx)
     if idx.size == 0:
         return np.zeros(0, np.int64)
     et = edge_params(ws, ctx)[idx]
-    tm = 0.5 * (et[:, 0] + et[:, 1])
+    tm = 0.5 * (et[:, 0] + et[:, 1]) if where is None else where(idx, et)
     c = ws.ecurve[idx]
     newp = np.empty((len(idx), 2))
     for cid in np.unique(c):

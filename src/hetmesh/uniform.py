@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from .adapt import Result, evaluate, finish, prepare, repair
+from .discontinuity import embed_discontinuities
 from .errors import BudgetError
 from .options import DEFAULT_MAX_ELEMENTS, check_options
 from .density import background_points, gradient_norm
@@ -77,6 +78,7 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     threshold = check_options(threshold, min_angle=min_angle, max_elements=max_elements,
                               sampling=sampling, min_quality=min_quality)
     t0 = time.perf_counter()
+    model = embed_discontinuities(model)
     ctx, offset = prepare(model, threshold, None)
     pts = background_points(ctx.domain, 200)
     gmax = float(gradient_norm(ctx.field, pts).max()) if len(pts) else 0.0
@@ -116,4 +118,4 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings={"total": time.perf_counter() - t0},
                   options=dict(threshold=threshold, size=h, min_angle=min_angle,
-                               sampling=sampling, max_elements=max_elements))
+                               sampling=sampling, max_elements=max_elements), model=model)

@@ -241,7 +241,8 @@ def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> li
     if args.plot is not None:
         from ..plot import plot_mesh
 
-        plot_mesh(result.mesh, args.plot, interface_markers=interface_markers(model),
+        meshed = result.model if result.model is not None else model  # with discontinuities
+        plot_mesh(result.mesh, args.plot, interface_markers=interface_markers(meshed),
                   title=f"{model.name}: {args.command} mesh, delta_0 = {args.threshold:g}")
         written.append(args.plot)
     if args.stats is not None:

@@ -542,7 +542,7 @@ def _check_interfaces(d: Domain) -> None:
         if bad is not None:
             raise GeometryError(f"{name}: touches or crosses the boundary {d.outer.name} near "
                                 f"{_pt(d, bad)} (an interface may not leave the domain)")
-        if not shapely.covers(outer, line):
+        if not shapely.covers(outer.buffer(tol), line):  # ends computed from angles
             raise GeometryError(f"{name}: lies outside the domain near "
                                 f"{_pt(d, _rep(line.difference(outer)))}")
         for i, h in enumerate(holes):
