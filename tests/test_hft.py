@@ -17,7 +17,7 @@ from hetmesh.errors import FormulaError, MaterialError, ModelFileError
 from hetmesh.geometry import Arc, Segment
 from hetmesh.io.model import load_model, parse_model
 from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
-                                  PointFeature, inside_predicate)
+                                  PointFeature, SelectFeature, inside_predicate)
 
 EXAMPLES = Path(hetmesh.__file__).resolve().parent / "examples"
 PLATE = EXAMPLES / "fgm_plate.toml"
@@ -191,9 +191,99 @@ def test_ring_values_at_circles(ring):
     assert np.allclose(ring.material.composition(pts)[:, 0], [1.0, 0.4, 0.4, 0.0], atol=1e-9)
 
 
+# ------------------------------------------------------------------ hft_complex by hand
+
+def _stadium_axis_distance(p):
+    """Distance to the segment (-40, 0)-(40, 0): the stadiums C and A are its level sets
+    10 and 30."""
+    return np.hypot(np.maximum(np.abs(p[:, 0]) - 40.0, 0.0), p[:, 1])
+
+
+def _rounded_rectangle_distance(p):
+    """Distance from a point inside [-100, 100] x [-70, 70] (corner radius 20) to its
+    boundary: to the corner arc (centre (+-80, +-50)) in the corner squares, else to the
+    nearer side."""
+    ax, ay = np.abs(p[:, 0]), np.abs(p[:, 1])
+    qx, qy = ax - 80.0, ay - 50.0
+    corner = (qx > 0) & (qy > 0)
+    return np.where(corner, 20.0 - np.hypot(qx, qy), np.minimum(100.0 - ax, 70.0 - ay))
+
+
+def _complex_by_hand(p):
+    """CASES.md section 4: f = W M_A + (1 - W) M_b, W = (d_b/(d_int + d_b))^3 inside A
+    (M_b = M_C = 1, d_b to C), ^2 outside (M_b = M_B = 0, d_b to B)."""
+    rho = _stadium_axis_distance(p)
+    inner = rho < 30.0
+    d_int = np.abs(rho - 30.0)
+    d_b = np.where(inner, rho - 10.0, _rounded_rectangle_distance(p))
+    w = (d_b / (d_int + d_b)) ** np.where(inner, 3, 2)
+    return w * 0.4 + (1.0 - w) * np.where(inner, 1.0, 0.0)
+
+
+@pytest.fixture(scope="module")
+def complex_model():
+    return load_model(COMPLEX)
+
+
+def test_complex_by_hand_at_points(complex_model):
+    f = complex_model.material
+    r = 20 - 10 * math.sqrt(2)               # (90, 60): 20 - |(10, 10)| from the NE corner arc
+    rho = math.hypot(50, 60)                 # and |(50, 60)| from the axis end (40, 0)
+    w = (r / (r + rho - 30)) ** 2
+    cases = {
+        (0.0, 20.0): 0.125 * 0.4 + 0.875,    # above the straight part: d_C = d_A = 10
+        (60.0, 0.0): 0.125 * 0.4 + 0.875,    # right of the right arc: the same
+        (40.0, -10.0): 1.0,                  # on C, where its arc meets its bottom side
+        (0.0, 50.0): 0.25 * 0.4,             # between A and B: d_A = 20, d_B = 20
+        (-85.0, 0.0): (15 / 30) ** 2 * 0.4,  # left of A: d_A = 15, d_B = 15
+        (-70.0 + 1e-9, 0.0): 0.4,            # on A (d_int = 1e-9): W = 1 - 1.5e-10
+        (90.0, 60.0): w * 0.4,               # in the NE corner
+        (0.0, -69.0): (1 / 40) ** 2 * 0.4,   # next to B's bottom side
+    }
+    pts = np.array(list(cases))
+    got = f.composition(pts)
+    assert np.allclose(got[:, 0], list(cases.values()), atol=1e-9, rtol=0)
+    assert np.allclose(got[:, 0], _complex_by_hand(pts), atol=1e-12, rtol=0)
+    assert np.allclose(got.sum(axis=1), 1.0)
+
+
+def test_complex_vs_hand_and_gradient(complex_model):
+    f = complex_model.material
+    rng = np.random.default_rng(4)
+    pts = rng.uniform([-100, -70], [100, 70], (4000, 2))
+    pts = pts[complex_model.domain.contains(pts)]
+    assert np.allclose(f.composition(pts)[:, 0], _complex_by_hand(pts), atol=1e-12, rtol=0)
+    reg = f.region(pts)
+    assert f.region_names == ["A|C", "A|B"]  # uniform composite curves: one subregion each
+    assert np.array_equal(reg, (_stadium_axis_distance(pts) >= 30).astype(int))
+    # away from the rectangle's medial axis, where grad d_B has a kink
+    ax, ay = np.abs(pts[:, 0]), np.abs(pts[:, 1])
+    smooth = (np.abs((100 - ax) - (70 - ay)) > 1e-3) & (ay > 1e-3)
+    g = f.gradient(pts[smooth], region=reg[smooth])
+    assert np.allclose(g, _fd(f, pts[smooth], reg[smooth]), atol=2e-6)
+
+
+def test_uniform_composite_is_one_subregion():
+    a = CurveFeature("a", Segment((0, 0), (1, 0)), [1.0, 0.0])
+    b = CurveFeature("b", Segment((1, 0), (1, 1)), [1.0, 0.0])
+    c = CurveFeature("c", Segment((1, 1), (0, 1)), [0.5, 0.5])
+    ab = NearestFeature("ab", [a, b])
+    assert ab.uniform and ab.n_regions == 1 and ab.region_name(0) == "ab"
+    p = np.array([[0.5, -1.0], [2.0, 0.5]])
+    assert ab.region(p).tolist() == [0, 0]
+    assert ab.evaluate(p).dist.tolist() == [1.0, 1.0]
+    assert ab.evaluate(p, np.zeros(2, dtype=int)).dist.tolist() == [1.0, 1.0]
+    nested = NearestFeature("n", [ab, CurveFeature("d", Segment((0, 1), (0, 0)), [1.0, 0.0])])
+    assert nested.uniform and nested.n_regions == 1
+    mixed = NearestFeature("abc", [a, b, c])
+    assert not mixed.uniform and mixed.n_regions == 3
+    graded = CurveFeature("g", Segment((0, 2), (1, 2)), [1.0, 0.0], [0.0, 1.0])
+    assert NearestFeature("ag", [a, graded]).n_regions == 2
+
+
 # ------------------------------------------------------------------ NaN safety
 
-def test_no_nan_on_features_and_equidistant(plate, ring):
+def test_no_nan_on_features_and_equidistant(plate, ring, complex_model):
     on_plate = np.array([[0, 0], [7, 0], [15, 8], [23, 0], [45, 8], [60, 0], [0, 20], [60, 20],
                          [30, 20], [15, 0], [45, 0], [3.5, 0],
                          # equidistant from two features / two sub-features
@@ -201,7 +291,10 @@ def test_no_nan_on_features_and_equidistant(plate, ring):
     on_plate = np.vstack([on_plate, [[15 + 8 * np.cos(t), 8 * np.sin(t)]
                                      for t in np.linspace(0, np.pi, 7)]])
     on_ring = np.array([[0, 0], [8, 0], [0, 28], [-38, 0], [0, 23], [1e-300, 0]], dtype=float)
-    for model, pts in ((plate, on_plate), (ring, on_ring)):
+    on_complex = np.array([[0, 0], [40, 0], [-40, 0], [40, -10], [40, 10], [-50, 0], [0, 10],
+                           [0, 30], [40, 30], [-70, 0], [80, -70], [100, 0], [90, 60],
+                           [85, 0], [0, 50], [80, 50], [-20, 20], [70, 30]], dtype=float)
+    for model, pts in ((plate, on_plate), (ring, on_ring), (complex_model, on_complex)):
         c, g, r = model.material.evaluate(pts)
         assert np.isfinite(c).all() and np.isfinite(g).all()
         for reg in range(model.material.n_regions):
@@ -239,6 +332,28 @@ def test_inside_predicate_stadium():
     p = rng.uniform([-80, -40], [80, 40], (20000, 2))
     dx = np.maximum(np.abs(p[:, 0]) - 40, 0)
     assert np.array_equal(inside(p), np.hypot(dx, p[:, 1]) < 30)
+
+
+def test_inside_predicate_on_arc_chords():
+    # Points on the line joining an arc's ends lie inside the shape: the chord polygon's
+    # crossing test and the circular segment's test must not both skip them (the mesher
+    # puts a vertex at (40, -10), where C's arc meets C's bottom side, on A's chord x = 40).
+    def stadium(swap):
+        def P(x, y):
+            return (y, x) if swap else (x, y)
+        return [Segment(P(-40, -30), P(40, -30)),
+                Arc.from_center(P(40, -30), P(40, 30), P(40, 0), ccw=not swap),
+                Segment(P(40, 30), P(-40, 30)),
+                Arc.from_center(P(-40, 30), P(-40, -30), P(-40, 0), ccw=not swap)]
+    y = np.linspace(-29.5, 29.5, 61)
+    pts = np.concatenate([np.column_stack([np.full_like(y, 40.0), y]),
+                          np.column_stack([np.full_like(y, -40.0), y]),
+                          np.column_stack([np.linspace(-69.5, 69.5, 101), np.zeros(101)])])
+    for swap in (False, True):
+        p = pts[:, ::-1] if swap else pts
+        for curves in (stadium(swap), stadium(swap)[::-1]):
+            assert inside_predicate(curves)(p).all()
+            assert not inside_predicate(curves)(p + (p[:1] * 0 + 200.0)).any()
 
 
 def test_programmatic_tree_and_shift():
@@ -322,6 +437,122 @@ def test_error_misc():
                                          "children": ["C", "ring"]})
     with pytest.raises(ModelFileError, match="child 'ring' is a blend"):
         parse_model(data, "r.toml")
+
+
+# ------------------------------------------------------------------ bad input via the CLI
+# Issue 3: each a one-line error naming the feature, exit code 2, nothing written.
+
+def _edit(text: str, old: str, new: str) -> str:
+    assert text.count(old) == 1, old
+    return text.replace(old, new)
+
+
+RING_RULES = 'rules = [{ child = "C", inside = "A" }, { child = "B" }]'
+RING_B = 'radius = 38\ncomposition = [0, 1]'
+BAD_RING = {
+    "cycle": ((RING_RULES, 'rules = [{ child = "C", inside = "A" }, { child = "ring" }]'),
+              "boundary", "cycle in the feature tree: ring -> boundary -> ring"),
+    "unknown": (('d_b = "boundary"', 'd_b = "boundry"'),
+                "features.ring", "distances.d_b: unknown feature 'boundry'"),
+    "composition-length": (("composition = [0.4, 0.6]", "composition = [0.4, 0.3, 0.3]"),
+                           "features.A", "composition has 3 values but there are 2"),
+    "weight-range": (('weight = "(d_b/', 'weight = "1.5*(d_b/'),
+                     "feature 'ring'", "is 1.5 at ("),
+    "unowned": ((RING_RULES, 'rules = [{ child = "C", inside = "A" }]'),
+                "feature 'boundary'", "region rule leaves part of the domain unowned: "
+                                      "no rule holds at ("),
+    "unowned-where": ((RING_RULES, 'rules = [{ child = "C", inside = "A" }, '
+                                   '{ child = "B", where = "x**2 + y**2 > 30**2" }]'),
+                      "feature 'boundary'", "unowned: no rule holds at ("),
+    "curve-outside": ((RING_B, 'radius = 40\ncomposition = [0, 1]'),
+                      "feature 'B'", "curve lies outside the domain at (40, 0), 2 from"),
+}
+
+
+def _mesh_cli(tmp_path, text, capsys):
+    from hetmesh.cli import main
+
+    model = tmp_path / "bad.toml"
+    model.write_text(text, encoding="utf-8")
+    out = tmp_path / "out.vtu"
+    code = main(["mesh", str(model), "--threshold", "0.1", "-o", str(out)])
+    captured = capsys.readouterr()
+    return code, captured.err, out
+
+
+@pytest.mark.parametrize("case", sorted(BAD_RING))
+def test_bad_ring_through_cli(case, tmp_path, capsys):
+    (old, new), names, says = BAD_RING[case]
+    code, err, out = _mesh_cli(tmp_path, _edit(RING.read_text(), old, new), capsys)
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    assert lines[0].startswith("hetmesh: error: ") and "bad.toml: " in lines[0], lines[0]
+    assert names in lines[0] and says in lines[0], lines[0]
+    assert not out.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["bad.toml"]
+
+
+def test_good_ring_through_cli(tmp_path, capsys):
+    # the same helper on the unedited model writes the mesh (the cases above are not
+    # failing for another reason); a complete default-free rule list is accepted
+    text = _edit(RING.read_text(), RING_RULES,
+                 'rules = [{ child = "C", inside = "A" }, { child = "B", outside = "A" }]')
+    code, err, out = _mesh_cli(tmp_path, text, capsys)
+    assert code == 0, err
+    assert out.exists()
+
+
+def test_point_feature_outside_the_domain():
+    data = _ring_data()
+    data["material"]["features"].append({"id": "P", "kind": "point", "at": [0, 50],
+                                         "composition": [0.5, 0.5]})
+    _feature(data, "ring")["distances"]["d_p"] = "P"      # the root now depends on P
+    with pytest.raises(MaterialError, match=r"^r.toml: feature 'P': point lies outside the "
+                                            r"domain at \(0, 50\), 12 from its boundary$"):
+        parse_model(data, "r.toml")
+    _feature(data, "P")["at"] = [0, 4]                    # in the hole
+    with pytest.raises(MaterialError, match=r"feature 'P': point lies outside the domain "
+                                            r"at \(0, 4\), 4 from"):
+        parse_model(data, "r.toml")
+    _feature(data, "P")["at"] = [0, 8]                    # on the hole's circle: fine
+    parse_model(data, "r.toml")
+    # a feature no evaluation reaches is not checked against the domain
+    del _feature(data, "ring")["distances"]["d_p"]
+    _feature(data, "P")["at"] = [0, 50]
+    parse_model(data, "r.toml")
+
+
+def test_curve_outside_the_plate():
+    data = tomllib.loads(PLATE.read_text())
+    _feature(data, "top").update({"from": [60, 21], "to": [0, 21]})
+    with pytest.raises(MaterialError, match=r"^p.toml: feature 'top': curve lies outside the "
+                                            r"domain at \(60, 21\), 1 from its boundary$"):
+        parse_model(data, "p.toml")
+    # on the boundary to well within the tolerance (1e-6 x diameter): fine
+    _feature(data, "top").update({"from": [60, 20 + 1e-9], "to": [0, 20 + 1e-9]})
+    parse_model(data, "p.toml")
+
+
+def test_select_without_default_never_uses_owner_minus_one():
+    c = CurveFeature("c", Arc.circle((0, 0), 1.0), [1.0, 0.0])
+    b = CurveFeature("b", Arc.circle((0, 0), 3.0), [0.0, 1.0])
+    a = CurveFeature("a", Arc.circle((0, 0), 2.0), [0.5, 0.5])
+    inside_a = inside_predicate(a.curves(), "a")
+    sel = SelectFeature("s", [c, b], [(0, inside_a), (1, lambda p: np.hypot(*p.T) > 2.5)])
+    assert sel.owners(np.array([[0.0, 1.5], [0.0, 2.2], [0.0, 2.7]])).tolist() == [0, -1, 1]
+    ok = np.array([[0.0, 1.5], [0.0, 2.7]])
+    assert sel.region(ok).tolist() == [0, 1]
+    assert sel.evaluate(ok).dist.tolist() == pytest.approx([0.5, 0.3])
+    for call in (sel.region, sel.evaluate, sel.distance):
+        with pytest.raises(MaterialError, match=r"^feature 's': region rule leaves part of the "
+                                                r"domain unowned: no rule holds at \(0, 2.2\)"):
+            call(np.array([[0.0, 1.5], [0.0, 2.2], [0.0, 2.7], [2.2, 0.0]]))
+    f = HFTField(BlendFeature("r", a, sel, {"d_int": a, "d_b": sel}, [("d_b/(d_int + d_b)", None)]),
+                 ["ceramic", "metal"])
+    with pytest.raises(MaterialError, match="feature 's': region rule"):
+        f.composition([[0.0, 2.2]])
 
 
 # ------------------------------------------------------------------ timing (printed)
