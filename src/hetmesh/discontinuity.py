@@ -373,8 +373,11 @@ def fit_curves(points: np.ndarray, tol: float, name: str = DISCONTINUITY) -> lis
     """Arcs and segments through ``points`` (ordered; ends kept exactly), each piece within
     ``tol`` of the points it replaces; greedy, each piece as long as the tolerance allows."""
     p = np.asarray(points, dtype=float)
+    n = len(p)
+    if n > 3 and np.array_equal(p[0], p[-1]):  # a closed curve: two open halves
+        return fit_curves(p[:n // 2 + 1], tol, name) + fit_curves(p[n // 2:], tol, name)
     out = []
-    i, n = 0, len(p)
+    i = 0
     while i < n - 1:
         step, j = 1, i + 1
         while j < n - 1:  # grow geometrically, then bisect back to the longest fitting piece
