@@ -18,12 +18,17 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from .geometry import pslg_from_parameters
+from .mesh import edge_keys
 from .metrics import circumcircles
 from . import cvt
 from .density import background_points, estimate_elements
-from .refine import (FREE, Context, WorkSet, add_free_points, project_to_level, row_tangent,
+from .refine import (FREE, Context, WorkSet, add_free_points, edge_params, project_to_level,
+                     row_tangent,
                      slide_along_rows, smooth, thin_candidates_mask, triangulate,
                      workset_from_pslg)
 
@@ -48,7 +53,8 @@ def _row_step_at(ctx: Context, pts: np.ndarray, dprime: float) -> np.ndarray:
 
 def _anchor(ctx: Context) -> tuple[float, float]:
     """The level the rows count from and their direction: the extreme value of f that the
-    boundary holds over the longer stretch (a boundary that is a level curve is a row)."""
+    boundary holds over the longer stretch (a boundary that is a level curve is a row).
+    The fallback of pieces without a level curve on their border (:func:`_piece_levels`)."""
     dom = ctx.domain
     ts = np.linspace(0, 1, 401)
     bpts, blen = [], []
@@ -68,52 +74,224 @@ def _anchor(ctx: Context) -> tuple[float, float]:
     return (fmax, -1.0) if at_max >= at_min else (fmin, 1.0)
 
 
-def _crossings(ctx: Context, anchor: float, sign: float, dprime: float):
-    """Where the level curves cross every curve: (curve id, t, level) arrays."""
-    cid, tt, lv = [], [], []
+def _left_normal(c, t: np.ndarray) -> np.ndarray:
+    tg = c.tangent(t)
+    return np.column_stack([-tg[:, 1], tg[:, 0]])
+
+
+def _side_eps(ctx: Context) -> float:
+    """How far off an interface f is evaluated for one side of it (f may jump across)."""
+    return 1e-5 * ctx.domain.diameter
+
+
+def _side_points(ctx: Context, k: int, t: np.ndarray, side: int) -> np.ndarray:
+    """Points of curve ``k`` at parameters ``t``; ``side`` +1/-1: just off it, to the left /
+    right of the direction of increasing t; 0: on it."""
+    c = ctx.curves[k]
+    p = c.point(t)
+    if side:
+        p = p + (side * _side_eps(ctx)) * _left_normal(c, t)
+    return p
+
+
+class _Pieces:
+    """The connected pieces of the domain between interface curves (from the CDT of the
+    initial PSLG work set), and which piece lies on either side of every curve point.
+
+    Interface curves may carry a jump of f: rows and gradient paths stay in one piece, and
+    each piece counts its levels from its own anchor (:func:`_piece_levels`)."""
+
+    def __init__(self, ctx: Context, ws: WorkSet):
+        tris = triangulate(ws, ctx)
+        n = ws.n
+        nt = len(tris)
+        # directed edges of the counter-clockwise triangles: a triangle is left of its edges
+        a = tris[:, [0, 1, 2]].ravel()
+        b = tris[:, [1, 2, 0]].ravel()
+        tid = np.repeat(np.arange(nt), 3)
+        key = a.astype(np.int64) * n + b
+        order = np.argsort(key)
+        skey = key[order]
+
+        def left_of(u, v):  # the triangle left of the directed edge u -> v, or -1
+            q = u.astype(np.int64) * n + v
+            pos = np.minimum(np.searchsorted(skey, q), len(skey) - 1)
+            return np.where(skey[pos] == q, tid[order[pos]], -1)
+
+        nb = left_of(b, a)
+        iface = ~ctx.boundary_curve[ws.ecurve]
+        if iface.any():
+            ik = edge_keys(ws.E[iface, 0], ws.E[iface, 1])
+            cut = np.isin(edge_keys(a, b), ik)
+        else:
+            cut = np.zeros(len(a), bool)
+        link = (nb >= 0) & ~cut
+        if nt:
+            g = coo_matrix((np.ones(int(link.sum())), (tid[link], nb[link])), shape=(nt, nt))
+            self.n, lab = connected_components(g, directed=False)
+        else:
+            self.n, lab = 0, np.zeros(0, np.int64)
+        lt = left_of(ws.E[:, 0], ws.E[:, 1])
+        rt = left_of(ws.E[:, 1], ws.E[:, 0])
+        pl = np.where(lt >= 0, lab[np.maximum(lt, 0)], -1)
+        pr = np.where(rt >= 0, lab[np.maximum(rt, 0)], -1)
+        et = edge_params(ws, ctx)
+        up = et[:, 1] >= et[:, 0]  # E[:, 0] -> E[:, 1] runs along increasing t
+        self._curves = []
+        for k in range(len(ctx.curves)):
+            s = np.flatnonzero(ws.ecurve == k)
+            t0 = np.minimum(et[s, 0], et[s, 1])
+            o = np.argsort(t0, kind="stable")
+            s = s[o]
+            left = np.where(up[s], pl[s], pr[s])
+            right = np.where(up[s], pr[s], pl[s])
+            self._curves.append((t0[o], left, right))
+
+    def at(self, k: int, t: np.ndarray, side: int) -> np.ndarray:
+        """Piece left (``side`` +1) or right (-1) of curve ``k`` at parameters ``t`` (-1: outside)."""
+        t0, left, right = self._curves[k]
+        if len(t0) == 0:
+            return np.full(len(t), -1, np.int64)
+        i = np.clip(np.searchsorted(t0, t, side="right") - 1, 0, len(t0) - 1)
+        return (left if side > 0 else right)[i]
+
+    def sides(self, k: int, ctx: Context):
+        """The sides of curve ``k`` that face the domain: ``[(side, eval side)]``; f is
+        evaluated on a boundary curve itself and just off an interface on each side."""
+        if ctx.boundary_curve[k]:
+            mid = np.array([0.5])
+            inner = 1 if self.at(k, mid, 1)[0] >= 0 else -1
+            return [(inner, 0)]
+        return [(1, 1), (-1, -1)]
+
+
+_STRIDE = 8.0  # level keys: piece * _STRIDE + level (levels lie within (-2, 3))
+
+
+def _piece_levels(ctx: Context, pieces: _Pieces, dprime: float):
+    """The row levels of every piece, as sorted keys ``piece * _STRIDE + level`` and levels.
+
+    A piece counts its levels ``anchor -/+ k * dprime`` from the level curve on its border
+    that carries the most row nodes (the largest integral of |grad f| along it: the rows
+    next to it keep their full spacing where elements are smallest); without one, from the
+    boundary's extreme value (:func:`_anchor`). Levels closer than 0.02 dprime to another
+    level curve of the border are dropped (they would run along it), and where the last
+    level before another level curve leaves a gap under dprime / 4, the last two gaps are
+    evened out instead of leaving a thin strip."""
+    a0, s0 = _anchor(ctx)
+    ts = (np.arange(400) + 0.5) / 400
+    holders = [[] for _ in range(pieces.n)]
+    vals = []
     for k, c in enumerate(ctx.curves):
-        n = 64
-        ts = np.linspace(0, 1, n + 1)
-        g = np.linalg.norm(ctx.grad_f(c.point(ts)), axis=1).max()
-        # resolve the rows: at least 8 samples per row crossing
-        n = int(min(200_000, max(256, 8 * c.length * g / dprime)))
-        ts = np.linspace(0, 1, n + 1)
-        f = ctx.f(c.point(ts))
-        u = (f - anchor) * sign / dprime  # row coordinate: crossing of row k where u == k
-        fl = np.floor(u + 1e-12)
-        i = np.flatnonzero(fl[1:] != fl[:-1])
-        if i.size == 0:
-            continue
-        lo = np.minimum(fl[i], fl[i + 1]) + 1
-        hi = np.maximum(fl[i], fl[i + 1])
-        cnt = (hi - lo + 1).astype(np.int64)
-        seg = np.repeat(i, cnt)
-        kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-        keep = kk >= 1
-        seg, kk = seg[keep], kk[keep]
-        level = anchor + sign * kk * dprime
-        a, b = ts[seg], ts[seg + 1]
-        fa = f[seg] - level
-        for _ in range(40):  # bisection on t, vectorised
-            m = 0.5 * (a + b)
-            fm = ctx.f(c.point(m)) - level
-            left = np.sign(fm) == np.sign(fa)
-            a = np.where(left, m, a)
-            fa = np.where(left, fm, fa)
-            b = np.where(left, b, m)
-        cid.append(np.full(len(a), k))
-        tt.append(0.5 * (a + b))
-        lv.append(level)
+        for side, ev in pieces.sides(k, ctx):
+            pc = pieces.at(k, ts, side)
+            f = ctx.f(_side_points(ctx, k, ts, ev))
+            vals.append(f)
+            for p in np.unique(pc[pc >= 0]):
+                m = pc == p
+                if m.sum() < 0.9 * len(ts) or np.ptp(f[m]) > 1e-7:
+                    continue
+                g = np.linalg.norm(ctx.grad_f(_side_points(ctx, k, ts[m], ev)), axis=1)
+                holders[p].append((float(g.sum() * c.length / len(ts)), c.length, float(f[m].mean())))
+    vals.append(ctx.f(background_points(ctx.domain, 100)))
+    vals = np.concatenate(vals)
+    lo, hi = max(float(vals.min()) - dprime, -1.9), min(float(vals.max()) + dprime, 2.9)
+    keys, levs, dps = [], [], []
+    for p in range(pieces.n):
+        hs = sorted(holders[p], key=lambda h: (-h[0], -h[1]))
+        if hs:
+            a = hs[0][2]
+            if abs(a - a0) < 1e-7:
+                a = a0  # the boundary's own value (bit-identical rows)
+        else:
+            a = a0
+        kdn = np.arange(1, int(np.floor((a - lo) / dprime)) + 1)
+        kup = np.arange(1, int(np.floor((hi - a) / dprime)) + 1)
+        L = np.concatenate([a - kdn[::-1] * dprime, a + kup * dprime])
+        hv = np.array([h[2] for h in hs]) if hs else np.zeros(0)
+        if len(hv):
+            L = L[np.abs(L[:, None] - hv[None, :]).min(axis=1) > 0.02 * dprime]
+        for v in hv[np.abs(hv - a) > 0.02 * dprime]:
+            between = np.flatnonzero((L > min(a, v)) & (L < max(a, v)))
+            if len(between) == 0:
+                continue
+            j = len(between)
+            last, nxt = (between[-1], between[max(j - 2, 0)]) if v > a else \
+                (between[0], between[min(1, j - 1)])
+            if abs(v - L[last]) < 0.25 * dprime:
+                prev = L[nxt] if len(between) > 1 else a
+                L[last] = 0.5 * (prev + v)
+        L = np.sort(L)
+        keys.append(p * _STRIDE + L)
+        levs.append(L)
+        dps.append(np.full(len(L), dprime))  # each row's spacing in f (traced with it)
+    if not keys:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    return np.concatenate(keys), np.concatenate(levs), np.concatenate(dps)
+
+
+def _crossings(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float):
+    """Where the level curves cross every curve, from the side of each piece along it:
+    (curve id, t, level, side, piece, row spacing) arrays."""
+    cid, tt, lv, sd, pc_out, dp_out = [], [], [], [], [], []
+    for k, c in enumerate(ctx.curves):
+        for side, ev in pieces.sides(k, ctx):
+            n = 64
+            ts = np.linspace(0, 1, n + 1)
+            g = np.linalg.norm(ctx.grad_f(_side_points(ctx, k, ts, ev)), axis=1).max()
+            # resolve the rows: at least 8 samples per row crossing
+            n = int(min(200_000, max(256, 8 * c.length * g / dprime)))
+            ts = np.linspace(0, 1, n + 1)
+            f = ctx.f(_side_points(ctx, k, ts, ev))
+            pc = pieces.at(k, ts, side)
+            idx = np.searchsorted(keys, pc * _STRIDE + f, side="right")
+            i = np.flatnonzero((idx[1:] != idx[:-1]) & (pc[1:] == pc[:-1]) & (pc[1:] >= 0))
+            if i.size == 0:
+                continue
+            lo = np.minimum(idx[i], idx[i + 1])
+            cnt = np.abs(idx[i + 1] - idx[i]).astype(np.int64)
+            seg = np.repeat(i, cnt)
+            kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+            level = levs[kk]
+            a, b = ts[seg], ts[seg + 1]
+            fa = f[seg] - level
+            for _ in range(40):  # bisection on t, vectorised
+                m = 0.5 * (a + b)
+                fm = ctx.f(_side_points(ctx, k, m, ev)) - level
+                left = np.sign(fm) == np.sign(fa)
+                a = np.where(left, m, a)
+                fa = np.where(left, fm, fa)
+                b = np.where(left, b, m)
+            cid.append(np.full(len(a), k))
+            tt.append(0.5 * (a + b))
+            lv.append(level)
+            sd.append(np.full(len(a), side))
+            pc_out.append(pc[seg])
+            dp_out.append(dps[kk])
     if not cid:
-        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
-    return np.concatenate(cid), np.concatenate(tt), np.concatenate(lv)
+        z = np.zeros(0)
+        return z.astype(np.int64), z, z, z.astype(np.int64), z.astype(np.int64), z
+    return (np.concatenate(cid), np.concatenate(tt), np.concatenate(lv), np.concatenate(sd),
+            np.concatenate(pc_out), np.concatenate(dp_out))
+
+
+def _sagitta(ctx: Context, chord_tol: float) -> float:
+    """The chord tolerance of the rows' boundary sampling: ``chord_tol``, or less where the
+    chords' lost area (~2/3 sagitta x length of the curved boundary) would exceed 1.5e-3 of
+    the domain's area (3/4 of the tolerance of the area check in ``adapt.finish``): next to a
+    flat zone the repair loop never splits these edges (a ring's circles)."""
+    arcs = sum(c.length for c, isb in zip(ctx.curves, ctx.boundary_curve)
+               if isb and hasattr(c, "radius"))
+    if arcs == 0:
+        return chord_tol
+    return min(chord_tol, 1.5e-3 * ctx.domain.area / (2.0 / 3.0 * arcs))
 
 
 def _curve_params(ctx: Context, cid, tt, dprime, chord_tol):
     """Per-curve sorted parameters: 0, crossings, 1, and between them nodes at the local row
     step (and the chord tolerance, and the minimum interval counts, of :mod:`geometry`)."""
     batch = ctx.domain.curve_batch
-    cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
+    cap, nmin = batch.max_step(_sagitta(ctx, chord_tol)), batch.min_intervals()
     out = []
     for k, c in enumerate(ctx.curves):
         t = np.sort(tt[cid == k])
@@ -158,20 +336,64 @@ def _distances(ctx: Context, pts: np.ndarray):
     return db, di
 
 
-def _trace_rows(ctx: Context, cid, tt, lv, dprime, budget: int):
-    """Trace every level curve inwards from its boundary crossings; returns (points, levels)."""
-    seeds = np.array([ctx.curves[c].point(np.array([t]))[0] for c, t in zip(cid, tt)]) \
-        if len(cid) else np.zeros((0, 2))
-    isb = ctx.boundary_curve[cid] if len(cid) else np.zeros(0, bool)
-    seeds, lv = seeds[isb], lv[isb]
-    if len(seeds) == 0:
-        return np.zeros((0, 2)), np.zeros(0)
-    gr = ctx.grad_f(seeds)
-    tau = row_tangent(gr)
-    s = _row_step(ctx, np.linalg.norm(gr, axis=1), dprime)
-    probe = seeds + 0.05 * s[:, None] * tau
-    inward = ctx.inside(probe)
-    x, lev = seeds[inward], lv[inward]
+def _orient(p, q, r):
+    return (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
+
+
+def _crosses_interface(ctx: Context, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
+    """Whether the steps ``xa -> xb`` cross an interface curve (rows and paths stop there)."""
+    out = np.zeros(len(xa), bool)
+    if len(xa) == 0 or ctx.boundary_curve.all():
+        return out
+    ln = np.linalg.norm(xb - xa, axis=1)
+    for c, isb in zip(ctx.curves, ctx.boundary_curve):
+        if isb:
+            continue
+        near = np.flatnonzero(c.distance(xb) <= ln * (1 + 1e-9))
+        if near.size == 0:
+            continue
+        a, b = xa[near], xb[near]
+        if hasattr(c, "radius"):  # circular arc: segment-circle intersections on the arc
+            d = b - a
+            m = a - np.asarray(c.center)
+            A = (d * d).sum(1)
+            B = 2 * (m * d).sum(1)
+            C = (m * m).sum(1) - c.radius ** 2
+            disc = B * B - 4 * A * C
+            hit = np.zeros(len(near), bool)
+            ok = (disc >= 0) & (A > 0)
+            sq = np.sqrt(np.where(ok, disc, 0.0))
+            for sgn in (-1.0, 1.0):
+                u = (-B + sgn * sq) / np.where(A > 0, 2 * A, 1.0)
+                on = ok & (u >= 0) & (u <= 1)
+                y = a + u[:, None] * d
+                hit |= on & (c.distance(y) < 1e-9 * c.radius + 1e-12)
+        elif hasattr(c, "p0"):  # segment: proper segment-segment intersection
+            p0 = np.broadcast_to(np.asarray(c.p0, float), a.shape)
+            p1 = np.broadcast_to(np.asarray(c.p1, float), a.shape)
+            hit = ((np.sign(_orient(p0, p1, a)) != np.sign(_orient(p0, p1, b)))
+                   & (np.sign(_orient(a, b, p0)) != np.sign(_orient(a, b, p1))))
+        else:  # any other curve: the side of the nearest curve point changes
+            tb = c.project(b)
+            pb, tg = c.point(tb), c.tangent(tb)
+            sa = np.sign(tg[:, 0] * (a - pb)[:, 1] - tg[:, 1] * (a - pb)[:, 0])
+            sb = np.sign(tg[:, 0] * (b - pb)[:, 1] - tg[:, 1] * (b - pb)[:, 0])
+            hit = sa * sb < 0
+        out[near] |= hit
+    return out
+
+
+def _trace_rows(ctx: Context, x0: np.ndarray, lev: np.ndarray, dirn: np.ndarray,
+                dprime: np.ndarray, budget: int):
+    """Trace the level curves f = ``lev`` from the points ``x0`` along ``dirn`` times their
+    tangent (predictor-corrector) until they reach a boundary or interface curve, leave the
+    domain, or close (back near their start); ``dprime`` is each row's spacing in f.
+    Returns (points, levels, closed per start); the starts themselves are not returned."""
+    closed_out = np.zeros(len(x0), bool)
+    if len(x0) == 0:
+        return np.zeros((0, 2)), np.zeros(0), closed_out
+    x, lev, dirn = x0.copy(), lev.copy(), np.asarray(dirn, float)
+    dpr = np.broadcast_to(np.asarray(dprime, float), lev.shape)
     out_p, out_l = [], []
     total = 0
     active = np.ones(len(x), bool)
@@ -180,31 +402,157 @@ def _trace_rows(ctx: Context, cid, tt, lv, dprime, budget: int):
     for step in range(100_000):
         if not active.any() or total > budget:
             break
-        xa, la = x[active], lev[active]
+        ia = np.flatnonzero(active)
+        xa, la, da = x[ia], lev[ia], dirn[ia, None]
         g = ctx.grad_f(xa)
         gn = np.linalg.norm(g, axis=1)
-        h = _row_step(ctx, gn, dprime)
-        xm = xa + 0.5 * h[:, None] * row_tangent(g)  # midpoint predictor
-        tm = row_tangent(ctx.grad_f(xm))
+        h = _row_step(ctx, gn, dpr[ia])
+        xm = xa + 0.5 * h[:, None] * da * row_tangent(g)  # midpoint predictor
+        tm = da * row_tangent(ctx.grad_f(xm))
         xn = project_to_level(ctx, xa + h[:, None] * tm, la, iters=3)
         moved = np.linalg.norm(xn - xa, axis=1)
         inside = ctx.inside(xn)
         db, di = _distances(ctx, xn)
         ok = inside & (gn > 1e-12) & (moved > 0.2 * h) & (moved < 3 * h)
+        ok &= ~_crosses_interface(ctx, xa, xn)
         # closed level curves: stop when back near the start
-        travelled[active] += moved
-        closed = (travelled[active] > 3 * h) & (np.linalg.norm(xn - start[active], axis=1) < 0.6 * h)
+        travelled[ia] += moved
+        closed = (travelled[ia] > 3 * h) & (np.linalg.norm(xn - start[ia], axis=1) < 0.6 * h)
+        closed_out[ia[closed]] = True
         keep_node = ok & (db > 0.55 * h) & (di > 0.55 * h) & ~closed
         out_p.append(xn[keep_node])
         out_l.append(la[keep_node])
         total += int(keep_node.sum())
-        cont = ok & ~closed & ((db > 0.3 * h) | (step < 2))
-        ia = np.flatnonzero(active)
+        cont = ok & ~closed & (((db > 0.3 * h) & (di > 0.3 * h)) | (step < 2))
         x[ia] = xn
         active[ia[~cont]] = False
     if not out_p:
-        return np.zeros((0, 2)), np.zeros(0)
-    return np.concatenate(out_p), np.concatenate(out_l)
+        return np.zeros((0, 2)), np.zeros(0), closed_out
+    return np.concatenate(out_p), np.concatenate(out_l), closed_out
+
+
+def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float):
+    """Points on the levels found along gradient lines (steepest ascent and descent paths
+    started just inside every curve, on each side): they find the level curves that cross
+    no curve at all (closed curves around a hole or an extremum). Returns (points, levels,
+    row spacings)."""
+    starts, spc = [], []
+    for k, c in enumerate(ctx.curves):
+        n = int(np.clip(np.ceil(2 * c.length / ctx.h_max), 4, 64))
+        ts = (np.arange(n) + 0.5) / n
+        for side in (1, -1):
+            pc = pieces.at(k, ts, side)
+            ok = pc >= 0
+            if ok.any():
+                starts.append(_side_points(ctx, k, ts[ok], side))
+                spc.append(pc[ok])
+    if not starts:
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+    x = np.vstack(starts)
+    pc = np.concatenate(spc)
+    ok = ctx.inside(x)
+    x, pc = x[ok], pc[ok]
+    x = np.vstack([x, x])
+    pc = np.concatenate([pc, pc])
+    dirn = np.repeat([1.0, -1.0], len(x) // 2)
+    f = ctx.f(x)
+    kx = np.searchsorted(keys, pc * _STRIDE + f, side="right")
+    out_p, out_l, out_d = [], [], []
+    max_steps = int(4.0 / dprime + 8 * ctx.domain.diameter / ctx.h_max + 100)
+    for _ in range(max_steps):
+        if len(x) == 0:
+            break
+        g = ctx.grad_f(x)
+        gn = np.linalg.norm(g, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ds = np.minimum(0.5 * dprime / gn, 0.25 * ctx.h_max)
+            xn = x + (dirn * ds / gn)[:, None] * g
+        good = gn > 1e-14
+        xn = np.where(good[:, None], xn, x)
+        fn = ctx.f(xn)
+        ok = good & ctx.inside(xn) & (dirn * (fn - f) > 0)
+        ok &= ~_crosses_interface(ctx, x, xn)
+        kn = np.searchsorted(keys, pc * _STRIDE + fn, side="right")
+        cr = np.flatnonzero(ok & (kn != kx))
+        if cr.size:
+            lo = np.minimum(kx[cr], kn[cr])
+            cnt = np.abs(kn[cr] - kx[cr])
+            i = np.repeat(cr, cnt)
+            kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+            L = levs[kk]
+            u = (L - f[i]) / (fn[i] - f[i])
+            p = x[i] + u[:, None] * (xn[i] - x[i])
+            out_p.append(project_to_level(ctx, p, L, iters=3))
+            out_l.append(L)
+            out_d.append(dps[kk])
+        x, f, kx, pc, dirn = xn[ok], fn[ok], kn[ok], pc[ok], dirn[ok]
+    if not out_p:
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+    return np.vstack(out_p), np.concatenate(out_l), np.concatenate(out_d)
+
+
+def _known(rows: np.ndarray, rlev: np.ndarray, pts: np.ndarray, lev: np.ndarray,
+           radius: np.ndarray) -> np.ndarray:
+    """Which points have a row node of their own level within ``radius``."""
+    if len(rows) == 0 or len(pts) == 0:
+        return np.zeros(len(pts), bool)
+    k = min(8, len(rows))
+    d, j = cKDTree(rows).query(pts, k=k)
+    d, j = d.reshape(len(pts), k), j.reshape(len(pts), k)
+    same = np.abs(rlev[j] - lev[:, None]) <= 1e-9 * np.maximum(1.0, np.abs(lev[:, None]))
+    return ((d < radius[:, None]) & same).any(axis=1)
+
+
+def _place_rows(ctx: Context, pieces: _Pieces, keys, levs, dps, cross, dprime: float,
+                budget: int):
+    """All row nodes: traced inwards from the level crossings of the boundary and of both
+    sides of every interface, then from the gradient-line seeds on levels not traced yet
+    (one seed per level and round, until every seed lies next to a row of its level)."""
+    cid, tt, lv, sd, pcs, cdp = cross
+    rows, rlev = [np.zeros((0, 2))], [np.zeros(0)]
+    if len(cid):
+        seeds = np.vstack([_side_points(ctx, int(k), np.array([t]), 0) for k, t in zip(cid, tt)])
+        gr = ctx.grad_f(seeds)
+        tau = row_tangent(gr)
+        s = _row_step(ctx, np.linalg.norm(gr, axis=1), dprime)
+        isb = ctx.boundary_curve[cid]
+        inward = np.zeros(len(cid), bool)
+        if isb.any():  # boundary: the row starts where its tangent points into the domain
+            inward[isb] = ctx.inside(seeds[isb] + 0.05 * s[isb, None] * tau[isb])
+        for k in np.unique(cid[~isb]):  # interface: into the side the crossing was found on
+            m = np.flatnonzero((cid == k) & ~isb)
+            nrm = sd[m, None] * _left_normal(ctx.curves[k], tt[m])
+            inward[m] = (tau[m] * nrm).sum(1) > 0
+        p, l, _ = _trace_rows(ctx, seeds[inward], lv[inward], np.ones(int(inward.sum())),
+                              cdp[inward], budget)
+        rows.append(p)
+        rlev.append(l)
+    with ctx.timed("seeds"):
+        sp, sl, sd_ = _gradient_seeds(ctx, pieces, keys, levs, dps, dprime)
+    if len(sp):
+        db, di = _distances(ctx, sp)
+        h = _row_step_at(ctx, sp, dprime)
+        far = (db > 0.55 * h) & (di > 0.55 * h)
+        sp, sl, sd_ = sp[far], sl[far], sd_[far]
+    for _ in range(64):
+        if len(sp) == 0 or sum(len(r) for r in rows) > budget:
+            break
+        R, RL = np.vstack(rows), np.concatenate(rlev)
+        new = ~_known(R, RL, sp, sl, 0.75 * _row_step_at(ctx, sp, dprime))
+        sp, sl, sd_ = sp[new], sl[new], sd_[new]
+        if len(sp) == 0:
+            break
+        _, first = np.unique(sl, return_index=True)
+        pick = np.zeros(len(sp), bool)
+        pick[first] = True
+        x, l, d = sp[pick], sl[pick], sd_[pick]
+        sp, sl, sd_ = sp[~pick], sl[~pick], sd_[~pick]
+        p1, l1, closed = _trace_rows(ctx, x, l, np.ones(len(x)), d, budget)
+        p2, l2, _ = _trace_rows(ctx, x[~closed], l[~closed], -np.ones(int((~closed).sum())),
+                                d[~closed], budget)
+        rows += [x, p1, p2]
+        rlev += [l, l1, l2]
+    return np.vstack(rows), np.concatenate(rlev)
 
 
 def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
@@ -283,18 +631,22 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
 def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     """Place nodes on rows along the iso-composition curves (see the module docstring)."""
     dprime = BETA * ctx.threshold
-    anchor, sign = _anchor(ctx)
-    cid, tt, lv = _crossings(ctx, anchor, sign, dprime)
-    ws = _pslg_workset(ctx, _curve_params(ctx, cid, tt, dprime, chord_tol))
+    # the pieces between interfaces come from the curves sampled without the crossings
+    ws0 = _pslg_workset(ctx, _curve_params(ctx, np.zeros(0, np.int64), np.zeros(0), dprime,
+                                           chord_tol))
+    pieces = _Pieces(ctx, ws0)
+    keys, levs, dps = _piece_levels(ctx, pieces, dprime)
+    cross = _crossings(ctx, pieces, keys, levs, dps, dprime)
+    ws = _pslg_workset(ctx, _curve_params(ctx, cross[0], cross[1], dprime, chord_tol))
     budget = int(2 * estimate_elements(ctx.field, ctx.domain, ctx.threshold, ctx.h_max)) + 1000
     with ctx.timed("rows"):
-        rows, rlev = _trace_rows(ctx, cid, tt, lv, dprime, budget)
+        rows, rlev = _place_rows(ctx, pieces, keys, levs, dps, cross, dprime, budget)
     if len(rows):
         # rows of one level traced twice (from both ends) or crossing: thin them
         keep = thin_candidates_mask(ws, rows, 0.4 * _row_step_at(ctx, rows, dprime))
         add_free_points(ws, rows[keep], level=rlev[keep])
-    log.info("layers: %d boundary nodes, %d row nodes", int((ws.vcurve != FREE).sum()),
-             int(np.isfinite(ws.level).sum()))
+    log.info("layers: %d pieces, %d boundary nodes, %d row nodes", pieces.n,
+             int((ws.vcurve != FREE).sum()), int(np.isfinite(ws.level).sum()))
     tris = _fill(ws, ctx, dprime)
     tris = smooth(ws, ctx, tris, iters=4, retriangulate_every=2)
     stagger(ws, ctx, tris, dprime, iters=STAGGER_ITERS)
