@@ -555,6 +555,57 @@ def test_select_without_default_never_uses_owner_minus_one():
         f.composition([[0.0, 2.2]])
 
 
+# ------------------------------------------------------------------ docs/model-format.md
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "model-format.md"
+
+
+def _hft_docs_section() -> str:
+    text = DOCS.read_text(encoding="utf-8")
+    return text[text.index("## Feature trees"):text.index("## Models in code")]
+
+
+@pytest.mark.skipif(not DOCS.exists(), reason="docs/ not next to the tests")
+def test_docs_hft_models_load():
+    import re
+
+    blocks = [b for b in re.findall(r"```toml\n(.*?)```", _hft_docs_section(), re.S)
+              if "[domain" in b]
+    assert len(blocks) == 2
+    deeper = parse_model(tomllib.loads(blocks[0]), "deeper.toml")
+    # plate = W M_top + (1 - W) M_sides, W = (1 - d_t/4)^2, sides = d_r/10 M_left + ...
+    x, y = 2.0, 1.0
+    w = (1 - (4 - y) / 4) ** 2
+    top = 0.2 + (10 - x) / 10 * (0.6 - 0.2)        # graded from (10, 4) to (0, 4)
+    sides = (10 - x) / 10 * 1.0
+    assert deeper.material.composition([[x, y]])[0, 0] == pytest.approx(w * top + (1 - w) * sides)
+    assert deeper.material.region_names == ["top|left|right"]
+    disc = parse_model(tomllib.loads(blocks[1]), "disc.toml")
+    assert disc.material.composition([[3.0, 4.0]])[0, 0] == pytest.approx(0.5)
+
+
+@pytest.mark.skipif(not DOCS.exists(), reason="docs/ not next to the tests")
+def test_docs_hft_error_lines_are_real():
+    section = _hft_docs_section()
+    shown = section[section.index("### Errors"):].split("```")[1].strip().splitlines()
+    edits = [
+        lambda d: _feature(d, "boundary")["rules"][1].update(child="ring"),
+        lambda d: _feature(d, "ring")["distances"].update(d_b="boundry"),
+        lambda d: _feature(d, "A").update(composition=[0.4, 0.3, 0.3]),
+        lambda d: _feature(d, "ring").update(weight="1.5*(d_b/(d_int + d_b))**2"),
+        lambda d: _feature(d, "boundary").update(rules=[{"child": "C", "inside": "A"}]),
+        lambda d: _feature(d, "B").update(radius=40),
+    ]
+    got = []
+    for edit in edits:
+        data = _ring_data()
+        edit(data)
+        with pytest.raises((ModelFileError, MaterialError)) as info:
+            parse_model(data, "m.toml")
+        got.append(str(info.value))
+    assert got == shown
+
+
 # ------------------------------------------------------------------ timing (printed)
 
 def test_timing_plate_1m(plate, capsys):

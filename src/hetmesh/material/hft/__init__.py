@@ -10,8 +10,9 @@ loop over points):
 * **Parent features** choose one child per point: ``nearest`` (alias ``composite``; the
   child holding the nearest point, as for the bottom composite curve of case study 3) or
   ``select`` (an ordered rule list; the first rule whose predicate holds wins, e.g. "inside
-  interface A -> circle C, else circle B" for the ring of Fig. 7). A parent of curves is
-  itself a curve: its distance is that of the chosen child.
+  interface A -> circle C, else circle B" for the ring of Fig. 7; without a default rule
+  the rules must own every point of the domain). A parent of curves is itself a curve: its
+  distance is that of the chosen child.
 * **Blend (region) features** mix two features through a weight
   ``f = W M_1 + (1 - W) M_2`` (Eqs. 19, 27), ``W`` a formula of named distances (``d_b``,
   ``d_int``, ...), optionally a different ``W`` per subregion (Eq. 20).
@@ -19,7 +20,8 @@ loop over points):
 Subregions and discontinuities
 ------------------------------
 Every feature has ``n_regions`` subregions: 1 for a leaf, the sum over its children for a
-parent, ``n_1 * n_2`` for a blend (id ``r_1 * n_2 + r_2``). :meth:`HFTField.region` gives the
+parent (1 for a *uniform* ``nearest``, whose children all carry the same constant
+composition), ``n_1 * n_2`` for a blend (id ``r_1 * n_2 + r_2``). :meth:`HFTField.region` gives the
 subregion owning each point and :attr:`HFTField.region_names` names them by their leaves
 (``"BCD|MN"``). Inside one subregion the field is smooth; where ownership changes it may
 jump (material discontinuities). ``composition(points, region=r)`` evaluates the smooth
@@ -74,8 +76,9 @@ Model file schema (``[material] type = "hft"``)
 
     [[material.features]]
     id = "boundary"
-    kind = "select"                       # first matching rule wins; the last rule has no
-    rules = [                             # condition (the default)
+    kind = "select"                       # first matching rule wins; a rule without a
+    rules = [                             # condition is a default (optional, but the rules
+                                          # must then own the whole domain)
       { child = "C", inside = "A" },      # inside / outside = id of a closed curve feature
       { child = "B", where = "x > 100" }, # where = a condition in x, y (and parameters)
       { child = "B" },
@@ -92,11 +95,14 @@ Model file schema (``[material] type = "hft"``)
                                           # the first rule whose owner feature is on the
                                           # subregion's path wins, else `weight`
 
-Formulas may use the model's ``[parameters]``. Errors (one line, naming the feature):
+Formulas may use the model's ``[parameters]``. The full schema, with an example per construct,
+is docs/model-format.md. Errors (one line, naming the feature):
 :class:`~hetmesh.errors.ModelFileError` for unknown keys or kinds, an unknown feature
 reference, a cycle in the tree, a blend used as a curve; :class:`~hetmesh.errors.MaterialError`
-for a composition of the wrong length or not summing to 1, and for a weight leaving [0, 1] on
-the points of :func:`~hetmesh.material.sample_domain` where it applies.
+for a composition of the wrong length or not summing to 1, and, on the points of
+:func:`~hetmesh.material.sample_domain` (:meth:`HFTField.check_domain`), for a weight leaving
+[0, 1], a ``select`` leaving a point unowned, and a leaf the root uses lying outside the
+domain (a point, or one of 64 samples of a curve, farther than 1e-6 x the domain's diameter).
 """
 
 from __future__ import annotations

@@ -540,7 +540,7 @@ class BlendFeature:
         e1, e2 = self._children(p, region)
         W, dW, reg = self._weight(p, e1, e2)
         delta = e1.comp - e2.comp
-        comp = e2.comp + W[:, None] * delta
+        comp = e2.comp + W[:, None] * delta  # Eqs. (19), (27): W M_1 + (1 - W) M_2
         dcomp = delta[:, :, None] * dW[:, None, :]
         dcomp += W[:, None, None] * e1.dcomp
         dcomp += (1.0 - W)[:, None, None] * e2.dcomp
