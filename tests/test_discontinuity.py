@@ -197,3 +197,54 @@ def test_ring_interface_is_not_duplicated():
     assert has_subregions(model.material)
     assert embed_discontinuities(model).domain.interfaces == model.domain.interfaces
     assert trace_discontinuities(model.material, model.domain.bounds)
+
+
+# ------------------------------------------------------------------ seeded random trees
+def _random_tree(seed: int) -> Model:
+    """A plate [0, 2] x [0, 1]: a bottom curve of 2-4 segments (random split points, constant
+    or linear compositions), a top edge, blended by a random weight; half the seeds add a
+    'where' rule switching to another bottom curve right of a random x (more subregions)."""
+    rng = np.random.default_rng(seed)
+
+    def comp():
+        c = rng.uniform(0, 1)
+        return [c, 1 - c]
+
+    def bottom(tag):
+        k = int(rng.integers(2, 5))
+        xs = np.r_[0.0, np.sort(rng.uniform(0.2, 1.8, k - 1)), 2.0]
+        kids = []
+        for i in range(k):
+            seg = Segment((xs[i], 0.0), (xs[i + 1], 0.0))
+            end = comp() if rng.random() < 0.5 else None
+            kids.append(CurveFeature(f"{tag}{i}", seg, comp(), end))
+        return NearestFeature(tag, kids)
+
+    bot = bottom("b")
+    if rng.random() < 0.5:
+        cut = float(rng.uniform(0.5, 1.5))
+        bot = SelectFeature("s", [bottom("c"), bot], [(0, lambda p, c=cut: p[:, 0] > c),
+                                                      (1, None)])
+    top = CurveFeature("top", Segment((2.0, 1.0), (0.0, 1.0)), comp())
+    a = float(rng.uniform(1.0, 5.0))
+    fld = HFTField(BlendFeature("r", bot, top, {"d_b": bot, "d_t": top},
+                                [(f"exp(-{a:.3f}*d_b/(d_b + d_t))", None)]), ["ceramic", "metal"])
+    return Model(name=f"random{seed}", domain=square_domain(w=2.0), material=fld)
+
+
+def test_random_tree_fast():
+    model = _random_tree(3)
+    r = hetmesh.generate(model, 0.15)
+    check_invariants(r, model, 0.15)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("sampling", ["vertices", "dense"])
+def test_random_trees(seed, sampling):
+    model = _random_tree(seed)
+    r = hetmesh.generate(model, 0.1, sampling=sampling)
+    check_invariants(r, model, 0.1)
+    u = hetmesh.uniform(model, 0.15) if seed < 3 and sampling == "vertices" else None
+    if u is not None:
+        check_invariants(u, model, 0.15)

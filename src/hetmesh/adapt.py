@@ -308,6 +308,19 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         cand_min.append(0.05 * elen)
         cand_clash.append(0.5 * elen)
     if badq.any():
+        # a constraint edge already encroached by its own triangle (obtuse opposite angle) is
+        # split first (Ruppert); its triangle gets no off-center this round
+        tb = tris[badq]
+        ang = triangle_angles(ws.P, tb)
+        enc_own = np.full(len(tb), False)
+        for k in range(3):
+            ci = _lookup(skeys, sorder, edge_keys(tb[:, (k + 1) % 3], tb[:, (k + 2) % 3]))
+            hit = (ci >= 0) & (ang[:, k] > 90.0)
+            split_c.append(ci[hit])
+            enc_own |= hit
+        badq = badq.copy()
+        badq[np.flatnonzero(badq)[enc_own]] = False
+    if badq.any():
         cc, r = _off_centers(ws.P, tris[badq], max(afloor, 20.0) + 2.0)
         enc = _encroached(ws, cc, r)
         split_c.append(enc[enc >= 0])
