@@ -35,6 +35,15 @@ def ring():
     return load_model(RING)
 
 
+@pytest.mark.parametrize("path", [RING, COMPLEX, PLATE], ids=lambda p: p.stem)
+def test_examples_say_their_geometry_is_reconstructed(path):
+    text = path.read_text(encoding="utf-8")
+    assert "RECONSTRUCTION (CASES.md section" in text
+    model = load_model(path)
+    assert model.name == path.stem and model.units == "mm"
+    assert hetmesh.example_path(path.stem).resolve() == path.resolve()
+
+
 # ------------------------------------------------------------------ fgm_plate by hand
 
 def _bottom_samples(n=200_001):
