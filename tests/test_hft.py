@@ -544,6 +544,38 @@ def test_curve_outside_the_plate():
     parse_model(data, "p.toml")
 
 
+def test_select_of_blends_checks_only_routed_points():
+    # The ring as a three-level tree: a select of two blends written in the closed forms of
+    # Eqs. (21)-(22). Each W leaves [0, 1] in the other's subregion ((d_C/20)^3 > 1 outside
+    # A) and the outer blend's boundary is a select without default owning only outside A:
+    # both are fine because neither is evaluated there.
+    data = _ring_data()
+    feats = [f for f in data["material"]["features"] if f["id"] in ("A", "B", "C")]
+    feats += [
+        {"id": "outside_A", "kind": "select", "rules": [{"child": "B", "outside": "A"}]},
+        {"id": "inner", "kind": "blend", "first": "A", "second": "C",
+         "distances": {"d_C": "C"}, "weight": "(d_C/20)**3"},
+        {"id": "outer", "kind": "blend", "first": "A", "second": "outside_A",
+         "distances": {"d_B": "outside_A"}, "weight": "(d_B/10)**2"},
+        {"id": "ring", "kind": "select",
+         "rules": [{"child": "inner", "inside": "A"}, {"child": "outer"}]},
+    ]
+    data["material"]["features"] = feats
+    model = parse_model(data, "r.toml")
+    rng = np.random.default_rng(7)
+    rho, a = rng.uniform(8, 38, 500), rng.uniform(0, 2 * np.pi, 500)
+    pts = np.column_stack([rho * np.cos(a), rho * np.sin(a)])
+    f, g = _ring_by_hand(pts)
+    assert np.allclose(model.material.composition(pts)[:, 0], f, atol=1e-12)
+    assert np.allclose(model.material.gradient(pts)[:, 0], g, atol=1e-12)
+    assert model.material.region_names == ["A|C", "A|B"]
+    # the same weights as one blend over the whole domain are rejected
+    feats[-1] = {"id": "ring", "kind": "blend", "first": "A", "second": "C",
+                 "distances": {"d_C": "C"}, "weight": "(d_C/20)**3"}
+    with pytest.raises(MaterialError, match=r"feature 'ring': weight '\(d_C/20\)\*\*3' is 3\.375 "):
+        parse_model(data, "r.toml")
+
+
 def test_select_without_default_never_uses_owner_minus_one():
     c = CurveFeature("c", Arc.circle((0, 0), 1.0), [1.0, 0.0])
     b = CurveFeature("b", Arc.circle((0, 0), 3.0), [0.0, 1.0])

@@ -560,3 +560,16 @@ def _walk(feature, seen=None):
         for f in feature.distances.values():
             yield from _walk(f, seen)
 
+
+def _reached(feature, p):
+    """``(feature, points)`` for every node that evaluating ``feature`` at ``p`` visits, with
+    the points routed to it: a parent passes each child the points it owns, a blend passes
+    all of its points to its two children and its distance features."""
+    yield feature, p
+    if isinstance(feature, _Parent):
+        for _, child, idx in feature._groups(feature._owner(p)):
+            yield from _reached(child, p[idx])
+    elif isinstance(feature, BlendFeature):
+        for child in dict.fromkeys([feature.first, feature.second,
+                                    *feature.distances.values()]):
+            yield from _reached(child, p)

@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import MaterialError
 from ..analytic import _Shiftable, check_constituents
 from ..field import as_points, sample_domain
-from .features import BlendFeature, PointFeature, _Leaf, _walk
+from .features import BlendFeature, PointFeature, _Leaf, _reached, _walk
 
 __all__ = ["HFTField", "OUTSIDE_TOL"]
 
@@ -139,10 +139,10 @@ class HFTField(_Shiftable):
             raise MaterialError(f"{where}: {exc}" if where else str(exc)) from None
 
     def check_weights(self, points, where: str = "") -> None:
-        """Raise :class:`MaterialError` if a blend's W leaves [0, 1] at ``points``."""
-        p = as_points(points)
+        """Raise :class:`MaterialError` if a blend's W leaves [0, 1] at one of ``points``
+        where it applies (a blend under a ``select`` only sees the points routed to it)."""
         pre = f"{where}: " if where else ""
-        for feat in _walk(self.root):
+        for feat, p in _reached(self.root, as_points(points)):
             if not isinstance(feat, BlendFeature):
                 continue
             e1, e2 = feat._children(p, None)
