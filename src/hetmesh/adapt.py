@@ -216,7 +216,7 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
 
 def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
            sampling: str, max_elements: int, history: list, smooth_rounds: int = 6,
-           max_rounds: int = 200, quality_rounds: int = 8, angle_rounds: int = 40, progress=None,
+           max_rounds: int = 200, quality_rounds: int = 8, angle_rounds: int = 64, progress=None,
            check_delta: bool = True):
     """Refine until delta_max < delta_0 (MOR, Eq. 1) and no triangle is below the angle or
     quality floor (GOR). Returns ``(triangles, composition, delta)``.
