@@ -10,6 +10,7 @@ import hetmesh
 from hetmesh.discontinuity import (crossing_elements, embed_discontinuities, embedded_count,
                                    fit_curves, has_subregions, trace_discontinuities)
 from hetmesh.geometry import Arc, CurveBatch, Segment
+from hetmesh.errors import MaterialError
 from hetmesh.io.model import Model
 from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
                                   PointFeature, SelectFeature, inside_predicate)
@@ -248,3 +249,20 @@ def test_random_trees(seed, sampling):
     u = hetmesh.uniform(model, 0.15) if seed < 3 and sampling == "vertices" else None
     if u is not None:
         check_invariants(u, model, 0.15)
+
+
+def test_select_without_default_outside_the_domain():
+    """Rules that cover the domain but not its bounding box: tracing labels the unowned
+    outside -1 and still finds the one real discontinuity (x = 0.3)."""
+    a = PointFeature("a", (0.1, 0.5), [1.0, 0.0])
+    b = PointFeature("b", (0.9, 0.5), [0.0, 1.0])
+    rules = [(1, lambda p: (p[:, 0] > 0.3) & (p[:, 0] <= 1.0) & (p[:, 1] >= 0) & (p[:, 1] <= 1)),
+             (0, lambda p: (p[:, 0] <= 0.3) & (p[:, 0] >= 0.0) & (p[:, 1] >= 0) & (p[:, 1] <= 1))]
+    fld = HFTField(SelectFeature("s", [a, b], rules), ["ceramic", "metal"])
+    model = Model(name="partial", domain=square_domain(), material=fld)
+    with pytest.raises(MaterialError, match="unowned"):
+        fld.region(np.array([[2.0, 2.0]]))
+    m = embed_discontinuities(model)
+    paths = [p for p in m.domain.interfaces if p.name.startswith("discontinuity")]
+    assert len(paths) == 1
+    assert np.abs(_samples(paths[0])[:, 0] - 0.3).max() < 1e-9

@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .errors import GeometryError, MeshingError
+from .errors import GeometryError, MaterialError, MeshingError
 from .geometry import Arc, Path, Segment, make_domain
 from .geometry.domain import Loop
 
@@ -73,6 +73,24 @@ def element_subregions(field, points: np.ndarray, triangles: np.ndarray) -> np.n
 
 
 # ----------------------------------------------------------------------------- tracing
+class _DomainRegions:
+    """``region(points)`` of a field, -1 outside ``domain`` where the field owns no
+    subregion (a ``select`` without a default may leave the outside unowned; that is not an
+    error there, and the -1 boundary lies on the domain's boundary, which is clipped away)."""
+
+    def __init__(self, field, domain):
+        self.field, self.domain = field, domain
+
+    def region(self, points):
+        try:
+            return np.asarray(self.field.region(points), dtype=np.int64)
+        except MaterialError:
+            out = np.full(len(points), -1, dtype=np.int64)
+            inside = self.domain.contains(points)
+            out[inside] = self.field.region(points[inside])
+            return out
+
+
 def _bisect(field, a: np.ndarray, b: np.ndarray, la: np.ndarray, steps: int = BISECT):
     """Switch points on segments ``a -> b`` (arrays ``(K, 2)``) where the region leaves
     ``la``; returns the points (the last point still in ``la`` and its neighbour agree to
@@ -461,10 +479,11 @@ def embed_discontinuities(model, *, tol: float | None = None, cells: int = GRID_
     diam = dom.diameter
     tol = FIT_TOL * diam if tol is None else float(tol)
     h = max(x1 - x0, y1 - y0) * 1.04 / cells
-    found = trace_discontinuities(fl, dom.bounds, cells=cells, tol=1e-3 * tol)
+    labels = _DomainRegions(fl, dom)
+    found = trace_discontinuities(labels, dom.bounds, cells=cells, tol=1e-3 * tol)
     pieces = []
     for disc in found:
-        for part in _clip(fl, dom, disc, h, 1e-9 * diam):
+        for part in _clip(labels, dom, disc, h, 1e-9 * diam):
             if _on_curves(dom, part, 10 * tol):
                 continue  # already an interface (or the boundary) of the domain
             pieces.append(part)
