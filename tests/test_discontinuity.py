@@ -266,3 +266,10 @@ def test_select_without_default_outside_the_domain():
     paths = [p for p in m.domain.interfaces if p.name.startswith("discontinuity")]
     assert len(paths) == 1
     assert np.abs(_samples(paths[0])[:, 0] - 0.3).max() < 1e-9
+
+
+def test_same_input_same_mesh(plate):
+    a = hetmesh.generate(plate, 0.15).mesh
+    b = hetmesh.generate(plate, 0.15).mesh
+    np.testing.assert_array_equal(a.points, b.points)
+    np.testing.assert_array_equal(a.triangles, b.triangles)
