@@ -224,14 +224,15 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     The minimum angle is enforced by Ruppert's circumcenter insertion, which terminates for
     angles up to ~34 degrees. The quality floor ``min_quality`` also catches obtuse triangles,
     for which circumcenter insertion has no termination guarantee (it can cascade): it is
-    enforced only during the first ``quality_rounds`` rounds, best effort. Likewise the angle
+    enforced during the first ``quality_rounds`` rounds, then relaxed to 0.5 while the angle
+    floor holds, best effort. Likewise the angle
     is enforced for ``angle_rounds`` rounds: new nodes that keep the delta guarantee can
     interact with Ruppert's insertions; after that only delta-driven splits remain, which end
     (every split halves an edge with a composition jump >= delta_0 of a continuous field)."""
     thr = ctx.threshold
     tris = None
-    known = None
-    sharp = sharp_corners(ws, ctx)  # compositions of nodes that have not moved since they were evaluated
+    known = None  # compositions of nodes that have not moved since they were evaluated
+    sharp = sharp_corners(ws, ctx)
     for rnd in range(max_rounds):
         if tris is None:
             tris = triangulate(ws, ctx)
@@ -240,7 +241,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             known = comp
             viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
             q, ang = quality_and_angle(ws.P, tris)
-        qfloor = min_quality if rnd < quality_rounds else 0.0
+        qfloor = min_quality if rnd < quality_rounds else (
+            min(min_quality, 0.5) if rnd < angle_rounds else 0.0)
         afloor = min_angle_deg if rnd < angle_rounds else 0.0
         badq = ((ang < afloor) | (q < qfloor)) & ~viol
         if badq.any():
