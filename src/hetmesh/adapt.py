@@ -29,6 +29,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import density as dens
+from .corners import corner_exempt, sharp_corners, shell_split
 from .discontinuity import (FIT_TOL, crossing_elements, element_subregions,
                             embed_discontinuities, has_subregions)
 from .errors import BudgetError, MeshingError, OptionError
@@ -38,7 +39,7 @@ from .mesh import Mesh, edge_keys
 from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
 from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle, statistics,
                       triangle_angles)
-from .refine import (FIXED, FREE, Context, WorkSet, add_free_points, workset_from_pslg,
+from .refine import (Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
 
@@ -134,60 +135,6 @@ def _sample_interior(ctx: Context, h, rng) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- repair loop
-def _corner_exempt(ws: WorkSet, tris: np.ndarray, ang_deg: float,
-                   sharp: np.ndarray | None = None) -> np.ndarray:
-    """Triangles whose smallest angle sits at an input corner too sharp to refine (< 2A), and
-    triangles whose shortest edge is seditious (see :func:`_seditious`)."""
-    out = np.zeros(len(tris), bool)
-    if sharp is not None and len(sharp):
-        out |= _seditious(ws, tris, sharp)
-    fixed = ws.vcurve == FIXED
-    touch = np.flatnonzero(fixed[tris].any(axis=1))
-    if touch.size == 0:
-        return out
-    tt = tris[touch]
-    ang = triangle_angles(ws.P, tt)
-    total = np.bincount(tt.ravel(), ang.ravel(), minlength=ws.n)
-    sharp = fixed & (total < 2 * ang_deg - 1e-9)
-    vmin = tt[np.arange(len(tt)), ang.argmin(axis=1)]
-    out[touch] |= sharp[vmin]
-    return out
-
-
-def _seditious(ws: WorkSet, tris: np.ndarray, sharp: np.ndarray) -> np.ndarray:
-    """Triangles whose shortest edge joins two curve nodes around a small input angle, at
-    about the same distance from its apex (Shewchuk's seditious edges): splitting them
-    only shrinks the wedge, which never ends, so they are left as they are."""
-    P = ws.P
-    s = np.stack([np.hypot(*(P[tris[:, (k + 1) % 3]] - P[tris[:, (k + 2) % 3]]).T)
-                  for k in range(3)], axis=1)
-    k = s.argmin(axis=1)
-    r = np.arange(len(tris))
-    a, b = tris[r, (k + 1) % 3], tris[r, (k + 2) % 3]
-    ca, cb = ws.vcurve[a], ws.vcurve[b]
-    cand = np.flatnonzero((ca >= 0) & (cb >= 0) & (ca != cb))
-    out = np.zeros(len(tris), bool)
-    if len(cand) == 0:
-        return out
-    a, b, ca, cb = a[cand], b[cand], ca[cand], cb[cand]
-    # the curves incident to every sharp corner
-    incident = np.zeros((len(sharp), int(ws.ecurve.max()) + 1), bool)
-    for i, v in enumerate(sharp):
-        incident[i, ws.ecurve[(ws.E == v).any(axis=1)]] = True
-    apex = P[sharp]
-    mid = 0.5 * (P[a] + P[b])
-    j = np.argmin(np.hypot(mid[:, None, 0] - apex[:, 0], mid[:, None, 1] - apex[:, 1]), axis=1)
-    c = apex[j]
-    da, db = P[a] - c, P[b] - c
-    na, nb = np.hypot(*da.T), np.hypot(*db.T)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.einsum("ij,ij->i", da, db) / (na * nb)
-        ratio = na / nb
-    out[cand] = ((cos > 0.5) & (ratio > 0.5) & (ratio < 2.0)
-                 & incident[j, ca] & incident[j, cb])
-    return out
-
-
 def _constraint_index(ws: WorkSet):
     keys = edge_keys(ws.E[:, 0], ws.E[:, 1])
     order = np.argsort(keys)
@@ -246,7 +193,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         afloor = min_angle_deg if rnd < angle_rounds else 0.0
         badq = ((ang < afloor) | (q < qfloor)) & ~viol
         if badq.any():
-            badq &= ~_corner_exempt(ws, tris, min_angle_deg, sharp)
+            badq &= ~corner_exempt(ws, tris, min_angle_deg, sharp)
         history.append({"round": rnd, "elements": int(len(tris)), "points": int(ws.n),
                         "delta_max": float(delta.max()), "violators": int(viol.sum()),
                         "bad_quality": int(badq.sum())})
@@ -334,62 +281,12 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         cand_min.append(0.3 * r[inside])
         cand_clash.append(r[inside])
     sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
-    new_c = split_constraint_edges(ws, ctx, sc, where=_shell_split(ws, ctx))
+    new_c = split_constraint_edges(ws, ctx, sc, where=shell_split(ws, ctx))
     if cand:
         pts = np.concatenate(cand)
         keep = thin_candidates_mask(ws, pts, np.concatenate(cand_min), np.concatenate(cand_clash))
         add_free_points(ws, pts[keep])
     return new_c
-
-
-def sharp_corners(ws: WorkSet, ctx: Context, limit_deg: float = 60.0) -> np.ndarray:
-    """Ids of the fixed vertices where two constraint curves meet inside the domain at less
-    than ``limit_deg`` (e.g. a discontinuity reaching the boundary at a small angle)."""
-    fixed = np.flatnonzero(ws.vcurve[:ws.n] == FIXED)
-    out = []
-    for v in fixed:
-        other = np.concatenate([ws.E[ws.E[:, 0] == v, 1], ws.E[ws.E[:, 1] == v, 0]])
-        if len(other) < 2:
-            continue
-        d = ws.P[other] - ws.P[v]
-        ang = np.sort(np.arctan2(d[:, 1], d[:, 0]))
-        gap = np.diff(np.r_[ang, ang[0] + 2 * np.pi])
-        mid = ang + 0.5 * gap
-        small = gap < np.radians(limit_deg)
-        if small.any():
-            r = 1e-3 * np.hypot(*d.T).min()
-            probe = ws.P[v] + r * np.column_stack([np.cos(mid[small]), np.sin(mid[small])])
-            if ctx.inside(probe).any():
-                out.append(v)
-    return np.array(out, dtype=np.int64)
-
-
-def _shell_split(ws: WorkSet, ctx: Context):
-    """Where to split constraint edges: the midpoint, except for an edge with one end at a
-    sharp corner, split at the power-of-two distance from that corner in [L/3, 2L/3]
-    (concentric shells, Ruppert/Shewchuk): the pieces next to a small input angle then have
-    equal lengths and stop encroaching on each other, so the splitting ends."""
-    sharp = sharp_corners(ws, ctx)
-    if len(sharp) == 0:
-        return None
-
-    def where(idx, et):
-        tm = 0.5 * (et[:, 0] + et[:, 1])
-        ends = np.isin(ws.E[idx], sharp)
-        one = ends[:, 0] != ends[:, 1]
-        if not one.any():
-            return tm
-        j = ends[one].argmax(axis=1)  # which end is the apex
-        rows = np.flatnonzero(one)
-        ta = et[rows, j]
-        tb = et[rows, 1 - j]
-        length = np.array([ctx.curves[c].length for c in ws.ecurve[idx[rows]]])
-        s_far = np.abs(tb - ta) * length
-        s = 2.0 ** np.floor(np.log2(2.0 * s_far / 3.0))
-        tm[rows] = ta + np.sign(tb - ta) * s / length
-        return tm
-
-    return where
 
 
 def _rings(tris: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
@@ -494,7 +391,7 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, m
         raise MeshingError("the mesh failed verification: " + "; ".join(problems))
     low = ang < min_angle_deg - 1e-9
     if low.any():
-        low &= ~_corner_exempt(ws, tris, min_angle_deg, sharp_corners(ws, ctx))
+        low &= ~corner_exempt(ws, tris, min_angle_deg, sharp_corners(ws, ctx))
         if low.any():
             log.warning("%d triangles are below the minimum angle %g (smallest %.2f degrees): "
                         "the angle refinement was stopped to keep the loop finite",

@@ -35,7 +35,6 @@ import numpy as np
 
 from .errors import GeometryError, MaterialError, MeshingError
 from .geometry import Arc, Path, Segment, make_domain
-from .geometry.domain import Loop
 
 __all__ = ["Discontinuity", "DISCONTINUITY", "has_subregions", "trace_discontinuities",
            "fit_curves", "embed_discontinuities", "embedded_count", "crossing_elements",
