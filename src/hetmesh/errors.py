@@ -17,6 +17,7 @@ __all__ = [
     "MeshingError",
     "BudgetError",
     "OutputError",
+    "FEAError",
 ]
 
 
@@ -54,3 +55,9 @@ class BudgetError(MeshingError):
 
 class OutputError(HetmeshError):
     """An output path is unwritable or has an unknown extension."""
+
+
+class FEAError(HetmeshError):
+    """A finite element analysis cannot be set up or solved: singular system (no fixed
+    temperature, too few displacement constraints), a boundary condition or probe that finds
+    no mesh node or element, no ``[fea]`` settings."""

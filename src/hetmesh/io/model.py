@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import GeometryError, HetmeshError, MaterialError, ModelFileError
 from ..expr import FUNCTIONS
+from ..fea.config import FEAConfig, parse_fea
 from ..geometry import Arc, Loop, Segment, make_domain
 from ..geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
@@ -57,7 +58,11 @@ class Model:
     source : Path or None
         The file the model was read from.
     description, units : str
-        Free text from the ``[model]`` table.
+        Free text from the ``[model]`` table (``units`` is the length unit, e.g. ``"mm"``;
+        the FEA converts it to metres).
+    fea : FEAConfig or None
+        The parsed ``[fea]`` table (:mod:`hetmesh.fea.config`): properties, boundary
+        conditions and probes for :func:`hetmesh.fea.solve`; None without one.
 
     Examples
     --------
@@ -78,6 +83,7 @@ class Model:
     source: Path | None = None
     description: str = ""
     units: str = ""
+    fea: FEAConfig | None = None
 
     def __post_init__(self):
         for attr in ("constituents", "composition", "gradient"):
@@ -164,7 +170,7 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
     """
     ctx = _Ctx(where)
     top = ctx.table(data, "", required=("domain", "material"),
-                    optional=("model", "parameters"))
+                    optional=("model", "parameters", "fea"))
     info = ctx.table(top.get("model", {}), "model", optional=("name", "description", "units"))
     name = ctx.string(info, "model", "name", default=default_name)
     description = ctx.string(info, "model", "description", default="")
@@ -172,8 +178,10 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
     parameters = _parameters(ctx, top.get("parameters", {}))
     domain = _domain(ctx, top["domain"])
     material = _material(ctx, top["material"], domain, parameters)
+    fea = (parse_fea(ctx, top["fea"], domain, material.constituents, units)
+           if "fea" in top else None)
     model = Model(name=name, domain=domain, material=material, parameters=parameters,
-                  source=source, description=description, units=units)
+                  source=source, description=description, units=units, fea=fea)
     if check:
         check_field(material, domain, where)
     logger.debug("%s: model %r, %d constituents", where, name, len(material.constituents))

@@ -1,0 +1,38 @@
+"""Thermo-mechanical finite element analysis of graded objects (paper Sec. 4.4, case study 4).
+
+Steady heat conduction, then linear thermoelasticity (plane strain or plane stress) with
+properties mixed from the composition at the quadrature points, on scikit-fem::
+
+    model = hetmesh.load_model("fgm_plate.toml")        # with an [fea] table
+    mesh = hetmesh.generate(model, 0.05).mesh
+    result = hetmesh.fea.solve(mesh, model)
+    result.probes["P1"]["von_mises"]                   # Pa
+    hetmesh.fea.write_report(result, "fea.json")
+    hetmesh.fea.plot_von_mises(result, "vm.png")
+
+Modules: :mod:`~hetmesh.fea.config` (the ``[fea]`` table; pure numpy, imported by the model
+parser), :mod:`~hetmesh.fea.mixing` (rule of mixtures, Mori-Tanaka), :mod:`~hetmesh.fea.analysis`
+(assembly, solves, recovery, probes), :mod:`~hetmesh.fea.report` (JSON report, plot).
+scikit-fem and matplotlib are imported on first use of the solver and the plot.
+"""
+
+from __future__ import annotations
+
+from .config import FEAConfig, Properties, parse_fea
+from .mixing import mix, mix_linear, mix_mori_tanaka
+
+__all__ = ["solve", "FEAResult", "FEAConfig", "Properties", "parse_fea", "mix", "mix_linear",
+           "mix_mori_tanaka", "von_mises", "write_report", "plot_von_mises",
+           "von_mises_figure"]
+
+_LAZY = {"solve": "analysis", "FEAResult": "analysis", "von_mises": "analysis",
+         "write_report": "report", "plot_von_mises": "report", "von_mises_figure": "report"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        module = importlib.import_module(f"{__name__}.{_LAZY[name]}")
+        return getattr(module, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
