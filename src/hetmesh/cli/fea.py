@@ -1,0 +1,114 @@
+"""``hetmesh fea``: thermo-mechanical analysis of a mesh against its model (paper Sec. 4.4).
+
+Steady conduction, then linear thermoelasticity, with the ``[fea]`` table of the model file;
+prints the probe values and writes the mesh with its results, a JSON report and a von Mises
+plot. Every output is checked before the analysis and written atomically after it, so a
+failed run writes nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from ..errors import OutputError
+from .mesh import _check_output_path, mesh_extensions, plot_extensions
+
+__all__ = ["add_parser", "run", "probe_table"]
+
+
+def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "fea", parents=parents,
+        help="thermo-mechanical FEA (conduction + thermoelasticity) on a mesh",
+        description="Solve steady heat conduction, then linear thermoelasticity (plane strain "
+                    "or plane stress), on a mesh of a model whose file has an [fea] table "
+                    "(constituent properties, fixed temperatures, displacement conditions, "
+                    "probes; see docs/model-format.md). Properties are mixed from the "
+                    "composition at the quadrature points. Prints the probe values; "
+                    "stresses in Pa, temperatures in K.",
+        epilog="Example: hetmesh fea examples/fgm_plate.toml --mesh plate.vtu "
+               "--output plate_fea.vtu --report fea.json --plot von_mises.png",
+    )
+    p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML) with an [fea] table")
+    p.add_argument("--mesh", "-m", type=Path, required=True, metavar="MESH",
+                   help="the mesh to analyse (.vtu, .msh, .xdmf, .inp, .vtk, .mesh), in the "
+                        "model's coordinates")
+    p.add_argument("--output", "-o", type=Path, metavar="OUT",
+                   help="write the mesh with the results as point and cell data (temperature, "
+                        "displacement, stress_xx/yy/xy/zz, von_mises); format from the extension")
+    p.add_argument("--report", type=Path, metavar="JSON",
+                   help="write a JSON report: settings, extremes, timings, one entry per probe")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="write a picture of the von Mises stress (.png, .pdf, .svg)")
+    p.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
+    p.set_defaults(run=run)
+    return p
+
+
+def check_fea_outputs(args: argparse.Namespace) -> None:
+    """Known formats, writable directories, distinct files, none of them an input."""
+    outputs = []
+    if args.output is not None:
+        outputs.append(("--output", args.output, mesh_extensions(), "mesh"))
+    if args.report is not None:
+        outputs.append(("--report", args.report, None, ""))
+    if args.plot is not None:
+        outputs.append(("--plot", args.plot, plot_extensions(), "image"))
+    seen = {args.model.resolve(): "MODEL", args.mesh.resolve(): "--mesh"}
+    for label, path, extensions, kind in outputs:
+        _check_output_path(path, label, extensions, kind)
+        key = path.resolve()
+        if key in seen:
+            raise OutputError(f"{label} {path} is the same file as {seen[key]}")
+        seen[key] = label
+
+
+def probe_table(result) -> Table:
+    """One row per probe: position, temperature, stresses and von Mises (MPa)."""
+    table = Table()
+    for head in ("probe", "x", "y", "T (K)", "s_xx", "s_yy", "s_xy", "s_zz", "von Mises (MPa)"):
+        table.add_column(head, justify="left" if head == "probe" else "right")
+    for name, p in result.probes.items():
+        table.add_row(name, f"{p['x']:.6g}", f"{p['y']:.6g}", f"{p['temperature']:.2f}",
+                      *(f"{p[k] / 1e6:.2f}" for k in ("stress_xx", "stress_yy", "stress_xy",
+                                                      "stress_zz", "von_mises")))
+    return table
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import FEAError
+    from ..fea import plot_von_mises, solve, write_report
+    from ..io.export import read_mesh, write_mesh
+    from ..io.model import load_model
+
+    check_fea_outputs(args)
+    model = load_model(args.model)
+    if model.fea is None:
+        raise FEAError(f"{args.model}: no [fea] table (constituent properties, boundary "
+                       f"conditions); see docs/model-format.md")
+    mesh = read_mesh(args.mesh)
+    result = solve(mesh, model)
+    written = []
+    if args.output is not None:
+        written.append(write_mesh(result.mesh, args.output))
+    if args.report is not None:
+        written.append(write_report(result, args.report, model_file=str(args.model),
+                                    mesh_file=str(args.mesh)))
+    if args.plot is not None:
+        written.append(plot_von_mises(result, args.plot))
+    if not args.quiet:
+        console = Console(highlight=False, markup=False)
+        T = result.temperature
+        console.print(f"{model.name}: {mesh.n_elements} elements, plane {result.config.plane}, "
+                      f"{result.config.mixing} mixing; T in [{T.min():.2f}, {T.max():.2f}] K, "
+                      f"max von Mises {result.von_mises.max() / 1e6:.2f} MPa "
+                      f"({result.timings['total']:.2f} s)")
+        if result.probes:
+            console.print(probe_table(result))
+        for path in written:
+            console.print(f"wrote {path}")
+    return 0
