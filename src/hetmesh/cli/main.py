@@ -17,12 +17,12 @@ from typing import NoReturn, Sequence
 
 from .. import __version__
 from ..errors import HetmeshError, OptionError
-from . import demo, fea, mesh, stats, uniform
+from . import demo, fea, mesh, reproduce, stats, uniform
 
 __all__ = ["main", "build_parser"]
 
 PROG = "hetmesh"
-SUBCOMMANDS = (mesh, uniform, stats, fea, demo)
+SUBCOMMANDS = (mesh, uniform, stats, fea, reproduce, demo)
 
 
 class _UsageError(OptionError):

@@ -1,0 +1,483 @@
+"""Peer meshers for comparisons: Gmsh and Triangle fed hetmesh's material size field.
+
+Neither is a dependency of hetmesh (Gmsh is GPL, Triangle is not free for commercial use):
+both come from the optional extra ``pip install "hetmesh[peers]"`` and are imported only when
+a peer is run. :func:`available` says which are installed.
+
+A peer meets a threshold the way a user of that tool would: it is given the isotropic size
+field of Eqs. (4)-(7),
+
+    h(x) = min(h_max, s * delta_0 / |grad f(x)|),      h_max = domain diameter / 8
+
+(the size hetmesh itself aims for, with hetmesh's default largest size), and the scale ``s``
+is searched (:func:`search`): starting at ``S_START`` it is lowered by the factor ``S_FACTOR``
+until the mesh's delta_max < delta_0 (raised while it already holds), then the last step is
+bisected, so the peer's mesh is the coarsest on that grid that meets the threshold. delta is
+evaluated exactly as for hetmesh's meshes (:func:`hetmesh.mesh_statistics`: vertex
+compositions, every element in its own subregion for feature-tree models). Both peers mesh the
+domain *as hetmesh meshed it* (``result.model``: material discontinuities embedded as
+interface curves), so no peer element straddles a discontinuity.
+
+- **Gmsh** (:func:`gmsh_mesh`): Frontal-Delaunay (``Mesh.Algorithm = 6``), one thread, the
+  true geometry (lines and circular arcs, interfaces embedded), sizes only from the background
+  field: by default a ``PostView`` of ``h`` on a regular grid (``field="grid"``); a Python
+  callback ``size(x, y)`` (``"callback"``) or a MathEval formula (``"matheval"``) also work.
+- **Triangle** (:func:`triangle_mesh`): the PSLG of the domain sampled with the same size
+  field, a constrained quality Delaunay mesh (``-q`` with hetmesh's 30 degree minimum angle),
+  then refinement with a per-triangle maximum area (``-ra``), the area of the equilateral
+  triangle of side ``h`` at the centroid, repeated until every triangle obeys it.
+
+Examples
+--------
+>>> import hetmesh
+>>> from hetmesh import peers
+>>> model = hetmesh.load_model(hetmesh.example_path("power_plate"))  # doctest: +SKIP
+>>> r = peers.search("gmsh", model, 0.05)                              # doctest: +SKIP
+>>> r.stats.delta_max < 0.05, r.s                                      # doctest: +SKIP
+(True, 0.7...)
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .density import background_points, gradient_norm, size_at
+from .errors import HetmeshError, MeshingError, OptionError
+from .metrics import MeshStats
+
+__all__ = ["PEERS", "PeerMesh", "PeerResult", "PeerUnavailable", "available", "size_field",
+           "gmsh_mesh", "triangle_mesh", "peer_statistics", "search",
+           "S_START", "S_FACTOR", "S_TRIES", "SizeField"]
+
+log = logging.getLogger(__name__)
+
+S_START, S_FACTOR, S_TRIES = 1.2, 0.9, 40
+GMSH_ALGORITHM = 6          # Frontal-Delaunay
+MIN_ANGLE = 30.0            # Triangle's -q, hetmesh's default floor
+GRADATION = 0.3             # size growth per unit length (Lipschitz limit)
+GRID_CELLS = 400            # size grid resolution along the longer side
+
+
+class PeerUnavailable(HetmeshError):
+    """The peer mesher is not installed (``pip install "hetmesh[peers]"``)."""
+
+
+@dataclass(frozen=True)
+class PeerMesh:
+    """A peer's triangulation: ``points (N, 2)``, ``triangles (M, 3)`` (only used nodes)
+    and the wall time of building and meshing, in seconds."""
+
+    points: np.ndarray
+    triangles: np.ndarray
+    seconds: float
+
+
+@dataclass(frozen=True)
+class PeerResult:
+    """The outcome of :func:`search`: the accepted scale ``s``, its mesh and statistics,
+    the wall time of that one meshing run (``seconds``), of the whole search
+    (``search_seconds``), and every try (``trace``: dicts with s, elements, delta_max)."""
+
+    peer: str
+    threshold: float
+    s: float
+    mesh: PeerMesh
+    stats: MeshStats
+    seconds: float
+    search_seconds: float
+    trace: list = field(default_factory=list)
+
+
+def available() -> dict[str, str | None]:
+    """``{"gmsh": version or None, "triangle": version or None}`` (None: not installed)."""
+    out: dict[str, str | None] = {}
+    for name in PEERS:
+        try:
+            mod = __import__(name)
+        except Exception:  # ImportError, or a broken shared library
+            out[name] = None
+            continue
+        out[name] = str(getattr(mod, "__version__", None) or _dist_version(name) or "installed")
+    return out
+
+
+def _dist_version(name: str) -> str | None:
+    try:
+        from importlib.metadata import version
+
+        return version(name)
+    except Exception:
+        return None
+
+
+def _require(name: str):
+    try:
+        return __import__(name)
+    except Exception as exc:
+        raise PeerUnavailable(f"peer {name!r} is not installed (pip install \"hetmesh[peers]\"): "
+                              f"{exc}") from None
+
+
+# ----------------------------------------------------------------------------- size field
+class SizeField:
+    """The peers' size field on a regular grid, graded; call it on ``(N, 2)`` points.
+
+    ``h0 = min(h_max, s * threshold / |grad f|)`` (Eqs. 4-7) is evaluated at the nodes of a
+    regular grid covering the domain (``cells`` cells along its longer side; nodes outside the
+    domain take the value of the nearest node inside), then limited to grow by at most
+    ``gradation`` per unit length, ``h(x) = min_y h0(y) + gradation |x - y|_1`` (a Lipschitz
+    limit in the L1 distance, exact and fast on a grid; 0.3 is about MMG's ``hgrad = 1.3``): without it a peer's elements where the material is
+    flat (|grad f| ~ 0 next to the outer surface of the blade) keep the size ``h_max`` up to
+    where the material changes fast, and no ``s`` fixes them. Values between nodes are
+    interpolated bilinearly. ``grid`` holds ``(X, Y, H)``.
+    """
+
+    def __init__(self, model, threshold: float, s: float = 1.0, *, h_max: float | None = None,
+                 gradation: float | None = GRADATION, cells: int = GRID_CELLS,
+                 gradient_grid: tuple | None = None):
+        if not (threshold > 0 and s > 0):
+            raise OptionError(f"size field needs threshold > 0 and s > 0, got {threshold!r}, {s!r}")
+        cap = float(h_max) if h_max is not None else model.domain.diameter / 8.0
+        X, Y, G = gradient_grid if gradient_grid is not None else gradient_grid_of(model, cells)
+        H = size_at(G, threshold, cap, s)
+        if gradation:
+            H = _graded(H, float(X[0, 1] - X[0, 0]), float(gradation))
+        self.grid = (X, Y, H)
+        from scipy.interpolate import RegularGridInterpolator
+
+        self._interp = RegularGridInterpolator((Y[:, 0], X[0]), H, bounds_error=False,
+                                               fill_value=None)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        p = np.asarray(points, float).reshape(-1, 2)
+        return self._interp(p[:, ::-1])
+
+
+def size_field(model, threshold: float, s: float = 1.0, **options) -> SizeField:
+    """The peers' :class:`SizeField` (graded, on a grid) for ``model`` at ``threshold``.
+
+    >>> h = size_field(model, 0.05, 0.8)       # doctest: +SKIP
+    >>> h(np.array([[1.0, 2.0]]))              # doctest: +SKIP
+    """
+    return SizeField(model, threshold, s, **options)
+
+
+def _graded(H: np.ndarray, step: float, beta: float) -> np.ndarray:
+    """``min_y H(y) + beta |x - y|_1`` over the grid: exact for the L1 distance, as one 1-D
+    pass along each axis (each pass: two running minima of ``H -+ beta x``)."""
+    return _graded_1d(_graded_1d(H, step, beta, axis=1), step, beta, axis=0)
+
+
+def _graded_1d(H: np.ndarray, step: float, beta: float, axis: int) -> np.ndarray:
+    n = H.shape[axis]
+    ramp = beta * step * np.arange(n, dtype=float)
+    ramp = ramp[None, :] if axis == 1 else ramp[:, None]
+    fwd = np.minimum.accumulate(H - ramp, axis=axis) + ramp
+    bwd = np.flip(np.minimum.accumulate(np.flip(H + ramp, axis=axis), axis=axis), axis=axis) - ramp
+    return np.minimum(fwd, bwd)
+
+
+def gradient_grid_of(model, cells: int = GRID_CELLS):
+    """``(X, Y, G)``: |grad f| (Eq. 5) on the size field's grid (see :func:`_grid_sizes`);
+    computed once per model, shared by every scale ``s`` of a search."""
+    return _grid_sizes(model.domain, lambda p: gradient_norm(model.material, p), cells)
+
+
+def _grid_sizes(domain, size: Callable, cells: int):
+    """``size`` on a regular grid covering ``domain`` (``cells`` along the longer side);
+    nodes outside the domain take the value of the nearest node inside (the material need
+    not be defined outside). Returns ``(X, Y, H)`` as 2-D arrays."""
+    from scipy.spatial import cKDTree
+
+    x0, y0, x1, y1 = domain.bounds
+    pad = 1e-3 * domain.diameter
+    x0, y0, x1, y1 = x0 - pad, y0 - pad, x1 + pad, y1 + pad
+    step = max(x1 - x0, y1 - y0) / cells
+    nx, ny = int(math.ceil((x1 - x0) / step)) + 1, int(math.ceil((y1 - y0) / step)) + 1
+    X, Y = np.meshgrid(x0 + step * np.arange(nx), y0 + step * np.arange(ny))
+    pts = np.column_stack([X.ravel(), Y.ravel()])
+    inside = domain.contains(pts)
+    if inside.sum() < 16:  # a domain thinner than the grid: evaluate at its own samples
+        inner = background_points(domain, 4 * cells)
+        _, j = cKDTree(inner).query(pts)
+        return X, Y, size(inner)[j].reshape(X.shape)
+    H = np.empty(len(pts))
+    H[inside] = size(pts[inside])
+    if (~inside).any():
+        _, j = cKDTree(pts[inside]).query(pts[~inside])
+        H[~inside] = H[inside][j]
+    return X, Y, H.reshape(X.shape)
+
+
+# ----------------------------------------------------------------------------- Gmsh
+def _gmsh_geometry(gmsh, domain) -> tuple[int, list[int]]:
+    """Add the domain to gmsh's built-in kernel; returns (surface tag, embedded curve tags)."""
+    geo = gmsh.model.geo
+    tol = 1e-9 * domain.diameter
+    points: dict[tuple[int, int], int] = {}
+
+    def point(p) -> int:
+        key = (int(round(p[0] / tol)), int(round(p[1] / tol)))
+        if key not in points:
+            points[key] = geo.addPoint(float(p[0]), float(p[1]), 0.0)
+        return points[key]
+
+    def curve_tags(curve) -> list[int]:
+        if not hasattr(curve, "radius"):  # a segment
+            return [geo.addLine(point(curve.start), point(curve.end))]
+        n = max(1, int(math.ceil(abs(curve.sweep) / (0.9 * math.pi))))  # gmsh arcs < pi
+        t = np.linspace(0.0, 1.0, n + 1)
+        ends = curve.point(t)
+        c = geo.addPoint(curve.center[0], curve.center[1], 0.0)  # not part of the mesh
+        return [geo.addCircleArc(point(ends[i]), c, point(ends[i + 1])) for i in range(n)]
+
+    def loop(chain) -> int:
+        return geo.addCurveLoop([t for c in chain.curves for t in curve_tags(c)])
+
+    loops = [loop(domain.outer)] + [loop(h) for h in domain.holes]
+    surface = geo.addPlaneSurface(loops)
+    embedded = [t for path in domain.interfaces for c in path.curves for t in curve_tags(c)]
+    return surface, embedded
+
+
+def gmsh_mesh(domain, size, *, field: str = "grid", cells: int = 400, h_max: float | None = None,
+              threads: int = 1, algorithm: int = GMSH_ALGORITHM) -> PeerMesh:
+    """Mesh ``domain`` with Gmsh, element sizes only from a background field.
+
+    Parameters
+    ----------
+    domain : Domain
+        Outer loop and holes become a plane surface; interface curves are embedded in it.
+    size
+        ``field="grid"``: a vectorised callable ``(N, 2) -> (N,)``, sampled on a regular grid
+        of ``cells`` cells along the longer side and given to Gmsh as a ``PostView`` field;
+        ``"callback"``: a scalar callable ``size(x, y) -> float`` (Gmsh's size callback);
+        ``"matheval"``: a formula in ``x``, ``y`` for Gmsh's MathEval field.
+    h_max : float, optional
+        ``Mesh.MeshSizeMax`` (default: none).
+    threads, algorithm : int
+        ``General.NumThreads`` and ``Mesh.Algorithm`` (6 = Frontal-Delaunay).
+
+    Returns
+    -------
+    PeerMesh
+        The nodes used by triangles, the triangles, and the wall time of geometry, field,
+        ``generate(2)`` and reading back.
+    """
+    gmsh = _require("gmsh")
+    if field not in ("grid", "callback", "matheval"):
+        raise OptionError(f"gmsh size field must be 'grid', 'callback' or 'matheval', got {field!r}")
+    t0 = time.perf_counter()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", threads)
+        gmsh.model.add("hetmesh_peer")
+        surface, embedded = _gmsh_geometry(gmsh, domain)
+        gmsh.model.geo.synchronize()
+        if embedded:
+            gmsh.model.mesh.embed(1, embedded, 2, surface)
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
+        gmsh.option.setNumber("Mesh.Algorithm", algorithm)
+        if h_max is not None:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", float(h_max))
+        if field == "grid":
+            _gmsh_grid_field(gmsh, domain, size, cells)
+        elif field == "callback":
+            gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: float(size(x, y)))
+        else:
+            f = gmsh.model.mesh.field.add("MathEval")
+            gmsh.model.mesh.field.setString(f, "F", str(size))
+            gmsh.model.mesh.field.setAsBackgroundMesh(f)
+        gmsh.model.mesh.generate(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, enodes = gmsh.model.mesh.getElementsByType(2)
+    except Exception as exc:
+        if isinstance(exc, HetmeshError):
+            raise
+        raise MeshingError(f"gmsh failed: {exc}") from exc
+    finally:
+        gmsh.finalize()
+    seconds = time.perf_counter() - t0
+    tags = tags.astype(np.int64)
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags] = np.arange(len(tags))
+    tris = index[enodes.astype(np.int64)].reshape(-1, 3)
+    pts, tris = _compact(xyz.reshape(-1, 3)[:, :2], tris)
+    return PeerMesh(pts, tris, seconds)
+
+
+def _gmsh_grid_field(gmsh, domain, size, cells: int) -> None:
+    """``size`` on a grid as a list-based view of scalar triangles, the background field."""
+    X, Y, H = size.grid if hasattr(size, "grid") else _grid_sizes(domain, size, cells)
+    ny, nx = X.shape
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    tri = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    x, y, h = X.ravel(), Y.ravel(), H.ravel()
+    data = np.column_stack([x[tri], y[tri], np.zeros(tri.shape), h[tri]])  # ST layout
+    view = gmsh.view.add("hetmesh size")
+    gmsh.view.addListData(view, "ST", len(tri), data.ravel().tolist())
+    f = gmsh.model.mesh.field.add("PostView")
+    gmsh.model.mesh.field.setNumber(f, "ViewTag", view)
+    gmsh.model.mesh.field.setAsBackgroundMesh(f)
+
+
+def _compact(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the nodes no triangle uses (Gmsh meshes arc centres as 0-d entities)."""
+    used = np.unique(triangles)
+    remap = np.full(len(points), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    return np.ascontiguousarray(points[used], float), remap[triangles].astype(np.int32)
+
+
+# ----------------------------------------------------------------------------- Triangle
+def _hole_points(domain) -> np.ndarray:
+    """A point strictly inside every hole (Triangle eats the triangles around it)."""
+    import shapely
+
+    out = []
+    for hole in domain.holes:
+        ring = np.vstack([c.point(np.linspace(0.0, 1.0, 65))[:-1] for c in hole.curves])
+        out.append(np.asarray(shapely.Polygon(ring).representative_point().coords[0]))
+    return np.asarray(out, float).reshape(-1, 2)
+
+
+def triangle_mesh(domain, size: Callable[[np.ndarray], np.ndarray], *,
+                  min_angle: float = MIN_ANGLE, chord_tol: float | None = None,
+                  max_rounds: int = 30) -> PeerMesh:
+    """Mesh ``domain`` with Shewchuk's Triangle following the size field ``size``.
+
+    The curves (interfaces included) are sampled with ``size`` into a PSLG
+    (:func:`hetmesh.geometry.build_pslg`, chord tolerance 1e-3 x diameter by default), meshed
+    with ``-pq<min_angle>``, then refined with ``-rpq<min_angle>a`` and a per-triangle area
+    bound ``sqrt(3)/4 h(centroid)^2`` until every triangle obeys its bound.
+
+    Returns
+    -------
+    PeerMesh
+    """
+    triangle = _require("triangle")
+    from .geometry import build_pslg
+
+    t0 = time.perf_counter()
+    pslg = build_pslg(domain, size, chord_tol)
+    data = {"vertices": np.array(pslg.vertices, float),
+            "segments": np.array(pslg.edges, np.int32)}
+    holes = _hole_points(domain)
+    if len(holes):
+        data["holes"] = holes
+    q = f"q{min_angle:g}"
+    mesh = triangle.triangulate(data, f"p{q}Q")
+    for _ in range(max_rounds):
+        P, T = mesh["vertices"], mesh["triangles"]
+        area = 0.5 * np.abs(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]))
+        bound = math.sqrt(3.0) / 4.0 * size(P[T].mean(axis=1)) ** 2
+        if (area <= bound * (1.0 + 1e-9)).all():
+            break
+        mesh = dict(mesh, triangle_max_area=bound.reshape(-1, 1))
+        if len(holes):
+            mesh["holes"] = holes
+        mesh = triangle.triangulate(mesh, f"rp{q}aQ")
+    else:
+        log.warning("triangle: area bounds still violated after %d refinement rounds", max_rounds)
+    pts, tris = _compact(np.asarray(mesh["vertices"], float), np.asarray(mesh["triangles"]))
+    return PeerMesh(pts, tris, time.perf_counter() - t0)
+
+
+PEERS: dict[str, Callable[..., PeerMesh]] = {"gmsh": gmsh_mesh, "triangle": triangle_mesh}
+
+
+# ----------------------------------------------------------------------------- search
+def peer_statistics(model, mesh: PeerMesh) -> MeshStats:
+    """Np, Ne, q and delta of a peer mesh, evaluated like hetmesh's own
+    (:func:`hetmesh.mesh_statistics`)."""
+    from .adapt import mesh_statistics
+    from .mesh import Mesh
+
+    return mesh_statistics(Mesh(mesh.points, mesh.triangles), model)
+
+
+def search(peer: str, model, threshold: float, *, s_start: float = S_START,
+           factor: float = S_FACTOR, tries: int = S_TRIES, bisect: int = 2,
+           h_max: float | None = None, gradation: float | None = GRADATION,
+           **options) -> PeerResult:
+    """The coarsest mesh of ``peer`` with delta_max < ``threshold`` over the scale ``s``.
+
+    ``s`` starts at ``s_start`` and is multiplied by ``factor`` until the threshold is met
+    (divided by it while it is met already, to find where it stops being met); then the last
+    interval between a failing and a passing ``s`` is bisected ``bisect`` times (geometric
+    mid-points). Returns the largest passing ``s`` found.
+
+    Parameters
+    ----------
+    peer : {"gmsh", "triangle"}
+    model : Model
+        The model as it is meshed (``result.model`` of :func:`hetmesh.generate` carries the
+        embedded material discontinuities).
+    threshold : float
+    options
+        Passed to the peer's mesher (:func:`gmsh_mesh`, :func:`triangle_mesh`).
+
+    Raises
+    ------
+    PeerUnavailable
+        If the peer is not installed.
+    MeshingError
+        If no ``s`` met the threshold within ``tries`` meshes.
+    """
+    if peer not in PEERS:
+        raise OptionError(f"unknown peer {peer!r} (known: {', '.join(PEERS)})")
+    if not (0 < factor < 1):
+        raise OptionError(f"factor must be in (0, 1), got {factor!r}")
+    mesher = PEERS[peer]
+    t0 = time.perf_counter()
+    grid = gradient_grid_of(model)
+    trace: list[dict] = []
+    results: dict[float, tuple[PeerMesh, MeshStats]] = {}
+
+    def attempt(s: float) -> bool:
+        size = size_field(model, threshold, s, h_max=h_max, gradation=gradation,
+                          gradient_grid=grid)
+        mesh = mesher(model.domain, size, **options)
+        st = peer_statistics(model, mesh)
+        ok = st.delta_max < threshold
+        trace.append({"s": s, "elements": st.n_elements, "delta_max": st.delta_max,
+                      "seconds": mesh.seconds, "pass": ok})
+        log.debug("%s s=%.4f: %d elements, delta_max %.4g", peer, s, st.n_elements, st.delta_max)
+        if ok:
+            results[s] = (mesh, st)
+        return ok
+
+    s = s_start
+    first = attempt(s)
+    s_pass = s_fail = None
+    if first:
+        s_pass = s
+    else:
+        s_fail = s
+    while len(trace) < tries and (s_pass is None or s_fail is None):
+        s = s * factor if s_pass is None else s / factor
+        if attempt(s):
+            s_pass = s
+        else:
+            s_fail = s
+    if s_pass is None:
+        raise MeshingError(f"{peer}: no scale s met delta_max < {threshold:g} in {len(trace)} "
+                           f"tries (last s = {s:.3g})")
+    for _ in range(bisect if s_fail is not None else 0):
+        mid = math.sqrt(s_pass * s_fail)
+        if attempt(mid):
+            s_pass = mid
+        else:
+            s_fail = mid
+    mesh, st = results[s_pass]
+    return PeerResult(peer=peer, threshold=threshold, s=s_pass, mesh=mesh, stats=st,
+                      seconds=mesh.seconds, search_seconds=time.perf_counter() - t0, trace=trace)

@@ -1,0 +1,232 @@
+"""``hetmesh reproduce``: the paper's tables and figures, side by side with the paper and peers.
+
+:func:`run` meshes the paper's models (the examples ``power_plate``, ``hft_ring``, ``blade``,
+``hft_complex``, ``fgm_plate``) at the paper's thresholds, adaptively and uniformly, and
+writes ``DIR/report.md`` with PNG figures under ``DIR/figures/``:
+
+- Table 1, 3 and 5 analogs: Np, Ne, q_min, q_avg, delta_min, delta_avg, delta_max and wall
+  time of the adaptive and the uniform mesh, the paper's values in adjacent columns labelled
+  ``paper``; N_iso (:func:`hetmesh.density.n_iso`), Ne/N_iso and the adaptive/uniform element
+  ratio beside the paper's;
+- figures like the paper's Figs. 5, 8, 10, 11, 13 (meshes coloured by composition, interfaces
+  and material discontinuities in red) and Figs. 6, 9 (delta histograms, adaptive against a
+  uniform mesh of about the same element count);
+- a peer section: Gmsh and Triangle meeting the same thresholds (:mod:`hetmesh.peers`) when
+  they are installed (``pip install "hetmesh[peers]"``);
+- a Table 7 analog when :mod:`hetmesh.fea` provides the case-4 study (``hetmesh.fea.study``).
+
+Every number in the report is computed by that run, except the columns labelled as the paper's.
+
+Examples
+--------
+>>> from hetmesh import reproduce
+>>> report = reproduce.run("rep", cases=["power_plate"], quick=True)   # doctest: +SKIP
+>>> report.path                                                         # doctest: +SKIP
+PosixPath('rep/report.md')
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import platform
+import time
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+from ..errors import HetmeshError, OptionError, OutputError
+from .paper import CASES, Case
+from .runs import CaseRun, draw_figures, mesh_pair, run_peer, uniform_like, MeshRun
+
+__all__ = ["run", "Report", "CASES", "plan", "fea_study_function"]
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[str, Optional[float]], None]
+
+
+@dataclass
+class Report:
+    """What :func:`run` measured and wrote: ``path`` of report.md, the figure files, one
+    :class:`~hetmesh.reproduce.runs.CaseRun` per model and threshold, the peer versions
+    (None: not installed), whether peers were run, the FEA study (or None) and timings."""
+
+    path: Path
+    quick: bool
+    cases: list[str]
+    runs: list[CaseRun]
+    peer_versions: dict[str, str | None]
+    peers_run: bool
+    fea: object = None
+    fea_error: str | None = None
+    seconds: float = math.nan
+    environment: dict = field(default_factory=dict)
+    figures: list[Path] = field(default_factory=list)
+
+
+def plan(cases: Sequence[str] | None = None, quick: bool = False) -> list[tuple[Case, float]]:
+    """The ``(case, threshold)`` pairs of a report, in report order.
+
+    Raises
+    ------
+    OptionError
+        If a case name is unknown.
+    """
+    names = list(CASES) if not cases else [str(c).strip() for c in cases if str(c).strip()]
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        raise OptionError(f"unknown case(s) {', '.join(map(repr, unknown))} "
+                          f"(known: {', '.join(CASES)})")
+    if not names:
+        raise OptionError(f"no case given (known: {', '.join(CASES)})")
+    seen: list[str] = []
+    for n in names:
+        if n not in seen:
+            seen.append(n)
+    return [(CASES[n], t) for n in seen for t in (CASES[n].quick if quick else CASES[n].thresholds)]
+
+
+def fea_study_function():
+    """``hetmesh.fea.study`` if the FEA package provides the case-4 study, else None."""
+    try:
+        from .. import fea
+    except ImportError:
+        return None
+    func = getattr(fea, "study", None)
+    return func if callable(func) else None
+
+
+def _environment(command: str | None) -> dict:
+    import numpy
+
+    from .. import __version__
+
+    return {"hetmesh": __version__, "python": platform.python_version(),
+            "numpy": numpy.__version__, "platform": platform.platform(),
+            "cpus": os.cpu_count(),
+            "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "command": command or ""}
+
+
+def _prepare_out(out: Path) -> Path:
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"--out {out} is not a directory")
+    try:
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"--out {out}: cannot create the directory ({exc.strerror})") from None
+    return out
+
+
+def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | None = None,
+        quick: bool = False, peers: bool | None = None, fea: bool | None = None,
+        progress: Progress | None = None, command: str | None = None) -> Report:
+    """Mesh the paper's models and write ``out/report.md`` with its figures.
+
+    Parameters
+    ----------
+    out : path
+        Output directory (created if missing); figures go to ``out/figures``.
+    cases : sequence of str, optional
+        Model names among :data:`CASES` (default: all five, in the paper's order).
+    quick : bool
+        Coarse thresholds only (one per model) and, unless ``peers=True``, no peers.
+    peers : bool, optional
+        Run the Gmsh/Triangle section (default: not ``quick``). Peers not installed are
+        reported as such.
+    fea : bool, optional
+        Run the Table 7 study if :mod:`hetmesh.fea` provides it (default: when ``fgm_plate``
+        is among the cases).
+    progress : callable ``(stage, fraction)``, optional
+        Called before every step with the fraction of the steps done.
+    command : str, optional
+        The command line, quoted in the report.
+
+    Returns
+    -------
+    Report
+
+    Raises
+    ------
+    OptionError
+        Unknown case names.
+    OutputError
+        ``out`` cannot be created or written.
+    """
+    from .. import example_path, load_model
+    from .. import peers as peer_module
+    from .report import render, write_report
+
+    t_start = time.perf_counter()
+    pairs = plan(cases, quick)
+    out = _prepare_out(Path(out))
+    names = list(dict.fromkeys(c.name for c, _ in pairs))
+    run_peers = (not quick) if peers is None else bool(peers)
+    versions = peer_module.available()
+    installed = [p for p, v in versions.items() if v] if run_peers else []
+    study = fea_study_function() if (fea is None and "fgm_plate" in names) or fea else None
+    steps = len(pairs) * (1 + len(installed)) + (1 if study else 0)
+    done = [0]
+
+    def step(stage: str) -> None:
+        if progress is not None:
+            progress(stage, done[0] / steps)
+        done[0] += 1
+
+    models = {n: load_model(example_path(n)) for n in names}
+    runs, figures = [], []
+    for case, threshold in pairs:
+        step(f"{case.name} delta_0={threshold:g}: adaptive and uniform")
+        record = _mesh_record(out, case, threshold, models[case.name], quick, installed,
+                              step, figures)
+        runs.append(record)
+    fea_result, fea_error = None, None
+    if study:
+        step("fgm_plate: FEA study (Table 7)")
+        try:
+            fea_result = study(models["fgm_plate"], quick=quick)
+        except HetmeshError as exc:
+            fea_error = str(exc).splitlines()[0]
+            log.warning("FEA study failed: %s", fea_error)
+    if progress is not None:
+        progress("writing the report", 1.0)
+    report = Report(path=out / "report.md", quick=quick, cases=names, runs=runs,
+                    peer_versions=versions, peers_run=run_peers, fea=fea_result,
+                    fea_error=fea_error, environment=_environment(command), figures=figures)
+    report.seconds = time.perf_counter() - t_start
+    write_report(report.path, render(report))
+    return report
+
+
+def _mesh_record(out: Path, case: Case, threshold: float, model, quick: bool,
+                 installed: list[str], step, figures: list[Path]) -> CaseRun:
+    """Adaptive + uniform meshes, N_iso, figures and peers of one model at one threshold."""
+    from ..density import n_iso
+
+    record = CaseRun(case.name, threshold)
+    record.n_iso = float(n_iso(model.material, model.domain, threshold))
+    try:
+        adaptive, t_a, uni, t_u = mesh_pair(model, threshold)
+    except HetmeshError as exc:
+        record.error = str(exc).splitlines()[0]
+        log.warning("%s at delta_0 = %g: %s", case.name, threshold, record.error)
+        for _ in installed:
+            step(f"{case.name} delta_0={threshold:g}: skipped")
+        return record
+    record.adaptive = MeshRun(adaptive.stats, t_a)
+    record.uniform = MeshRun(uni.stats, t_u)
+    hist = quick or threshold in case.histogram_thresholds
+    delta_u = None
+    if hist:
+        delta_u = uniform_like(adaptive.model, threshold, adaptive.stats.n_elements)
+        record.histogram_uniform_elements = int(len(delta_u))
+    record.mesh_figure, record.histogram = draw_figures(out, case.name, threshold, adaptive,
+                                                        histogram=hist, histogram_delta=delta_u)
+    figures += [out / p for p in (record.mesh_figure, record.histogram) if p]
+    for peer in installed:
+        step(f"{case.name} delta_0={threshold:g}: {peer}")
+        record.peers[peer] = run_peer(peer, adaptive.model, threshold)
+    return record

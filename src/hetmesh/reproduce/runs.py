@@ -1,0 +1,152 @@
+"""The measurements of a report: one function per kind of run, each returning plain records.
+
+Nothing here formats text; :mod:`hetmesh.reproduce.report` renders the records. A run that
+fails with a :class:`~hetmesh.errors.HetmeshError` is recorded with its message (measure,
+never assert) so that the rest of the report still appears.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import HetmeshError
+from ..metrics import MeshStats
+
+__all__ = ["MeshRun", "PeerRun", "CaseRun", "mesh_pair", "uniform_like", "interface_markers",
+           "draw_figures", "run_peer"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class MeshRun:
+    """Statistics and wall time (seconds) of one hetmesh mesh."""
+
+    stats: MeshStats
+    seconds: float
+
+
+@dataclass
+class PeerRun:
+    """A peer meeting a threshold (:func:`hetmesh.peers.search`), or its error message."""
+
+    peer: str
+    stats: MeshStats | None = None
+    seconds: float = math.nan
+    search_seconds: float = math.nan
+    s: float = math.nan
+    tries: int = 0
+    error: str | None = None
+
+
+@dataclass
+class CaseRun:
+    """Everything measured for one model at one threshold."""
+
+    case: str
+    threshold: float
+    n_iso: float = math.nan
+    adaptive: MeshRun | None = None
+    uniform: MeshRun | None = None
+    error: str | None = None
+    mesh_figure: str | None = None
+    histogram: str | None = None
+    histogram_uniform_elements: int | None = None
+    peers: dict[str, PeerRun] = field(default_factory=dict)
+
+    @property
+    def ratio(self) -> float:
+        """Adaptive / uniform elements (nan if either is missing)."""
+        if self.adaptive is None or self.uniform is None:
+            return math.nan
+        return self.adaptive.stats.n_elements / self.uniform.stats.n_elements
+
+
+def _timed(func, *args, **kwargs):
+    t0 = time.perf_counter()
+    out = func(*args, **kwargs)
+    return out, time.perf_counter() - t0
+
+
+def mesh_pair(model, threshold: float):
+    """hetmesh's adaptive mesh and uniform baseline of ``model``: ``(adaptive Result,
+    seconds, uniform Result, seconds)``."""
+    from ..adapt import generate
+    from ..uniform import uniform
+
+    adaptive, t_a = _timed(generate, model, threshold)
+    uni, t_u = _timed(uniform, model, threshold)
+    return adaptive, t_a, uni, t_u
+
+
+def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
+                 tries: int = 4) -> np.ndarray:
+    """delta(T) over a uniform quality mesh of about ``n_elements`` elements (the paper's
+    Figs. 6 and 9 compare the adaptive mesh with a uniform one of the same size).
+
+    ``model`` is the model as meshed (discontinuities embedded). The edge length starts from
+    equilateral elements tiling the area, ``h = sqrt(4 A / (sqrt(3) n))``, and is corrected
+    by the square root of the count ratio until within ``tol``.
+    """
+    from ..adapt import evaluate, prepare
+    from ..uniform import uniform_at
+
+    ctx, _ = prepare(model, threshold, None)
+    h = math.sqrt(4.0 * model.domain.area / (math.sqrt(3.0) * max(int(n_elements), 1)))
+    for _ in range(tries):
+        ws, tris = uniform_at(ctx, h)
+        ratio = len(tris) / n_elements
+        if abs(ratio - 1.0) <= tol:
+            break
+        h *= math.sqrt(ratio)
+    _, delta = evaluate(ctx, ws, tris, "vertices")
+    return delta
+
+
+def interface_markers(model) -> list[int]:
+    """Edge markers (curve index + 1, as in :class:`~hetmesh.mesh.Mesh`) of the interface
+    curves of the model as meshed: its own interfaces and the embedded discontinuities."""
+    return [i + 1 for i, info in enumerate(model.domain.curves) if info.kind == "interface"]
+
+
+def draw_figures(out: Path, name: str, threshold: float, adaptive, *, histogram: bool,
+                 histogram_delta: np.ndarray | None = None) -> tuple[str, str | None]:
+    """The mesh picture (coloured by composition, interfaces and discontinuities in red) and,
+    if ``histogram``, delta histograms of the adaptive mesh against ``histogram_delta``.
+    Returns the paths relative to ``out``."""
+    from ..plot import plot_delta_histogram, plot_mesh
+
+    figdir = out / "figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+    stem = f"{name}_{threshold:g}"
+    mesh_rel = f"figures/{stem}_mesh.png"
+    meshed = adaptive.model
+    plot_mesh(adaptive.mesh, out / mesh_rel, interface_markers=interface_markers(meshed),
+              title=f"{name}: adaptive mesh, delta_0 = {threshold:g} "
+                    f"({adaptive.stats.n_elements} elements)")
+    hist_rel = None
+    if histogram and histogram_delta is not None:
+        hist_rel = f"figures/{stem}_delta.png"
+        plot_delta_histogram({"adaptive": adaptive.mesh.cell_data["delta"],
+                              "uniform": histogram_delta}, out / hist_rel, threshold=threshold,
+                             title=f"{name}: delta over the elements, delta_0 = {threshold:g}")
+    return mesh_rel, hist_rel
+
+
+def run_peer(peer: str, model, threshold: float) -> PeerRun:
+    """:func:`hetmesh.peers.search` as a record (its error message if it fails)."""
+    from .. import peers
+
+    try:
+        r = peers.search(peer, model, threshold)
+    except HetmeshError as exc:
+        log.warning("%s at delta_0 = %g: %s", peer, threshold, exc)
+        return PeerRun(peer, error=str(exc).splitlines()[0])
+    return PeerRun(peer, stats=r.stats, seconds=r.seconds, search_seconds=r.search_seconds,
+                   s=r.s, tries=len(r.trace))
