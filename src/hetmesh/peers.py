@@ -378,7 +378,8 @@ def triangle_mesh(domain, size: Callable[[np.ndarray], np.ndarray], *,
     mesh = triangle.triangulate(data, f"p{q}Q")
     for _ in range(max_rounds):
         P, T = mesh["vertices"], mesh["triangles"]
-        area = 0.5 * np.abs(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]))
+        a, b = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+        area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
         bound = math.sqrt(3.0) / 4.0 * size(P[T].mean(axis=1)) ** 2
         if (area <= bound * (1.0 + 1e-9)).all():
             break
@@ -408,7 +409,7 @@ def peer_statistics(model, mesh: PeerMesh) -> MeshStats:
 def search(peer: str, model, threshold: float, *, s_start: float = S_START,
            factor: float = S_FACTOR, tries: int = S_TRIES, bisect: int = 2,
            h_max: float | None = None, gradation: float | None = GRADATION,
-           **options) -> PeerResult:
+           size: Callable[[float], object] | None = None, **options) -> PeerResult:
     """The coarsest mesh of ``peer`` with delta_max < ``threshold`` over the scale ``s``.
 
     ``s`` starts at ``s_start`` and is multiplied by ``factor`` until the threshold is met
@@ -423,6 +424,11 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
         The model as it is meshed (``result.model`` of :func:`hetmesh.generate` carries the
         embedded material discontinuities).
     threshold : float
+    h_max, gradation : float, optional
+        Of the default size field (:class:`SizeField`).
+    size : callable ``s -> size``, optional
+        Builds the mesher's ``size`` argument for a scale ``s`` instead of the default
+        :class:`SizeField` (e.g. an analytic callback with ``field="callback"`` for Gmsh).
     options
         Passed to the peer's mesher (:func:`gmsh_mesh`, :func:`triangle_mesh`).
 
@@ -439,14 +445,17 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
         raise OptionError(f"factor must be in (0, 1), got {factor!r}")
     mesher = PEERS[peer]
     t0 = time.perf_counter()
-    grid = gradient_grid_of(model)
+    grid = gradient_grid_of(model) if size is None else None
     trace: list[dict] = []
     results: dict[float, tuple[PeerMesh, MeshStats]] = {}
 
     def attempt(s: float) -> bool:
-        size = size_field(model, threshold, s, h_max=h_max, gradation=gradation,
-                          gradient_grid=grid)
-        mesh = mesher(model.domain, size, **options)
+        if size is None:
+            sz = size_field(model, threshold, s, h_max=h_max, gradation=gradation,
+                            gradient_grid=grid)
+        else:
+            sz = size(s)
+        mesh = mesher(model.domain, sz, **options)
         st = peer_statistics(model, mesh)
         ok = st.delta_max < threshold
         trace.append({"s": s, "elements": st.n_elements, "delta_max": st.delta_max,
