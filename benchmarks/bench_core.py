@@ -46,8 +46,8 @@ except ImportError:  # not installed and no PYTHONPATH=src: use the checkout
     sys.path.insert(0, str(ROOT / "src"))
 
 import hetmesh  # noqa: E402
+from hetmesh import peers  # noqa: E402
 from hetmesh.density import n_iso  # noqa: E402
-from hetmesh.metrics import delta_vertices, min_angle, quality  # noqa: E402
 
 logging.getLogger("hetmesh").setLevel(logging.WARNING)
 
@@ -211,70 +211,43 @@ def environment() -> dict:
 
 
 def gmsh_available():
-    try:
-        import gmsh
-    except Exception:
-        return None
-    return getattr(gmsh, "__version__", "installed")
+    """Gmsh's version, or None if it is not installed (hetmesh.peers.available)."""
+    return peers.available()["gmsh"]
 
 
 # ----------------------------------------------------------------------------- Gmsh peer
+# The driver (geometry, size field, generate, read back) and the s search live in
+# hetmesh.peers; here only the unit square's analytic size: f = (1-y)^2, |grad f| = 2(1-y).
+
+_SQUARE_DOMAIN = []
+
+
+def _square_domain():
+    if not _SQUARE_DOMAIN:
+        _SQUARE_DOMAIN.append(hetmesh.load_model(UNIT_SQUARE).domain)
+    return _SQUARE_DOMAIN[0]
+
+
+def unit_square_size(delta0: float, s: float, field: str = "callback"):
+    """h = min(cap, s*delta0/max(|grad f|, floor)) as a Gmsh callback or MathEval formula."""
+    floor = gmsh_grad_floor(delta0)
+    sd = s * delta0
+    if field == "callback":
+        return lambda x, y: min(GMSH_H_CAP, sd / max(2.0 * (1.0 - y), floor))
+    return f"min({GMSH_H_CAP!r}, {sd!r} / max(2*(1-y), {floor!r}))"
+
 
 def gmsh_unit_square(delta0: float, s: float, *, field: str = "callback", threads: int = GMSH_THREADS):
-    """Mesh the unit square with Gmsh, size h = min(cap, s*delta0/max(|grad f|, floor)).
-
-    Returns (points (N,2), triangles (M,3), wall seconds of model build + generate + read back).
-    """
-    import gmsh
-
-    floor = gmsh_grad_floor(delta0)
-    t0 = time.perf_counter()
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", threads)
-        gmsh.model.add("unit_square")
-        geo = gmsh.model.geo
-        p = [geo.addPoint(x, y, 0.0) for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
-        lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
-            gmsh.option.setNumber(f"Mesh.{k}", 0)
-        gmsh.option.setNumber("Mesh.Algorithm", GMSH_ALGORITHM)
-        sd = s * delta0
-        if field == "callback":
-            def size(dim, tag, x, y, z, lc):
-                return min(GMSH_H_CAP, sd / max(2.0 * (1.0 - y), floor))
-            gmsh.model.mesh.setSizeCallback(size)
-        elif field == "matheval":
-            f = gmsh.model.mesh.field.add("MathEval")
-            gmsh.model.mesh.field.setString(
-                f, "F", f"min({GMSH_H_CAP!r}, {sd!r} / max(2*(1-y), {floor!r}))")
-            gmsh.model.mesh.field.setAsBackgroundMesh(f)
-        else:
-            raise ValueError(field)
-        gmsh.model.mesh.generate(2)
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        _, enodes = gmsh.model.mesh.getElementsByType(2)
-    finally:
-        gmsh.finalize()
-    wall = time.perf_counter() - t0
-    tags = tags.astype(np.int64)
-    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-    index[tags] = np.arange(len(tags))
-    tris = index[enodes.astype(np.int64)].reshape(-1, 3)
-    pts = xyz.reshape(-1, 3)[:, :2].copy()
-    return pts, tris, wall
+    """Mesh the unit square with Gmsh (hetmesh.peers.gmsh_mesh), size from
+    :func:`unit_square_size`. Returns (points (N,2), triangles (M,3), wall seconds of model
+    build + generate + read back)."""
+    m = peers.gmsh_mesh(_square_domain(), unit_square_size(delta0, s, field), field=field,
+                        threads=threads, algorithm=GMSH_ALGORITHM)
+    return m.points, m.triangles, m.seconds
 
 
 def gmsh_stats(model, pts, tris) -> dict:
-    comp = model.material.composition(pts)
-    d = delta_vertices(comp, tris)
-    q = quality(pts, tris)
-    return dict(n_points=int(len(pts)), n_elements=int(len(tris)), q_min=float(q.min()),
-                q_avg=float(q.mean()), delta_avg=float(d.mean()), delta_max=float(d.max()),
-                angle_min=float(min_angle(pts, tris).min()))
+    return peers.peer_statistics(model, peers.PeerMesh(pts, tris, 0.0)).as_dict()
 
 
 # ----------------------------------------------------------------------------- table 1
@@ -347,18 +320,17 @@ def table_plate(repeats: int) -> dict:
 # ----------------------------------------------------------------------------- table 2
 
 def gmsh_search(model, d0: float):
-    """Lower s from GMSH_S_START by GMSH_S_FACTOR until delta_max < d0; return trace."""
-    s = GMSH_S_START
-    trace = []
-    t0 = time.perf_counter()
-    for _ in range(GMSH_S_TRIES):
-        pts, tris, wall = gmsh_unit_square(d0, s, field="callback")
-        st = gmsh_stats(model, pts, tris)
-        trace.append(dict(s=s, n_elements=st["n_elements"], delta_max=st["delta_max"], time=wall))
-        if st["delta_max"] < d0:
-            return s, st, trace, time.perf_counter() - t0
-        s *= GMSH_S_FACTOR
-    return None, None, trace, time.perf_counter() - t0
+    """Lower s from GMSH_S_START by GMSH_S_FACTOR until delta_max < d0 (hetmesh.peers.search
+    with the analytic callback); returns (s, stats dict, trace, search seconds), s None if
+    no s met the threshold."""
+    try:
+        r = peers.search("gmsh", model, d0, size=lambda s: unit_square_size(d0, s, "callback"),
+                         field="callback", threads=GMSH_THREADS, s_start=GMSH_S_START,
+                         factor=GMSH_S_FACTOR, tries=GMSH_S_TRIES, bisect=0)
+    except hetmesh.MeshingError:
+        return None, None, [], float("nan")
+    trace = [dict(t, time=t["seconds"]) for t in r.trace]
+    return r.s, r.stats.as_dict(), trace, r.search_seconds
 
 
 def table_square(repeats: int) -> dict:
@@ -425,7 +397,7 @@ def table_square(repeats: int) -> dict:
                "MeshSizeFromCurvature=0,",
                f"  size via setSizeCallback: h = min({GMSH_H_CAP}, s·δ0 / max(2(1-y), √δ0)); "
                f"s = {GMSH_S_START}·{GMSH_S_FACTOR}^k, first k with δmax < δ0 "
-               "(δ from hetmesh.metrics.delta_vertices at Gmsh's nodes).",
+               "(δ from hetmesh.peers.peer_statistics at Gmsh's nodes).",
                "  Gmsh time = initialize + geometry + generate(2) + read back nodes/elements "
                "(the accepted s only; the search time is in notes). hetmesh time = generate()."])
     return {"rows": out, "repeats": repeats}

@@ -333,3 +333,30 @@ def test_blade_metal_fraction_is_c_dp_squared():
     assert metal.max() <= 1.0
     on_boundary = model.material.composition(ring[::37])[:, 1]
     assert np.abs(on_boundary).max() < 1e-9
+
+
+# ----------------------------------------------------------------------------- Table 7
+def test_table7_section_renders_the_fea_study():
+    """The Table 7 analog as it will appear once hetmesh.fea.study lands (docs/reproduce.md
+    gives the contract); absent study -> no section at all."""
+    from hetmesh.reproduce import Report
+    from hetmesh.reproduce.report import render
+
+    vm = {f"P{i}": 1e9 * v for i, v in enumerate((0.82, 1.44, 2.22, 0.57, 0.99, 1.49), 1)}
+    study = {"reference": {"elements": 40000, "von_mises": vm},
+             "meshes": [{"family": "uniform", "elements": 900, "von_mises": vm,
+                         "max_error": 0.004},
+                        {"family": "adaptive", "elements": 600, "von_mises": vm,
+                         "max_error": 0.003}],
+             "needed": {"uniform": 1000.0, "adaptive": 500.0}}
+    base = dict(path=Path("r.md"), quick=True, cases=["fgm_plate"], runs=[],
+                peer_versions={"gmsh": None, "triangle": None}, peers_run=False)
+    text = render(Report(**base, fea=study))
+    assert "## Table 7 analog" in text
+    check_numbers_parse(text)
+    (headers, rows), = table_with(text, "P1 GPa")
+    paper = [r for r in rows if r[0].endswith("paper")]
+    assert len(paper) == 8 and ["adaptive paper", "633"] == paper[5][:2]
+    (h2, r2), = table_with(text, "reduction paper")
+    assert dict(zip(h2, r2[0]))["reduction"] == "0.500"
+    assert "Table 7" not in render(Report(**base))

@@ -9,8 +9,10 @@ field of Eqs. (4)-(7),
 
     h(x) = min(h_max, s * delta_0 / |grad f(x)|),      h_max = domain diameter / 8
 
-(the size hetmesh itself aims for, with hetmesh's default largest size), and the scale ``s``
-is searched (:func:`search`): starting at ``S_START`` it is lowered by the factor ``S_FACTOR``
+(the size hetmesh itself aims for, with hetmesh's default largest size), sampled on a grid and
+graded so that it grows by at most 0.3 per unit length (:class:`SizeField`; without grading,
+elements where |grad f| ~ 0 next to fast change keep the size h_max whatever ``s``), and the
+scale ``s`` is searched (:func:`search`): starting at ``S_START`` it is lowered by the factor ``S_FACTOR``
 until the mesh's delta_max < delta_0 (raised while it already holds), then the last step is
 bisected, so the peer's mesh is the coarsest on that grid that meets the threshold. delta is
 evaluated exactly as for hetmesh's meshes (:func:`hetmesh.mesh_statistics`: vertex
