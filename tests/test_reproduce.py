@@ -360,3 +360,14 @@ def test_table7_section_renders_the_fea_study():
     (h2, r2), = table_with(text, "reduction paper")
     assert dict(zip(h2, r2[0]))["reduction"] == "0.500"
     assert "Table 7" not in render(Report(**base))
+
+
+@pytest.mark.slow
+def test_quick_report_of_every_case(tmp_path):
+    report = reproduce.run(tmp_path, quick=True)
+    text = report.path.read_text(encoding="utf-8")
+    assert report.cases == list(CASES)
+    assert all(r.error is None and r.adaptive.stats.delta_max < r.threshold for r in report.runs)
+    assert "## Table 5 analog: blade, hft_complex, fgm_plate" in text
+    assert len(check_figures(tmp_path, text)) == 10
+    check_numbers_parse(text)
