@@ -14,7 +14,7 @@ from ..errors import OutputError
 from .mesh import check_writable_dir
 from .progress import progress_reporter
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "summary_table"]
 
 
 def _cases(text: str) -> list[str]:
@@ -68,9 +68,42 @@ def run(args: argparse.Namespace) -> int:
                            command=command)
     if not args.quiet:
         console = Console(highlight=False, markup=False)
+        console.print(summary_table(report))
         n_runs = len(report.runs)
         failed = sum(r.error is not None for r in report.runs)
         console.print(f"{n_runs} model/threshold runs ({failed} failed), "
                       f"{len(report.figures)} figures, {report.seconds:.1f} s")
         console.print(f"wrote {report.path}")
     return 0
+
+
+def summary_table(report):
+    """A rich table of the report's headline numbers: elements adaptive and uniform, their
+    ratio beside the paper's, the best peer's elements and hetmesh's count divided by it."""
+    from rich import box
+    from rich.table import Table
+
+    from ..reproduce.paper import CASES
+    from ..reproduce.report import num, peer_verdicts
+
+    table = Table(title=f"hetmesh reproduce ({'quick' if report.quick else 'full'}): elements "
+                        "adaptive, uniform, best peer", title_justify="left",
+                  box=box.SIMPLE_HEAD, pad_edge=False)
+    for col in ("model", "δ0", "adaptive", "uniform", "ratio", "paper", "best peer",
+                "÷ peer"):
+        table.add_column(col, justify="left" if col == "model" else "right",
+                         no_wrap=col == "model", min_width=len(col))
+    for r in report.runs:
+        if r.error:
+            table.add_row(r.case, f"{r.threshold:g}", "error: " + r.error)
+            continue
+        case = CASES[r.case]
+        pa = next((v for t, v in case.adaptive.items() if abs(t - r.threshold) < 1e-12), None)
+        pu = next((v for t, v in case.uniform.items() if abs(t - r.threshold) < 1e-12), None)
+        v = peer_verdicts(r)
+        best = str(r.peers[v["best"]].stats.n_elements) if v else "-"
+        table.add_row(r.case, f"{r.threshold:g}", str(r.adaptive.stats.n_elements),
+                      str(r.uniform.stats.n_elements), num(r.ratio, 3),
+                      num(pa.n_elements / pu.n_elements, 3) if pa and pu else "-", best,
+                      num(v["ratio"], 3) if v else "-")
+    return table
