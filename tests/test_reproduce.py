@@ -371,3 +371,21 @@ def test_quick_report_of_every_case(tmp_path):
     assert "## Table 5 analog: blade, hft_complex, fgm_plate" in text
     assert len(check_figures(tmp_path, text)) == 10
     check_numbers_parse(text)
+
+
+def test_table7_accepts_the_benchmark_keys():
+    from hetmesh.reproduce import Report
+    from hetmesh.reproduce.report import render
+
+    vm = {f"P{i}": 1e9 for i in range(1, 7)}
+    study = {"reference": vm,
+             "runs": [{"kind": "adaptive", "elements": 600, "vm": vm, "err_P": 0.001},
+                      {"kind": "uniform", "param": 1.0, "error": "ERROR x"}],
+             "needed": {"P1..P6": {"uniform": 900.0, "adaptive": 600.0}}}
+    text = render(Report(path=Path("r.md"), quick=True, cases=["fgm_plate"], runs=[],
+                         peer_versions={}, peers_run=False, fea=study))
+    check_numbers_parse(text)
+    (headers, rows), = table_with(text, "P1 GPa")
+    assert rows[1][:3] == ["adaptive", "600", "1.0000"]
+    (h2, r2), = table_with(text, "reduction paper")
+    assert dict(zip(h2, r2[0]))["reduction"] == "0.333"
