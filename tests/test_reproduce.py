@@ -124,6 +124,7 @@ def test_quick_report_paper_columns_are_labelled_and_are_the_papers(quick):
             assert int(r["Ne paper"]) == paper.n_elements
             assert cell_number(r["δ_avg paper"]) == pytest.approx(paper.delta_avg)
     assert "0.0356 [1]" in text and "misprint" in text  # Table 1's corrected misprint
+
     ratio = table_with(text, "adaptive/uniform paper")
     r = dict(zip(ratio[0][0], ratio[0][1][0]))
     assert cell_number(r["adaptive/uniform paper"]) == pytest.approx(454 / 1218, abs=1e-3)
@@ -389,3 +390,17 @@ def test_table7_accepts_the_benchmark_keys():
     assert rows[1][:3] == ["adaptive", "600", "1.0000"]
     (h2, r2), = table_with(text, "reduction paper")
     assert dict(zip(h2, r2[0]))["reduction"] == "0.333"
+
+
+def test_misprint_footnotes_are_numbered_once():
+    from hetmesh.metrics import MeshStats
+    from hetmesh.reproduce.report import _stats_table
+    from hetmesh.reproduce.runs import CaseRun, MeshRun
+
+    st = MeshStats(10, 20, 0.5, 0.9, 0.0, 0.01, 0.05, 30.0)
+    run = CaseRun("hft_ring", 0.10, adaptive=MeshRun(st, 1.0), uniform=MeshRun(st, 1.0))
+    text = "\n".join(_stats_table(None, "Table 3", [run]))
+    (headers, rows), = tables(text)
+    uni = dict(zip(headers, rows[1]))
+    assert uni["q_min paper"] == "0.5356 [1]" and uni["q_avg paper"] == "0.9247 [1]"
+    assert text.count("[1] the paper's q_min/q_avg") == 1 and "[2]" not in text

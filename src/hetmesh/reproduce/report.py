@@ -114,19 +114,15 @@ def _stats_table(report, table: str, runs) -> list[str]:
                 cells.append(num(getattr(mr.stats, key), digits))
                 pv = num(getattr(paper, key), digits) if paper else NA
                 if paper and key in NOTE_KEYS.get(paper.note, ()):
-                    pv += f" [{len(notes) + 1}]"
-                    notes.append(NOTES[paper.note])
+                    if NOTES[paper.note] not in notes:
+                        notes.append(NOTES[paper.note])
+                    pv += f" [{notes.index(NOTES[paper.note]) + 1}]"
                 cells.append(pv)
             cells += [num(mr.stats.delta_max, 4), num(mr.seconds, 3)]
             rows.append(cells)
     out = markdown_table(headers, rows)
-    # each note once, numbered in order of appearance
-    seen = []
-    for n in notes:
-        if n not in seen:
-            seen.append(n)
-    if seen:
-        out += [""] + [f"[{i + 1}] {n}" for i, n in enumerate(seen)]
+    if notes:  # each note once, numbered in order of appearance
+        out += [""] + [f"[{i + 1}] {n}" for i, n in enumerate(notes)]
     return out
 
 
