@@ -47,7 +47,6 @@ log = logging.getLogger(__name__)
 
 #: the stress components, in the column order of :attr:`FEAResult.stress`
 STRESS_NAMES = ("stress_xx", "stress_yy", "stress_xy", "stress_zz")
-INTORDER = 2  # quadrature order: 3 points per triangle
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,17 +123,34 @@ def _components(t: np.ndarray, n: int) -> tuple[int, np.ndarray]:
     return connected_components(g, directed=False)
 
 
-def _curve_nodes(domain, mesh: Mesh, names, tol: float) -> np.ndarray:
-    """Ids of the mesh nodes on the curves called ``names`` (curve or loop names)."""
+def _curve_batch(domain, names):
     from ..geometry.curves import CurveBatch
 
-    ids = [i for i, info in enumerate(domain.curves)
-           if info.name in names or info.owner in names]
-    infos = [domain.curves[i] for i in ids]
+    infos = [info for info in domain.curves if info.name in names or info.owner in names]
+    return CurveBatch.from_curves([i.curve for i in infos]), infos
+
+
+def _curve_nodes(domain, mesh: Mesh, names, tol: float) -> np.ndarray:
+    """Ids of the mesh nodes on the curves called ``names`` (curve or loop names)."""
+    batch, infos = _curve_batch(domain, names)
     cand = np.unique(mesh.boundary_edges) if all(i.kind != "interface" for i in infos) \
         else np.arange(mesh.n_points)
-    batch = CurveBatch.from_curves([i.curve for i in infos])
     return cand[batch.distance(mesh.points[cand]) <= tol]
+
+
+def curve_facets(domain, P: np.ndarray, facets: np.ndarray, nodes: np.ndarray, names,
+                 tol: float) -> np.ndarray:
+    """Ids of the facets (edges ``(2, F)``) discretising the named curves: both ends on them
+    and the midpoint within the chord's sagitta (a quarter of the edge, or ``tol``)."""
+    on = np.zeros(len(P), dtype=bool)
+    on[nodes] = True
+    cand = np.flatnonzero(on[facets[0]] & on[facets[1]])
+    if not len(cand):
+        return cand
+    a, b = P[facets[0, cand]], P[facets[1, cand]]
+    batch, _ = _curve_batch(domain, names)
+    d = batch.distance(0.5 * (a + b))
+    return cand[d <= np.maximum(tol, 0.25 * np.hypot(*(b - a).T))]
 
 
 def _point_node(mesh: Mesh, p, tol: float, label: str, key: str) -> int:
@@ -149,27 +165,23 @@ def _point_node(mesh: Mesh, p, tol: float, label: str, key: str) -> int:
 
 # ---------------------------------------------------------------------- boundary conditions
 
-def temperature_dofs(mesh: Mesh, domain, cfg: FEAConfig) -> tuple[np.ndarray, np.ndarray]:
-    """``(nodes, values)`` of the fixed temperatures; where conditions meet, the one listed
-    later wins."""
+def temperature_nodes(mesh: Mesh, domain, cfg: FEAConfig) -> list[tuple[np.ndarray, float]]:
+    """``[(nodes, value)]`` per fixed-temperature condition, in the file's order."""
     tol = ON_BOUNDARY * domain.diameter
-    value = np.full(mesh.n_points, np.nan)
+    out = []
     for bc in cfg.temperature:
         nodes = _curve_nodes(domain, mesh, bc.curves, tol)
         if not len(nodes):
             raise FEAError(f"{bc.key}: no mesh node lies on {', '.join(bc.curves)}: is the "
                            f"mesh for this model?")
-        value[nodes] = bc.value
-    nodes = np.flatnonzero(~np.isnan(value))
-    return nodes, value[nodes]
+        out.append((nodes, bc.value))
+    return out
 
 
-def displacement_dofs(mesh: Mesh, domain, cfg: FEAConfig
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(fixed_x (N,) bool, fixed_y (N,) bool, values (N, 2))`` in model length units."""
+def displacement_nodes(mesh: Mesh, domain, cfg: FEAConfig) -> list[tuple[np.ndarray, Any]]:
+    """``[(nodes, bc)]`` per displacement condition (``nodes`` empty-free)."""
     tol = ON_BOUNDARY * domain.diameter
-    fixed = np.zeros((mesh.n_points, 2), dtype=bool)
-    values = np.zeros((mesh.n_points, 2))
+    out = []
     for bc in cfg.displacement:
         if bc.point is not None:
             nodes = np.array([_point_node(mesh, bc.point, tol, bc.label, bc.key)])
@@ -178,11 +190,30 @@ def displacement_dofs(mesh: Mesh, domain, cfg: FEAConfig
             if not len(nodes):
                 raise FEAError(f"{bc.key}: no mesh node lies on {bc.label}: is the mesh for "
                                f"this model?")
-        for j, v in enumerate((bc.ux, bc.uy)):
-            if v is not None:
-                fixed[nodes, j] = True
-                values[nodes, j] = v
-    return fixed[:, 0], fixed[:, 1], values
+        out.append((nodes, bc))
+    return out
+
+
+def _fixed_components(n: int, disp) -> tuple[np.ndarray, np.ndarray]:
+    """``(fixed_x, fixed_y)`` ``(N,)`` bool at the mesh nodes."""
+    fixed = np.zeros((n, 2), dtype=bool)
+    for nodes, bc in disp:
+        fixed[nodes, 0] |= bc.ux is not None
+        fixed[nodes, 1] |= bc.uy is not None
+    return fixed[:, 0], fixed[:, 1]
+
+
+def _condition_dofs(basis, domain, P, sk_facets, nodes, names, tol, comp: int | None = None
+                    ) -> np.ndarray:
+    """Dofs of ``basis`` on the mesh ``nodes`` and, for ``names`` (curves) with
+    higher-order elements, on the facets along them; component ``comp`` of a vector basis."""
+    nd = basis.nodal_dofs if comp is None else basis.nodal_dofs[comp:comp + 1]
+    out = [nd[:, nodes].ravel()]
+    fd = basis.facet_dofs if comp is None else basis.facet_dofs[comp:comp + 1]
+    if names and fd.size:
+        f = curve_facets(domain, P, sk_facets, nodes, names, tol)
+        out.append(fd[:, f].ravel())
+    return np.concatenate(out)
 
 
 def check_thermal(t: np.ndarray, n: int, nodes: np.ndarray, P: np.ndarray) -> None:
@@ -277,8 +308,8 @@ def _condensed(A: sp.spmatrix, b: np.ndarray, fixed: np.ndarray, x0: np.ndarray,
 
 
 def thermal(basis, k: np.ndarray, nodes: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Steady conduction ``div(k grad T) = 0``, ``T[nodes] = values``; ``k`` at quadrature
-    points ``(M, Q)``."""
+    """Steady conduction ``div(k grad T) = 0``, ``T[nodes] = values`` (dofs of ``basis``);
+    ``k`` at quadrature points ``(M, Q)``."""
     from skfem import BilinearForm, asm
     from skfem.helpers import dot, grad
 
@@ -320,14 +351,18 @@ def von_mises(s: np.ndarray) -> np.ndarray:
     return np.sqrt(0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2) + 3.0 * xy ** 2)
 
 
-def stresses(grads: np.ndarray, u: np.ndarray, t: np.ndarray, lam, mu, beta, dT,
-             plane: str) -> np.ndarray:
-    """Stresses ``(M, Q, 4)`` at the quadrature points from nodal displacements ``u (N, 2)``
-    (P1: the strain is constant per element; ``lam, mu, beta, dT`` vary at the points)."""
-    ue = u[t]  # (M, 3, 2)
-    du = np.einsum("mic,mid->mcd", ue, grads)  # du_c/dx_d
-    exx, eyy = du[:, 0, 0][:, None], du[:, 1, 1][:, None]
-    exy = 0.5 * (du[:, 0, 1] + du[:, 1, 0])[:, None]
+def p1_gradient(grads: np.ndarray, u: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Displacement gradients ``(M, 1, 2, 2)`` (``du_c/dx_d``) of P1 nodal values ``u (N, 2)``
+    with basis gradients ``grads (M, 3, 2)`` (:func:`_p1`)."""
+    return np.einsum("mic,mid->mcd", u[t], grads)[:, None]
+
+
+def stresses(du: np.ndarray, lam, mu, beta, dT, plane: str) -> np.ndarray:
+    """Stresses ``(M, Q, 4)`` (``xx, yy, xy, zz``) at the quadrature points from the
+    displacement gradients ``du (M, Q, 2, 2)`` (``du_c/dx_d``; Q may be 1 for a constant
+    strain) and ``lam, mu, beta, dT`` ``(M, Q)``."""
+    exx, eyy = du[..., 0, 0], du[..., 1, 1]
+    exy = 0.5 * (du[..., 0, 1] + du[..., 1, 0])
     tr = exx + eyy
     th = beta * dT
     s = np.empty(lam.shape + (4,))
@@ -454,7 +489,7 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     >>> r = hetmesh.fea.solve(hetmesh.generate(model, 0.1).mesh, model)    # doctest: +SKIP
     >>> r.probes["P3"]["von_mises"]                                        # doctest: +SKIP
     """
-    from skfem import Basis, ElementTriP1, ElementVector, MeshTri
+    from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri
 
     cfg = config if config is not None else getattr(model, "fea", None)
     if cfg is None:
@@ -470,10 +505,11 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     n = len(P)
 
     # boundary conditions, checked before any assembly
-    tnodes, tvalues = temperature_dofs(mesh, domain, cfg)
-    check_thermal(t, n, tnodes, P)
-    fx, fy, u0 = displacement_dofs(mesh, domain, cfg)
-    check_rigid(t, P, fx, fy)
+    tol = ON_BOUNDARY * domain.diameter
+    temps = temperature_nodes(mesh, domain, cfg)
+    check_thermal(t, n, np.concatenate([nd for nd, _ in temps] + [np.zeros(0, int)]), P)
+    disp = displacement_nodes(mesh, domain, cfg)
+    check_rigid(t, P, *_fixed_components(n, disp))
 
     # local metres: shifted to the bounding-box centre (coordinates at 1e9 stay accurate)
     x0, y0, x1, y1 = domain.bounds
@@ -482,8 +518,9 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     Pm = (P - origin) * scale
     sk = MeshTri(np.ascontiguousarray(Pm.T), np.ascontiguousarray(t.T), validate=False,
                  sort_t=False)
-    basis = Basis(sk, ElementTriP1(), intorder=INTORDER)
-    vbasis = Basis(sk, ElementVector(ElementTriP1()), intorder=INTORDER)
+    elem = ElementTriP2() if cfg.order == 2 else ElementTriP1()
+    basis = Basis(sk, elem, intorder=2 * cfg.order)
+    vbasis = Basis(sk, ElementVector(elem), intorder=2 * cfg.order)
     xq = np.moveaxis(basis.mapping.F(basis.X), 0, -1) / scale + origin  # (M, Q, 2) model
     sub = _subregions(field, P, t)
     props = material_at(field, cfg, xq, sub)
@@ -493,31 +530,40 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     timings["material"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    T = thermal(basis, props["conductivity"], tnodes, tvalues)
+    value = np.full(basis.N, np.nan)
+    for (nodes, v), bc in zip(temps, cfg.temperature):  # later conditions win where they meet
+        value[_condition_dofs(basis, domain, P, sk.facets, nodes, bc.curves, tol)] = v
+    tdofs = np.flatnonzero(~np.isnan(value))
+    Tfull = thermal(basis, props["conductivity"], tdofs, value[tdofs])
+    T = Tfull[basis.nodal_dofs[0]]
     timings["thermal"] = time.perf_counter() - t1
 
     t1 = time.perf_counter()
-    phi = np.vstack([1 - basis.X[0] - basis.X[1], basis.X[0], basis.X[1]])  # (3, Q)
-    dT = (T[t] @ phi) - cfg.reference_temperature  # (M, Q)
-    dofs = vbasis.nodal_dofs  # (2, N)
+    dT = np.asarray(basis.interpolate(Tfull)) - cfg.reference_temperature  # (M, Q)
     fixed = np.zeros(vbasis.N, dtype=bool)
-    fixed[dofs[0][fx]] = True
-    fixed[dofs[1][fy]] = True
     ud = np.zeros(vbasis.N)
-    ud[dofs[0]] = u0[:, 0] * scale
-    ud[dofs[1]] = u0[:, 1] * scale
+    for nodes, bc in disp:
+        names = bc.curves if bc.point is None else ()
+        for j, v in enumerate((bc.ux, bc.uy)):
+            if v is not None:
+                d = _condition_dofs(vbasis, domain, P, sk.facets, nodes, names, tol, comp=j)
+                fixed[d] = True
+                ud[d] = v * scale
     u = elastic(vbasis, lam, mu, beta, dT, fixed, ud)
+    dofs = vbasis.nodal_dofs  # (2, N)
     U = np.column_stack([u[dofs[0]], u[dofs[1]]])
     timings["elastic"] = time.perf_counter() - t1
 
     t1 = time.perf_counter()
-    grads, areas = _p1(Pm, t)
-    sq = stresses(grads, U, t, lam, mu, beta, dT, cfg.plane)  # (M, Q, 4)
+    du = np.moveaxis(vbasis.interpolate(u).grad, (0, 1), (2, 3))  # (M, Q, 2, 2)
+    sq = stresses(du, lam, mu, beta, dT, cfg.plane)  # (M, Q, 4)
     w = basis.W / basis.W.sum()
     cell = np.einsum("q,mqc->mc", w, sq)
     groups = mesh.regions.astype(np.int64) * (int(sub.max()) + 1 if sub is not None else 1) \
         + (sub if sub is not None else 0)
     edofs, enode = pieces(t, n, groups)
+    _, areas = _p1(Pm, t)
+    phi = np.vstack([1 - basis.X[0] - basis.X[1], basis.X[0], basis.X[1]])  # P1 at (3, Q)
     copies = recover(edofs, len(enode), areas, phi, w, sq)
     nodal = _node_mean(copies, enode, n)
     timings["recovery"] = time.perf_counter() - t1
@@ -529,7 +575,7 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     out = mesh.with_data(
         point_data={"temperature": T, "displacement": U, **{k: nodal[:, i] for i, k in
                                                            enumerate(names)}, "von_mises": vm},
-        cell_data={"temperature": T[t] @ (phi @ w), **{k: cell[:, i] for i, k in
+        cell_data={"temperature": (dT @ w) + cfg.reference_temperature, **{k: cell[:, i] for i, k in
                                                        enumerate(names)}, "von_mises": cvm})
     log.info("fea %s: %d elements, T in [%.6g, %.6g] K, max von Mises %.4g Pa (%.2f s)",
              model.name, len(t), T.min(), T.max(), vm.max(), timings["total"])

@@ -95,6 +95,8 @@ class FEAConfig:
         The matrix constituent of the Mori-Tanaka scheme.
     length_scale : float
         Metres per model length unit.
+    order : 1 or 2
+        Lagrange element order: linear (P1) or quadratic (P2, the default) triangles.
     """
 
     properties: Mapping[str, Properties]
@@ -106,6 +108,7 @@ class FEAConfig:
     mixing: str = "linear"
     matrix: str | None = None
     length_scale: float = 1.0
+    order: int = 2
     where: str = ""
 
     def table(self) -> dict[str, np.ndarray]:
@@ -143,7 +146,8 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
         few displacement constraints to remove the rigid-body modes.
     """
     t = ctx.table(value, "fea", required=("properties", "temperature", "displacement"),
-                  optional=("plane", "reference_temperature", "mixing", "matrix", "probes"))
+                  optional=("plane", "reference_temperature", "mixing", "matrix", "probes",
+                            "order"))
     scale = length_scale(units)
     if scale is None:
         raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
@@ -154,6 +158,10 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
     if ref <= 0:
         raise ctx.fail("fea.reference_temperature", f"expected a temperature in K above 0, "
                                                     f"got {ref:g}")
+    order = t.get("order", 2)
+    if isinstance(order, bool) or order not in (1, 2):
+        raise ctx.fail("fea.order", f"expected 1 (linear) or 2 (quadratic elements), got "
+                                    f"{order!r}")
     matrix = ctx.string(t, "fea", "matrix")
     if mixing == "mori-tanaka":
         if matrix is None:
@@ -178,7 +186,7 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
     probes = _probes(ctx, t.get("probes", {}), domain)
     return FEAConfig(properties=props, temperature=temps, displacement=disps, probes=probes,
                      plane=plane, reference_temperature=ref, mixing=mixing, matrix=matrix,
-                     length_scale=scale, where=ctx.where)
+                     length_scale=scale, order=int(order), where=ctx.where)
 
 
 def _choice(ctx, t, key, options, default):
