@@ -12,8 +12,8 @@ mixtures, probes P1..P6 (B, C, D, E, F, G) and Q1..Q6 (inside the field).
 Tables
   F1. The reference: uniform meshes of edge h_ref and 2 h_ref (hetmesh.uniform.uniform_at,
       discontinuities embedded); their probe von Mises and relative differences (the finer
-      one is the reference; for first-order convergence its own error is about that
-      difference).
+      one is the reference; converging at first order or faster, its own error is at most
+      about that difference).
   F2. A Table 7 analog: uniform meshes (edge h) and adaptive meshes (hetmesh.generate at
       delta_0) of increasing size; elements, von Mises at P1..P6 (GPa), the largest relative
       error against the reference over P1..P6, over Q1..Q6 and over all twelve.
