@@ -209,7 +209,8 @@ def table_speed(model, h: float, repeats: int = 3) -> dict:
                 f"seconds",
                 ["elements", "", "points", "material", "thermal", "elastic", "recovery",
                  "thermal+elastic", "solve() total", "< 10 s"], rows,
-                notes=["material: compositions at 3 quadrature points per element + mixing; "
+                notes=["material: compositions at the quadrature points (3 per element for "
+                       "order 1, 6 for order 2) + mixing; "
                        "thermal/elastic: assembly + condensation + sparse direct solve; "
                        "recovery: L2 projection of the stresses"])
     return {"elements": mesh.n_elements, "phases": pick, "total": median(times),
