@@ -273,3 +273,25 @@ def test_same_input_same_mesh(plate):
     b = hetmesh.generate(plate, 0.15).mesh
     np.testing.assert_array_equal(a.points, b.points)
     np.testing.assert_array_equal(a.triangles, b.triangles)
+
+
+def test_discontinuity_crossing_an_interface_is_cut_there():
+    """x = 0.5 (nearest of two points) crosses the domain's interface circle twice: three
+    pieces, the circle split at the two crossings, and a valid mesh."""
+    from hetmesh.geometry import Loop, Path, make_domain
+
+    sq = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    outer = Loop(tuple(Segment(a, b) for a, b in zip(sq, sq[1:] + sq[:1])), "outer")
+    ring = Path((Arc.circle((0.5, 0.5), 0.3),), "A")
+    feats = [PointFeature("a", (0.2, 0.5), [1.0, 0.0]), PointFeature("b", (0.8, 0.5), [0.0, 1.0])]
+    model = Model(name="cross", domain=make_domain(outer, interfaces=[ring]),
+                  material=HFTField(NearestFeature("n", feats), ["ceramic", "metal"]))
+    m = embed_discontinuities(model)
+    paths = [p for p in m.domain.interfaces if p.name.startswith("discontinuity")]
+    assert len(paths) == 3
+    ends = {tuple(np.round(e, 9)) for p in paths for e in (p.curves[0].start, p.curves[-1].end)}
+    assert ends == {(0.5, 0.0), (0.5, 0.2), (0.5, 0.8), (0.5, 1.0)}
+    a = next(p for p in m.domain.interfaces if p.name == "A")
+    assert len(a.curves) == 2
+    r = hetmesh.generate(model, 0.2)
+    check_invariants(r, model, 0.2)

@@ -32,6 +32,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+import shapely
 
 from .errors import GeometryError, MaterialError, MeshingError
 from .geometry import Arc, Path, Segment, make_domain
@@ -437,8 +438,10 @@ def _split_chain(chain, cuts: np.ndarray, tol: float):
         if isinstance(c, Arc) and c.is_full:  # a circle cut once starts at the cut
             a0 = c.theta0 + ts[0] * (c.theta1 - c.theta0)
             c = Arc(c.center, c.radius, a0, a0 + (c.theta1 - c.theta0), c.name)
-            ts = np.sort(np.asarray(c.project(on[far]), float))[1:] if len(ts) > 1 else ts[:0]
-            ts = ts[(ts > 0) & (ts < 1)]
+            rest = on[far][np.hypot(*(on[far] - c.start).T) > tol]
+            ts = np.sort(np.asarray(c.project(rest), float)) if len(rest) else ts[:0]
+        if len(ts) > 1:  # a point where two pieces end is one cut
+            ts = ts[np.r_[True, np.diff(ts) * c.length > tol]]
         bounds = np.r_[0.0, ts, 1.0]
         for ta, tb in zip(bounds[:-1], bounds[1:]):
             curves.append(_sub_curve(c, ta, tb))
@@ -454,6 +457,46 @@ def _sub_curve(c, ta: float, tb: float):
         return Segment(tuple(pa), tuple(pb), c.name)
     sweep = c.theta1 - c.theta0
     return Arc(c.center, c.radius, c.theta0 + ta * sweep, c.theta0 + tb * sweep, c.name)
+
+
+def _split_at_interfaces(part: np.ndarray, domain) -> list[np.ndarray]:
+    """``part`` cut where it crosses one of the domain's interface curves (interfaces may
+    only meet at curve end points); each crossing point is put exactly on the interface."""
+    curves = [ci.curve for ci in domain.curves if ci.kind == "interface"]
+    if not curves:
+        return [part]
+    line = shapely.LineString(part)
+    cuts = []  # (segment index, point)
+    for c in curves:
+        n = max(64, int(c.length / (1e-3 * domain.diameter)))
+        hit = line.intersection(shapely.LineString(c.point(np.linspace(0.0, 1.0, n + 1))))
+        for g in shapely.get_parts(hit):
+            if g.geom_type != "Point":
+                continue
+            q = c.point(np.asarray(c.project(np.array([g.coords[0]])), float))[0]
+            d = np.hypot(*(part - q).T)
+            if min(d[0], d[-1]) <= 1e-9 * domain.diameter:
+                continue  # the piece already ends there
+            seg = _segment_of(part, q)
+            cuts.append((seg, q))
+    if not cuts:
+        return [part]
+    out, start, prev = [], 0, None
+    for seg, q in sorted(cuts, key=lambda x: (x[0], float(np.hypot(*(x[1] - part[x[0]]))))):
+        head = part[start:seg + 1] if prev is None else np.vstack([prev, part[start:seg + 1]])
+        out.append(np.vstack([head, q]))
+        start, prev = seg + 1, q
+    out.append(np.vstack([prev, part[start:]]))
+    return [o for o in out if len(o) >= 2]
+
+
+def _segment_of(part: np.ndarray, q: np.ndarray) -> int:
+    """Index ``i`` of the polyline segment ``part[i] -> part[i + 1]`` nearest to ``q``."""
+    a, b = part[:-1], part[1:]
+    d = b - a
+    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.maximum(np.einsum("ij,ij->i", d, d),
+                                                             1e-300), 0.0, 1.0)
+    return int(np.argmin(np.hypot(*(a + t[:, None] * d - q).T)))
 
 
 def _on_curves(domain, pts: np.ndarray, tol: float) -> bool:
@@ -485,7 +528,7 @@ def embed_discontinuities(model, *, tol: float | None = None, cells: int = GRID_
         for part in _clip(labels, dom, disc, h, 1e-9 * diam):
             if _on_curves(dom, part, 10 * tol):
                 continue  # already an interface (or the boundary) of the domain
-            pieces.append(part)
+            pieces += _split_at_interfaces(part, dom)
     if not pieces:
         return model
     ends = np.vstack([np.vstack([p[0], p[-1]]) for p in pieces])
