@@ -19,7 +19,7 @@ HAVE_GMSH = peers.available()["gmsh"] is not None
 HAVE_TRIANGLE = peers.available()["triangle"] is not None
 QUICK_CASES = ["power_plate", "hft_ring", "blade"]
 TEXT_COLUMNS = {"model", "mesh", "best peer", "fewer elements", "≥ 35 % fewer (δ0 ≤ 0.05)",
-                "q_avg ≥ peer − 0.03"}
+                "q_avg ≥ peer − 0.03", "probes", "≥ 40 % fewer"}
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -106,7 +106,8 @@ def test_quick_report_numbers_parse_and_match_the_run(quick):
     row = {h: c for h, c in zip(headers, rows[0])}
     assert row["mesh"] == "adaptive"
     assert int(row["Ne"]) == run.adaptive.stats.n_elements
-    assert cell_number(row["δ_max"]) < 0.1
+    assert run.adaptive.stats.delta_max < 0.1
+    assert cell_number(row["δ_max"]) <= 0.1  # printed to 4 decimals: 0.09996 is 0.1000
     assert abs(cell_number(row["q_avg"]) - run.adaptive.stats.q_avg) < 1e-4
     uni = {h: c for h, c in zip(headers, rows[1])}
     assert int(uni["Ne"]) == run.uniform.stats.n_elements
@@ -138,10 +139,10 @@ def test_quick_report_progress_covers_every_run(quick):
     assert any("blade" in s for s, _ in stages)
 
 
-def test_quick_report_has_no_table7_without_the_fea_study(quick):
+def test_quick_report_has_no_table7_without_fgm_plate(quick):
     _, report, text, _ = quick
-    if reproduce.fea_study_function() is None or "fgm_plate" not in report.cases:
-        assert "Table 7" not in text
+    assert "fgm_plate" not in report.cases and report.fea is None
+    assert "Table 7" not in text
 
 
 def test_cli_reproduce_quick(tmp_path, capsys):
@@ -372,6 +373,111 @@ def test_quick_report_of_every_case(tmp_path):
     assert "## Table 5 analog: blade, hft_complex, fgm_plate" in text
     assert len(check_figures(tmp_path, text)) == 10
     check_numbers_parse(text)
+    # the quick FEA study (hetmesh.fea.study) as the Table 7 analog
+    assert report.fea_error is None and report.fea.quick
+    assert "## Table 7 analog" in text and "**Quick run**" in text
+    (headers, rows), = table_with(text, "P1 GPa")
+    ours = [dict(zip(headers, r)) for r in rows if not r[0].endswith("paper")]
+    assert len(ours) == 1 + len(report.fea.meshes)
+    assert ours[0]["elements"] == str(report.fea.reference["elements"])
+    for row, m in zip(ours[1:], report.fea.meshes):
+        assert (row["mesh"], int(row["elements"])) == (m["family"], m["elements"])
+        assert cell_number(row["max error P1..P6 %"]) == pytest.approx(100 * m["max_error"],
+                                                                        abs=1e-3)
+    (h2, r2), = table_with(text, "reduction paper")
+    need = dict(zip(h2, r2[0]))
+    assert need["probes"] == "P1..P6"
+    assert int(need["uniform"]) == round(report.fea.needed["uniform"])
+
+
+def test_run_passes_quick_and_progress_to_the_fea_study(tmp_path, monkeypatch):
+    """reproduce.run calls hetmesh.fea.study(model, quick=..., progress=...) and folds the
+    study's progress into its own; a HetmeshError from the study is one line in the section."""
+    from hetmesh.errors import FEAError
+
+    calls = []
+    vm = {f"P{i}": 1e9 for i in range(1, 7)}
+
+    def fake(model, *, quick=False, progress=None):
+        calls.append((model.name, quick))
+        for f in (0.0, 0.5, 1.0):
+            progress(f"mesh {f}", f)
+        return {"reference": {"elements": 100, "von_mises": vm}, "quick": quick,
+                "meshes": [{"family": "uniform", "elements": 50, "von_mises": vm,
+                            "max_error": 0.0}],
+                "needed": {"uniform": 50.0, "adaptive": None}}
+
+    monkeypatch.setattr(reproduce, "fea_study_function", lambda: fake)
+    stages = []
+    report = reproduce.run(tmp_path, cases=["power_plate"], quick=True, fea=True,
+                           progress=lambda s, f: stages.append((s, f)))
+    assert calls == [("fgm_plate", True)]
+    fr = [f for _, f in stages]
+    assert fr == sorted(fr) and fr[-1] == 1.0
+    assert any(s.startswith("fgm_plate FEA study: mesh 0.5") for s, _ in stages)
+    text = report.path.read_text(encoding="utf-8")
+    assert "## Table 7 analog" in text and "**Quick run**" in text
+    check_numbers_parse(text)
+
+    def broken(model, *, quick=False, progress=None):
+        raise FEAError("the study's reference mesh failed: out of budget\nmore")
+
+    monkeypatch.setattr(reproduce, "fea_study_function", lambda: broken)
+    report = reproduce.run(tmp_path, cases=["power_plate"], quick=True, fea=True)
+    text = report.path.read_text(encoding="utf-8")
+    assert "The FEA study failed: the study's reference mesh failed: out of budget\n" in text
+
+
+def test_table7_renders_a_probe_study():
+    """A ProbeStudy's extras: the quick note, the reference check, Q errors, h and δ0, one
+    'needed' row per probe set, upper bounds and unreached counts explained."""
+    from hetmesh.fea.probe_study import ProbeStudy
+    from hetmesh.reproduce import Report
+    from hetmesh.reproduce.report import render
+
+    P = [f"P{i}" for i in range(1, 7)]
+    Q = [f"Q{i}" for i in range(1, 7)]
+    vm = {k: 2e9 for k in P + Q}
+    need = {"P": {"names": P, "uniform": 2500.0, "uniform_exact": True, "adaptive": 700.0,
+                  "adaptive_exact": False, "reduction": 0.72},
+            "Q": {"names": Q, "uniform": 1200.0, "uniform_exact": True, "adaptive": None,
+                  "adaptive_exact": False, "reduction": None},
+            "all": {"names": P + Q, "uniform": 2500.0, "uniform_exact": True,
+                    "adaptive": 1000.0, "adaptive_exact": True, "reduction": 0.6}}
+    s = ProbeStudy(
+        reference={"elements": 19000, "h": 0.35, "von_mises": vm, "solve_seconds": 1.9,
+                   "check": {"elements": 4700, "von_mises": vm,
+                             "difference": {k: 0.0028 if k == "P2" else 0.001 for k in vm}}},
+        meshes=[{"family": "uniform", "param": 1.07, "elements": 1932, "von_mises": vm,
+                 "max_error": 0.0086, "errors": {"P": 0.0086, "Q": 0.0025, "all": 0.0086},
+                 "solve_seconds": 0.1},
+                {"family": "adaptive", "param": 0.2, "elements": 754, "von_mises": vm,
+                 "max_error": 0.0036, "errors": {"P": 0.0036, "Q": 0.0081, "all": 0.0081},
+                 "solve_seconds": 0.05},
+                {"family": "adaptive", "param": 0.05, "error": "budget exceeded"}],
+        needed=need["P"], needed_by_set=need, probe_sets={"P": P, "Q": Q, "all": P + Q},
+        primary="P", quick=True, order=2, note="quick run: reference uniform h = 0.35")
+    text = render(Report(path=Path("r.md"), quick=True, cases=["fgm_plate"], runs=[],
+                         peer_versions={}, peers_run=False, fea=s))
+    check_numbers_parse(text)
+    assert "**Quick run**" in text and "Study: quick run: reference uniform h = 0.35." in text
+    assert "differs from the reference by at most 0.280 % at P1..P6" in text
+    (headers, rows), = table_with(text, "P1 GPa")
+    rows = [dict(zip(headers, r)) for r in rows]
+    assert rows[0]["h"] == "0.350" and rows[0]["solve s"] == "1.90"
+    assert rows[1]["max error P1..P6 %"] == "0.860" and rows[1]["max error Q1..Q6 %"] == "0.250"
+    assert (rows[1]["h"], rows[1]["δ0"]) == ("1.070", "n/a")
+    assert (rows[2]["h"], rows[2]["δ0"]) == ("n/a", "0.200")
+    assert "- adaptive mesh 0.050 failed: budget exceeded" in text
+    (h2, r2), = table_with(text, "reduction paper")
+    got = {r[0]: dict(zip(h2, r)) for r in r2}
+    assert list(got) == ["P1..P6", "Q1..Q6", "all 12"]
+    assert got["P1..P6"]["reduction"] == "0.720" and got["P1..P6"]["≥ 40 % fewer"] == "yes"
+    assert got["P1..P6"]["reduction paper"] == "0.320"
+    assert got["Q1..Q6"]["adaptive"] == "n/a" and got["Q1..Q6"]["reduction"] == "n/a"
+    assert "P1..P6: the coarsest adaptive mesh is within 0.5 % already, so 700 is an upper " \
+           "bound and the reduction a lower bound." in text
+    assert "Q1..Q6: no adaptive mesh of the study brings every probe within 0.5 %" in text
 
 
 def test_table7_accepts_the_benchmark_keys():

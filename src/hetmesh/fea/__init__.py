@@ -10,10 +10,15 @@ properties mixed from the composition at the quadrature points, on scikit-fem::
     hetmesh.fea.write_report(result, "fea.json")
     hetmesh.fea.plot_von_mises(result, "vm.png")
 
+    s = hetmesh.fea.study(model, quick=True)           # case study 4 (Table 7 analog)
+    s.needed                                           # elements for 0.5 % at every probe
+
 Modules: :mod:`~hetmesh.fea.config` (the ``[fea]`` table; pure numpy, imported by the model
 parser), :mod:`~hetmesh.fea.mixing` (rule of mixtures, Mori-Tanaka), :mod:`~hetmesh.fea.analysis`
-(assembly, solves, recovery, probes), :mod:`~hetmesh.fea.report` (JSON report, plot).
-scikit-fem and matplotlib are imported on first use of the solver and the plot.
+(assembly, solves, recovery, probes), :mod:`~hetmesh.fea.report` (JSON report, plot),
+:mod:`~hetmesh.fea.probe_study` (the case-4 study, :func:`study`; not named ``study`` so that
+importing it cannot shadow the function). scikit-fem and matplotlib are imported on first use
+of the solver and the plot.
 """
 
 from __future__ import annotations
@@ -23,10 +28,11 @@ from .mixing import mix, mix_linear, mix_mori_tanaka
 
 __all__ = ["solve", "FEAResult", "FEAConfig", "Properties", "parse_fea", "mix", "mix_linear",
            "mix_mori_tanaka", "von_mises", "write_report", "plot_von_mises",
-           "von_mises_figure"]
+           "von_mises_figure", "study", "ProbeStudy"]
 
 _LAZY = {"solve": "analysis", "FEAResult": "analysis", "von_mises": "analysis",
-         "write_report": "report", "plot_von_mises": "report", "von_mises_figure": "report"}
+         "write_report": "report", "plot_von_mises": "report", "von_mises_figure": "report",
+         "study": "probe_study", "ProbeStudy": "probe_study"}
 
 
 def __getattr__(name: str):

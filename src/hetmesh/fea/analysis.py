@@ -1,7 +1,8 @@
 """Steady heat conduction, then linear thermoelasticity, on a hetmesh mesh (paper Sec. 4.4).
 
 The paper exported its meshes to a commercial package; here the analysis is built in, on
-scikit-fem, with linear triangles (P1):
+scikit-fem, with linear (P1, the default) or quadratic (P2, ``[fea] order = 2``) Lagrange
+triangles:
 
 1. **Conduction.** ``div(k grad T) = 0``; ``T`` fixed on the named curves, insulated
    elsewhere (zero normal flux is the natural condition).
@@ -11,14 +12,14 @@ scikit-fem, with linear triangles (P1):
    plane strain adds ``sigma_zz = lambda tr(eps) - beta (T - T_ref)``.
 
 The properties ``k, E, nu, alpha`` are mixed from the composition **at every quadrature
-point** (3 per element), each element evaluated in its own feature-tree subregion
-(:func:`hetmesh.discontinuity.element_subregions`), by the rule of ``[fea] mixing``
+point** (3 per element for P1, 6 for P2), each element evaluated in its own feature-tree
+subregion (:func:`hetmesh.discontinuity.element_subregions`), by the rule of ``[fea] mixing``
 (:mod:`hetmesh.fea.mixing`). Boundary conditions are found geometrically -- the mesh nodes
 within ``1e-6`` x the domain diameter of the named curves, the node at a named point -- so any
 mesh file of the model works. Stresses are recovered at the nodes by an L2 projection onto
-P1, continuous within each (region, subregion) piece and discontinuous across material
-discontinuities and closed interfaces; probe values interpolate those recovered fields in the
-containing element (see ``docs/fea.md``).
+linear functions, continuous within each (region, subregion) piece and discontinuous across
+material discontinuities and closed interfaces; probe values interpolate those recovered
+fields in the containing element (see ``docs/fea.md``).
 
 Singular systems are named, never solved: a mesh component without a fixed temperature, or
 displacement conditions that leave a rigid-body mode free (:func:`~hetmesh.fea.config.rigid_rank`).

@@ -186,8 +186,16 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
     fea_result, fea_error = None, None
     if study:
         step("fgm_plate: FEA study (Table 7)")
+        base = done[0] - 1
+
+        def study_progress(stage: str, fraction: float | None) -> None:
+            if progress is not None:
+                progress(f"fgm_plate FEA study: {stage}",
+                         (base + (fraction or 0.0)) / steps)
+
         try:
-            fea_result = study(models["fgm_plate"], quick=quick)
+            fea_model = models.get("fgm_plate") or load_model(example_path("fgm_plate"))
+            fea_result = study(fea_model, quick=quick, progress=study_progress)
         except HetmeshError as exc:
             fea_error = str(exc).splitlines()[0]
             log.warning("FEA study failed: %s", fea_error)
