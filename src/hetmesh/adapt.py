@@ -36,6 +36,7 @@ from .errors import BudgetError, MeshingError, OptionError
 from .geometry import build_pslg
 from .layers import place_layers
 from .mesh import Mesh, edge_keys
+from .optimize import optimize as optimize_mesh
 from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
 from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle, statistics,
                       triangle_angles)
@@ -413,7 +414,7 @@ PLACEMENTS = {"cvt": place_cvt, "layers": place_layers}
 def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: float | None = None,
              max_elements: int = DEFAULT_MAX_ELEMENTS, sampling: str = "vertices",
              method: str = "layers", seed: int = 0, min_quality: float = 0.6,
-             progress=None) -> Result:
+             optimize: bool = True, progress=None) -> Result:
     """Mesh ``model`` so that every element has delta(T) < ``threshold`` (Eq. 1).
 
     Parameters
@@ -429,6 +430,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     method : "layers" (nodes on iso-composition curves) or "cvt" (the paper's CVT start).
     seed : random seed (same input and seed, same mesh).
     min_quality : quality floor q(T) (Eq. 17) enforced by the refinement.
+    optimize : after the refinement, raise the element quality by smoothing and edge flips
+        that keep delta(T) < threshold and never lower a node star's minimum quality
+        (:func:`hetmesh.optimize.optimize`); same nodes and elements.
 
     Examples
     --------
@@ -465,6 +469,12 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
                                sampling=sampling, max_elements=max_elements, history=history,
                                progress=progress)
     timings["refine"] = time.perf_counter() - t2
+    if optimize:
+        t4 = time.perf_counter()
+        with ctx.timed("optimize"):
+            tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta, sampling=sampling,
+                                              min_angle_deg=min_angle)
+        timings["optimize"] = time.perf_counter() - t4
     t3 = time.perf_counter()
     mesh, stats = finish(ws, ctx, tris, comp, delta, offset, threshold=threshold,
                          min_angle_deg=min_angle)
@@ -475,7 +485,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     timings.update({f"{k}_s": v for k, v in sorted(ctx.clock.items())})
     opts = dict(threshold=threshold, min_angle=min_angle, max_size=ctx.h_max,
                 max_elements=max_elements, sampling=sampling, method=method, seed=seed,
-                min_quality=min_quality, estimate=float(est))
+                min_quality=min_quality, optimize=optimize, estimate=float(est))
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings=timings, options=opts, model=model)
 
