@@ -13,8 +13,8 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   composition row along their level curve (tangential move, then chord-Newton back onto the
   level) and, as a second candidate, freely. A node takes the candidate that raises its
   star's mean quality most among those that keep, for every element of its star,
-  (a) a positive orientation, (b) delta(T) < delta_0 evaluated exactly as the repair loop
-  does (same sampling; each element in its own subregion for feature-tree fields),
+  (a) a positive orientation, (b) delta(T) < delta_0 (less a relative 1e-6, against
+  rounding elsewhere) evaluated exactly as the repair loop does (same sampling; each element in its own subregion for feature-tree fields),
   (c) the smallest angle at least the floor or its old value, and (d) the star's minimum
   quality no lower than before. (b) is the costly test: it is made only for each node's best
   geometric candidate, then its next best where that fails.
@@ -52,6 +52,7 @@ __all__ = ["optimize", "independent_sets"]
 log = logging.getLogger(__name__)
 
 SQRT3_2 = 0.5 * np.sqrt(3.0)
+DELTA_MARGIN = 1e-6  # relative: moves keep delta(T) < (1 - DELTA_MARGIN) delta_0
 
 
 # --------------------------------------------------------------------------- helpers
@@ -61,7 +62,9 @@ class _Eval:
     def __init__(self, ctx: Context, sampling: str):
         self.field = ctx.field
         self.sampling = sampling
-        self.thr = ctx.threshold
+        # a hair below delta_0: a mesh re-evaluated elsewhere (user coordinates, another
+        # batch) must not see an element this pass put at delta_0 - 1 ulp
+        self.thr = ctx.threshold * (1.0 - DELTA_MARGIN)
         self.sub = has_subregions(ctx.field)
 
     def comp(self, pts):
