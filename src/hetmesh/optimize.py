@@ -13,7 +13,7 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   composition row along their level curve (tangential move, then chord-Newton back onto the
   level) and, as a second candidate, freely. A node takes the candidate that raises its
   star's mean quality most among those that keep, for every element of its star,
-  (a) a positive orientation, (b) delta(T) < delta_0 (less a relative 1e-6, against
+  (a) a positive orientation, (b) delta(T) < delta_0 (less a relative 1e-3, against
   rounding elsewhere) evaluated exactly as the repair loop does (same sampling; each element in its own subregion for feature-tree fields),
   (c) the smallest angle at least the floor or its old value, and (d) the star's minimum
   quality no lower than before. (b) is the costly test: it is made only for each node's best
@@ -52,7 +52,7 @@ __all__ = ["optimize", "independent_sets"]
 log = logging.getLogger(__name__)
 
 SQRT3_2 = 0.5 * np.sqrt(3.0)
-DELTA_MARGIN = 1e-6  # relative: moves keep delta(T) < (1 - DELTA_MARGIN) delta_0
+DELTA_MARGIN = 1e-3  # relative: moves keep delta(T) < (1 - DELTA_MARGIN) delta_0
 
 
 # --------------------------------------------------------------------------- helpers
