@@ -146,3 +146,45 @@ def test_a_mesh_that_lost_an_interface_edge_is_rejected(monkeypatch):
     monkeypatch.setattr(A, "repair", flip_one_interface_edge)
     with pytest.raises(MeshingError, match="not mesh edges"):
         hetmesh.generate(model, 0.1)
+
+
+@pytest.mark.parametrize("what", ["hole", "outside"])
+def test_a_mesh_with_a_hole_or_a_triangle_outside_is_rejected(monkeypatch, what):
+    """Coverage is checked by the boundary edges, not only by the area (which now allows the
+    chords' loss): one interior triangle removed, or one triangle added outside a boundary
+    edge, fails the verification."""
+    import hetmesh.adapt as A
+    from hetmesh.errors import MeshingError
+
+    model = hetmesh.load_model(hetmesh.example_path("power_plate"))
+    real = A.repair
+
+    def damage(ws, ctx, **kw):
+        tris, comp, delta = real(ws, ctx, **kw)
+        if what == "hole":
+            inner = np.flatnonzero((ws.vcurve[tris] < -1).all(axis=1))
+            tris = np.delete(tris, inner[len(inner) // 2], axis=0)
+            delta = np.delete(delta, inner[len(inner) // 2])
+        else:  # a thin triangle outside the bottom edge (y = 0 in user coordinates)
+            e = ws.E[ctx.boundary_curve[ws.ecurve]][0]
+            a, b = ws.P[e[0]], ws.P[e[1]]
+            out = 0.5 * (a + b) + 0.01 * np.array([b[1] - a[1], a[0] - b[0]])
+            ws.P = np.vstack([ws.P, out])
+            for name in ("vcurve", "vt", "pinned", "level"):
+                arr = getattr(ws, name)
+                setattr(ws, name, np.concatenate([arr, arr[-1:]]))
+            ws.vcurve[-1] = -2
+            n = len(ws.P) - 1
+            tris = np.vstack([tris, [e[1], e[0], n]])
+            delta = np.append(delta, 0.0)
+            comp = np.vstack([comp, comp[-1:]])
+        return tris, comp, delta
+
+    monkeypatch.setattr(A, "repair", damage)
+    monkeypatch.setattr(A, "optimize_mesh", lambda ws, ctx, tris, comp, delta, **kw:
+                        (tris, comp, delta))
+    with pytest.raises(MeshingError) as err:
+        hetmesh.generate(model, 0.1)
+    msg = str(err.value)
+    assert ("hole in the mesh" if what == "hole" else "are inside the mesh") in msg, msg
+    assert "inverted" not in msg

@@ -548,15 +548,11 @@ def _crossings(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float):
 
 
 def _sagitta(ctx: Context, chord_tol: float) -> float:
-    """The chord tolerance of the rows' boundary sampling: ``chord_tol``, or less where the
-    chords' lost area (~2/3 sagitta x length of the curved boundary) would exceed 1.5e-3 of
-    the domain's area (3/4 of the tolerance of the area check in ``adapt.finish``): next to a
-    flat zone the repair loop never splits these edges (a ring's circles)."""
-    arcs = sum(c.length for c, isb in zip(ctx.curves, ctx.boundary_curve)
-               if isb and hasattr(c, "radius"))
-    if arcs == 0:
-        return chord_tol
-    return min(chord_tol, 1.5e-3 * ctx.domain.area / (2.0 / 3.0 * arcs))
+    """The chord tolerance of the rows' boundary sampling: ``chord_tol``. (It was once cut
+    further so that the lost area met a fixed share of the domain's area; ``adapt.finish``
+    now allows exactly the chords' loss and checks the coverage by the boundary edges, and
+    the finer sampling made the flat zones next to a ring's circles too fine.)"""
+    return chord_tol
 
 
 def _curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):

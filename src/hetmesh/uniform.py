@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from .adapt import Result, evaluate, finish, prepare, repair
+from .adapt import CHORD_TOL, Result, evaluate, finish, prepare, repair
 from .discontinuity import embed_discontinuities
 from .errors import BudgetError
 from .options import DEFAULT_MAX_ELEMENTS, check_options
@@ -39,7 +39,7 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
                max_elements=DEFAULT_MAX_ELEMENTS):
     """A quality mesh with edges ~h everywhere; returns ``(workset, triangles)``."""
     uc = _uniform_ctx(ctx)
-    ws = workset_from_pslg(build_pslg(ctx.domain, h, 1e-3 * ctx.domain.diameter))
+    ws = workset_from_pslg(build_pslg(ctx.domain, h, CHORD_TOL * ctx.domain.diameter))
     x0, y0, x1, y1 = ctx.domain.bounds
     dy = h * np.sqrt(3) / 2
     ny = int(np.ceil((y1 - y0) / dy)) + 1
