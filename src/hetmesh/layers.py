@@ -248,14 +248,13 @@ GRADE = 0.35  # growth of the band height per unit length where flat zones are s
 _MAX_RATIO = 1.5  # a piece's end band up to this many times the height wanted is left whole
 
 
-def _profiles(ctx: Context, pieces: _Pieces, keys, dprime: float):
-    """Gradient paths through every piece, as samples: steepest ascent and descent started
-    just inside every curve, on each side, until f stops changing monotonically, the path
-    leaves the domain or meets an interface. Returns (path id, arc length s, f, x, g) of the
-    samples in path order and, per path, (piece, start curve, direction)."""
+def _path_starts(ctx: Context, pieces: _Pieces, most: int):
+    """Start points of gradient paths: 4..``most`` points per curve (about two per h_max),
+    just off the curve on each side that lies in a piece. Returns lists of point arrays,
+    their pieces and their curves."""
     starts, spc, scv = [], [], []
     for k, c in enumerate(ctx.curves):
-        n = int(np.clip(np.ceil(2 * c.length / ctx.h_max), 4, 32))
+        n = int(np.clip(np.ceil(2 * c.length / ctx.h_max), 4, most))
         ts = (np.arange(n) + 0.5) / n
         for side in (1, -1):
             pc = pieces.at(k, ts, side)
@@ -264,6 +263,15 @@ def _profiles(ctx: Context, pieces: _Pieces, keys, dprime: float):
                 starts.append(_side_points(ctx, k, ts[ok], side))
                 spc.append(pc[ok])
                 scv.append(np.full(int(ok.sum()), k))
+    return starts, spc, scv
+
+
+def _profiles(ctx: Context, pieces: _Pieces, keys, dprime: float):
+    """Gradient paths through every piece, as samples: steepest ascent and descent started
+    just inside every curve, on each side, until f stops changing monotonically, the path
+    leaves the domain or meets an interface. Returns (path id, arc length s, f, x, g) of the
+    samples in path order and, per path, (piece, start curve, direction)."""
+    starts, spc, scv = _path_starts(ctx, pieces, 32)
     if not starts:
         return None
     x = np.vstack(starts)
@@ -710,16 +718,7 @@ def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: floa
     started just inside every curve, on each side): they find the level curves that cross
     no curve at all (closed curves around a hole or an extremum). Returns (points, levels,
     row spacings)."""
-    starts, spc = [], []
-    for k, c in enumerate(ctx.curves):
-        n = int(np.clip(np.ceil(2 * c.length / ctx.h_max), 4, 64))
-        ts = (np.arange(n) + 0.5) / n
-        for side in (1, -1):
-            pc = pieces.at(k, ts, side)
-            ok = pc >= 0
-            if ok.any():
-                starts.append(_side_points(ctx, k, ts[ok], side))
-                spc.append(pc[ok])
+    starts, spc, _ = _path_starts(ctx, pieces, 64)
     if not starts:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     x = np.vstack(starts)
