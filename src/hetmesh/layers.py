@@ -266,47 +266,65 @@ def _path_starts(ctx: Context, pieces: _Pieces, most: int):
     return starts, spc, scv
 
 
-def _profiles(ctx: Context, pieces: _Pieces, keys, dprime: float):
-    """Gradient paths through every piece, as samples: steepest ascent and descent started
-    just inside every curve, on each side, until f stops changing monotonically, the path
-    leaves the domain or meets an interface. Returns (path id, arc length s, f, x, g) of the
-    samples in path order and, per path, (piece, start curve, direction)."""
-    starts, spc, scv = _path_starts(ctx, pieces, 32)
+def _two_way_starts(ctx: Context, pieces: _Pieces, most: int):
+    """The gradient paths' starts inside the domain, each twice (ascent then descent):
+    ``(points, direction +1/-1, piece, start curve)``, or None if there are none."""
+    starts, spc, scv = _path_starts(ctx, pieces, most)
     if not starts:
         return None
-    x = np.vstack(starts)
-    pc = np.concatenate(spc)
-    cv = np.concatenate(scv)
+    x, pc, cv = np.vstack(starts), np.concatenate(spc), np.concatenate(scv)
     ok = ctx.inside(x)
     x, pc, cv = x[ok], pc[ok], cv[ok]
-    x = np.vstack([x, x])
-    pc, cv = np.concatenate([pc, pc]), np.concatenate([cv, cv])
-    dirn = np.repeat([1.0, -1.0], len(x) // 2)
-    npath = len(x)
-    pid = np.arange(npath)
-    s = np.zeros(npath)
+    dirn = np.repeat([1.0, -1.0], len(x))
+    return np.vstack([x, x]), dirn, np.concatenate([pc, pc]), np.concatenate([cv, cv])
+
+
+def _gradient_walk(ctx: Context, x: np.ndarray, dirn: np.ndarray, step: float, cap: float,
+                   max_steps: int):
+    """Steepest ascent (``dirn`` +1) or descent (-1) from the points ``x``, in steps of
+    min(step / |grad f|, cap), until f stops changing monotonically, the path leaves the
+    domain or crosses an interface. Yields, per step, for the live paths: ``(ids, x, f,
+    |grad f|, next x, next f, ok, step length)``, ``ok`` telling which paths go on."""
+    ids = np.arange(len(x))
     f = ctx.f(x)
-    out = []
-    max_steps = int(1.5 / dprime + 14 * ctx.domain.diameter / ctx.h_max + 100)
     for _ in range(max_steps):
         if len(x) == 0:
-            break
+            return
         g = ctx.grad_f(x)
         gn = np.linalg.norm(g, axis=1)
-        out.append((pid, s, f, x, gn))
         with np.errstate(divide="ignore", invalid="ignore"):
-            ds = np.minimum(dprime / gn, 0.08 * ctx.h_max)
+            ds = np.minimum(step / gn, cap)
             xn = x + (dirn * ds / gn)[:, None] * g
         good = gn > 1e-14
         xn = np.where(good[:, None], xn, x)
         fn = ctx.f(xn)
         ok = good & ctx.inside(xn) & (dirn * (fn - f) > 0)
         ok &= ~_crosses_interface(ctx, x, xn)
-        pid, s, f, x, dirn = pid[ok], s[ok] + ds[ok], fn[ok], xn[ok], dirn[ok]
+        yield ids, x, f, gn, xn, fn, ok, ds
+        ids, x, f, dirn = ids[ok], xn[ok], fn[ok], dirn[ok]
+
+
+def _profiles(ctx: Context, pieces: _Pieces, keys, dprime: float):
+    """Gradient paths through every piece, as samples: steepest ascent and descent started
+    just inside every curve, on each side, until f stops changing monotonically, the path
+    leaves the domain or meets an interface. Returns (path id, arc length s, f, x, g) of the
+    samples in path order and, per path, (piece, start curve, direction)."""
+    start = _two_way_starts(ctx, pieces, 32)
+    if start is None:
+        return None
+    x, dirn, pc, cv = start
+    npath = len(x)
+    s = np.zeros(npath)
+    out = []
+    max_steps = int(1.5 / dprime + 14 * ctx.domain.diameter / ctx.h_max + 100)
+    for ids, xs, f, gn, _, _, ok, ds in _gradient_walk(ctx, x, dirn, dprime, 0.08 * ctx.h_max,
+                                                        max_steps):
+        out.append((ids, s[ids], f, xs, gn))
+        s[ids[ok]] += ds[ok]
     P = np.concatenate([o[0] for o in out])
     order = np.argsort(P, kind="stable")
     cat = [np.concatenate([o[j] for o in out])[order] for j in range(5)]
-    return cat, (pc, cv, np.repeat([1.0, -1.0], npath // 2))
+    return cat, (pc, cv, dirn)
 
 
 def _grade_levels(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float,
@@ -718,47 +736,30 @@ def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: floa
     started just inside every curve, on each side): they find the level curves that cross
     no curve at all (closed curves around a hole or an extremum). Returns (points, levels,
     row spacings)."""
-    starts, spc, _ = _path_starts(ctx, pieces, 64)
-    if not starts:
+    start = _two_way_starts(ctx, pieces, 64)
+    if start is None:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
-    x = np.vstack(starts)
-    pc = np.concatenate(spc)
-    ok = ctx.inside(x)
-    x, pc = x[ok], pc[ok]
-    x = np.vstack([x, x])
-    pc = np.concatenate([pc, pc])
-    dirn = np.repeat([1.0, -1.0], len(x) // 2)
-    f = ctx.f(x)
-    kx = np.searchsorted(keys, pc * _STRIDE + f, side="right")
+    x, dirn, pc, _ = start
+    kx = np.searchsorted(keys, pc * _STRIDE + ctx.f(x), side="right")
     out_p, out_l, out_d = [], [], []
     max_steps = int(4.0 / dprime + 8 * ctx.domain.diameter / ctx.h_max + 100)
-    for _ in range(max_steps):
-        if len(x) == 0:
-            break
-        g = ctx.grad_f(x)
-        gn = np.linalg.norm(g, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ds = np.minimum(0.5 * dprime / gn, 0.25 * ctx.h_max)
-            xn = x + (dirn * ds / gn)[:, None] * g
-        good = gn > 1e-14
-        xn = np.where(good[:, None], xn, x)
-        fn = ctx.f(xn)
-        ok = good & ctx.inside(xn) & (dirn * (fn - f) > 0)
-        ok &= ~_crosses_interface(ctx, x, xn)
-        kn = np.searchsorted(keys, pc * _STRIDE + fn, side="right")
-        cr = np.flatnonzero(ok & (kn != kx))
+    for ids, xs, f, _, xn, fn, ok, _ in _gradient_walk(ctx, x, dirn, 0.5 * dprime,
+                                                        0.25 * ctx.h_max, max_steps):
+        kn = np.searchsorted(keys, pc[ids] * _STRIDE + fn, side="right")
+        kc = kx[ids]
+        cr = np.flatnonzero(ok & (kn != kc))
         if cr.size:
-            lo = np.minimum(kx[cr], kn[cr])
-            cnt = np.abs(kn[cr] - kx[cr])
+            lo = np.minimum(kc[cr], kn[cr])
+            cnt = np.abs(kn[cr] - kc[cr])
             i = np.repeat(cr, cnt)
             kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
             L = levs[kk]
             u = (L - f[i]) / (fn[i] - f[i])
-            p = x[i] + u[:, None] * (xn[i] - x[i])
+            p = xs[i] + u[:, None] * (xn[i] - xs[i])
             out_p.append(project_to_level(ctx, p, L, iters=3))
             out_l.append(L)
             out_d.append(dps[kk])
-        x, f, kx, pc, dirn = xn[ok], fn[ok], kn[ok], pc[ok], dirn[ok]
+        kx[ids[ok]] = kn[ok]
     if not out_p:
         return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     return np.vstack(out_p), np.concatenate(out_l), np.concatenate(out_d)
