@@ -212,7 +212,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
                               f"{max_elements} elements); raise --max-elements or the threshold")
         n_before = ws.n
         with ctx.timed("insertion"):
-            new_c = _insert_refinement_points(ws, ctx, tris, comp, viol, badq, afloor)
+            new_c = _insert_refinement_points(ws, ctx, tris, comp, viol, badq, afloor, sharp)
         if ws.n == n_before:
             raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
                                f"elements at delta >= {thr:g} and {int(badq.sum())} below the "
@@ -231,12 +231,13 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
 
 
 def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
-                              afloor: float) -> np.ndarray:
+                              afloor: float, sharp: np.ndarray) -> np.ndarray:
     """One round's new nodes; returns the ids of the nodes that split constraint edges.
 
     MOR: each violator's edge with the largest composition jump is split (on its curve if it
     is a constraint edge). GOR: bad triangles get an off-center; one that encroaches a
-    constraint edge, or falls outside, splits that edge instead (Ruppert).
+    constraint edge, or falls outside, splits that edge instead (Ruppert). Edges at the
+    ``sharp`` corners (fixed vertices, found once per loop) are split on concentric shells.
     """
     skeys, sorder = _constraint_index(ws)
     split_c = []
@@ -285,7 +286,7 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         cand_min.append(0.3 * r[inside])
         cand_clash.append(r[inside])
     sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
-    new_c = split_constraint_edges(ws, ctx, sc, where=shell_split(ws, ctx))
+    new_c = split_constraint_edges(ws, ctx, sc, where=shell_split(ws, ctx, sharp))
     if cand:
         pts = np.concatenate(cand)
         keep = thin_candidates_mask(ws, pts, np.concatenate(cand_min), np.concatenate(cand_clash))
@@ -411,7 +412,8 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, m
     if has_subregions(ctx.field):
         cell_data["subregion"] = element_subregions(ctx.field, P, tris)
         cross = crossing_elements(ctx.field, P, tris, ctx.domain.curve_batch,
-                                  tol=2 * FIT_TOL * ctx.domain.diameter)
+                                  tol=2 * FIT_TOL * ctx.domain.diameter,
+                                  regions=cell_data["subregion"])
         if cross.any():
             problems.append(f"{int(cross.sum())} elements cross a material discontinuity")
     if problems:

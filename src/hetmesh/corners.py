@@ -46,12 +46,12 @@ def sharp_corners(ws: WorkSet, ctx: Context, limit_deg: float = 60.0) -> np.ndar
     return np.array(out, dtype=np.int64)
 
 
-def shell_split(ws: WorkSet, ctx: Context):
+def shell_split(ws: WorkSet, ctx: Context, sharp: np.ndarray):
     """Where to split constraint edges: the midpoint, except for an edge with one end at a
-    sharp corner, split at the power-of-two distance from that corner in [L/3, 2L/3]
-    (concentric shells, Ruppert/Shewchuk): the pieces next to a small input angle then have
-    equal lengths and stop encroaching on each other, so the splitting ends."""
-    sharp = sharp_corners(ws, ctx)
+    sharp corner (``sharp``, from :func:`sharp_corners`), split at the power-of-two distance
+    from that corner in [L/3, 2L/3] (concentric shells, Ruppert/Shewchuk): the pieces next
+    to a small input angle then have equal lengths and stop encroaching on each other, so
+    the splitting ends."""
     if len(sharp) == 0:
         return None
 

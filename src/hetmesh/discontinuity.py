@@ -563,7 +563,8 @@ def embedded_count(domain) -> int | None:
 
 # ----------------------------------------------------------------------------- checking
 def crossing_elements(field, points: np.ndarray, triangles: np.ndarray, curves, *,
-                      order: int = 4, tol: float = 0.0) -> np.ndarray:
+                      order: int = 4, tol: float = 0.0,
+                      regions: np.ndarray | None = None) -> np.ndarray:
     """Elements whose interior crosses a subregion boundary (bool ``(M,)``).
 
     Every element is sampled on its order-``order`` lattice (pulled a hair inside); a sample
@@ -571,10 +572,11 @@ def crossing_elements(field, points: np.ndarray, triangles: np.ndarray, curves, 
     the element's chord error of the embedded curves ``curves`` (a :class:`CurveBatch`): an
     edge on a curved discontinuity is its chord, and the sliver between chord and curve,
     of width the sagitta, belongs to the neighbour. ``tol`` adds the fitting tolerance.
+    ``regions``: the elements' subregions if already known (:func:`element_subregions`).
     """
     from .metrics import lattice_barycentric
 
-    own = element_subregions(field, points, triangles)
+    own = element_subregions(field, points, triangles) if regions is None else regions
     lam = lattice_barycentric(order)
     lam = 0.999 * lam + 0.001 / 3.0
     xy = np.einsum("kv,cvd->ckd", lam, points[triangles])  # (M, K, 2)
