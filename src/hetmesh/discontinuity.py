@@ -423,29 +423,30 @@ def _split_chain(chain, cuts: np.ndarray, tol: float):
     """``chain`` (Loop or Path) with its curves split at the points ``cuts`` lying on them."""
     curves = []
     for c in chain.curves:
-        if len(cuts) == 0:
-            curves.append(c)
-            continue
-        d = c.distance(cuts)
-        ts = np.sort(np.asarray(c.project(cuts[d <= tol]), float))
-        ends = np.array([c.start, c.end])
-        on = cuts[d <= tol]
-        far = np.hypot(on[:, None, 0] - ends[:, 0], on[:, None, 1] - ends[:, 1]).min(1) > tol
-        ts = np.sort(np.asarray(c.project(on[far]), float)) if far.any() else ts[:0]
-        if len(ts) == 0:
+        inner = _inner_cuts(c, cuts, tol)
+        if len(inner) == 0:
             curves.append(c)
             continue
         if isinstance(c, Arc) and c.is_full:  # a circle cut once starts at the cut
-            a0 = c.theta0 + ts[0] * (c.theta1 - c.theta0)
+            a0 = c.theta0 + float(np.min(c.project(inner))) * (c.theta1 - c.theta0)
             c = Arc(c.center, c.radius, a0, a0 + (c.theta1 - c.theta0), c.name)
-            rest = on[far][np.hypot(*(on[far] - c.start).T) > tol]
-            ts = np.sort(np.asarray(c.project(rest), float)) if len(rest) else ts[:0]
+            inner = _inner_cuts(c, inner, tol)
+        ts = np.sort(np.asarray(c.project(inner), float)) if len(inner) else np.zeros(0)
         if len(ts) > 1:  # a point where two pieces end is one cut
             ts = ts[np.r_[True, np.diff(ts) * c.length > tol]]
         bounds = np.r_[0.0, ts, 1.0]
-        for ta, tb in zip(bounds[:-1], bounds[1:]):
-            curves.append(_sub_curve(c, ta, tb))
+        curves.extend(_sub_curve(c, ta, tb) for ta, tb in zip(bounds[:-1], bounds[1:]))
     return replace(chain, curves=tuple(curves))
+
+
+def _inner_cuts(c, cuts: np.ndarray, tol: float) -> np.ndarray:
+    """The points of ``cuts`` on curve ``c`` (within ``tol``) that are not at its ends."""
+    if len(cuts) == 0:
+        return cuts
+    on = cuts[c.distance(cuts) <= tol]
+    ends = np.array([c.start, c.end])
+    far = np.hypot(on[:, None, 0] - ends[:, 0], on[:, None, 1] - ends[:, 1]).min(axis=1) > tol
+    return on[far]
 
 
 def _sub_curve(c, ta: float, tb: float):
