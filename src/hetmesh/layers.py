@@ -7,7 +7,10 @@ with spacing 2 w / sqrt(3) along each row (w = beta * delta_0 / |grad f| the row
 make near-equilateral triangles whose vertices sit on two adjacent rows, so every such triangle
 has delta(T) = beta * delta_0 exactly: the threshold is used to the full (about 0.75-0.9 x N_iso
 elements). The rows are traced from where the level curves cross the boundary (predictor step
-along the tangent, Newton corrector back onto the level). Where |grad f| -> 0 at a border
+along the tangent, Newton corrector back onto the level); a row that runs from curve to curve
+then gets its nodes re-spaced so that it is in phase with its neighbours (a spacing shared by
+adjacent rows, alternate rows starting a full and a half spacing from the curve,
+:func:`_respace_rows`). Where |grad f| -> 0 at a border
 or an extremum the last band of rows is much higher than its neighbours: it gets
 intermediate levels, graded from both ends, and the rows next to it a node step that
 matches their bands (:func:`_grade_levels`); what no level covers is filled by
@@ -681,17 +684,21 @@ def _crosses_interface(ctx: Context, xa: np.ndarray, xb: np.ndarray) -> np.ndarr
 
 
 def _trace_rows(ctx: Context, x0: np.ndarray, lev: np.ndarray, dirn: np.ndarray,
-                dprime: np.ndarray, budget: int):
+                dprime: np.ndarray, budget: int, ends: bool = False):
     """Trace the level curves f = ``lev`` from the points ``x0`` along ``dirn`` times their
     tangent (predictor-corrector) until they reach a boundary or interface curve, leave the
     domain, or close (back near their start); ``dprime`` is each row's spacing in f.
-    Returns (points, levels, closed per start); the starts themselves are not returned."""
+    Returns (points, levels, closed per start); the starts themselves are not returned.
+    With ``ends``, also the trace of every point and, per start, where the trace stopped
+    and whether it stopped next to a curve (the row's far end)."""
     closed_out = np.zeros(len(x0), bool)
     if len(x0) == 0:
-        return np.zeros((0, 2)), np.zeros(0), closed_out
+        z = (np.zeros((0, 2)), np.zeros(0), closed_out)
+        return z + (np.zeros(0, np.int64), np.zeros((0, 2)), closed_out.copy()) if ends else z
     x, lev, dirn = x0.copy(), lev.copy(), np.asarray(dirn, float)
     dpr = np.broadcast_to(np.asarray(dprime, float), lev.shape)
-    out_p, out_l = [], []
+    out_p, out_l, out_i = [], [], []
+    at_curve = np.zeros(len(x), bool)
     total = 0
     active = np.ones(len(x), bool)
     start = x.copy()
@@ -722,13 +729,20 @@ def _trace_rows(ctx: Context, x0: np.ndarray, lev: np.ndarray, dirn: np.ndarray,
         keep_node = ok & (db > 0.55 * h) & (di > 0.55 * h) & ~closed
         out_p.append(xn[keep_node])
         out_l.append(la[keep_node])
+        out_i.append(ia[keep_node])
         total += int(keep_node.sum())
-        cont = ok & ~closed & (((db > 0.3 * h) & (di > 0.3 * h)) | (step < 2))
-        x[ia] = xn
+        near = (db <= 0.3 * h) | (di <= 0.3 * h)
+        cont = ok & ~closed & (~near | (step < 2))
+        # a trace ends next to a curve, or with a step that would leave its piece
+        at_curve[ia] = ~cont & ~closed & (step >= 2) & (ok | ~inside | (moved > 0.2 * h))
+        x[ia] = np.where(ok[:, None], xn, xa)
         active[ia[~cont]] = False
+    at_curve &= ~active  # a trace cut short by the budget has no far end
     if not out_p:
-        return np.zeros((0, 2)), np.zeros(0), closed_out
-    return np.concatenate(out_p), np.concatenate(out_l), closed_out
+        out = (np.zeros((0, 2)), np.zeros(0), closed_out)
+        return out + (np.zeros(0, np.int64), x, at_curve) if ends else out
+    out = (np.concatenate(out_p), np.concatenate(out_l), closed_out)
+    return out + (np.concatenate(out_i), x, at_curve) if ends else out
 
 
 def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float):
@@ -801,8 +815,11 @@ def _place_rows(ctx: Context, pieces: _Pieces, keys, levs, dps, cross, dprime: f
             m = np.flatnonzero((cid == k) & ~isb)
             nrm = sd[m, None] * _left_normal(ctx.curves[k], tt[m])
             inward[m] = (tau[m] * nrm).sum(1) > 0
-        p, l, _ = _trace_rows(ctx, seeds[inward], lv[inward], np.ones(int(inward.sum())),
-                              cdp[inward], budget)
+        ix = np.flatnonzero(inward)
+        p, l, _, tid, xend, at_curve = _trace_rows(ctx, seeds[ix], lv[ix], np.ones(len(ix)),
+                                                   cdp[ix], budget, ends=True)
+        par = np.searchsorted(keys, pcs * _STRIDE + lv, side="left") % 2  # level parity
+        p, l = _respace_rows(ctx, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, at_curve)
         rows.append(p)
         rlev.append(l)
     with ctx.timed("seeds"):
@@ -831,6 +848,97 @@ def _place_rows(ctx: Context, pieces: _Pieces, keys, levs, dps, cross, dprime: f
         rows += [x, p1, p2]
         rlev += [l, l1, l2]
     return np.vstack(rows), np.concatenate(rlev)
+
+
+#: ratio of the ladder of node spacings along open rows (:func:`_respace_rows`)
+LADDER = 1.1
+
+
+def _respace_rows(ctx: Context, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, at_curve):
+    """Re-place the nodes of the rows that run from curve to curve, in phase with their
+    neighbours.
+
+    Why: a row traced from its start at its own step 2 w / sqrt(3) starts every row with a
+    node one step from the wall, so adjacent rows are in phase at the wall (apex above a
+    vertex, not above an edge's midpoint), and since the step changes from row to row the
+    phase between two rows drifts along them: sheared bands along the walls and diagonal
+    lines of dislocations (power_plate 0.03: q_avg 0.950). Here a row's nodes are spaced
+    evenly in units of its local step, with
+
+    * the spacing quantised on a geometric ladder (ratio :data:`LADDER`) of the row's
+      mean step: adjacent rows in the same rung have the same spacing, so the phase between
+      them does not drift (an isosceles triangle 5 % wider than equilateral loses 0.0014
+      of q, an apex half a step off loses 0.18);
+    * alternate rows (by level index) starting a full and a half spacing from the curve
+      at both ends, the spacing adjusted (by under half a node over the row) so that the
+      row fits whole.
+
+    ``ix`` are the starts traced (into the crossing arrays); ``p, l, tid`` the traced
+    nodes, their levels and traces; ``xend, at_curve`` where each trace stopped and
+    whether next to a curve. Rows whose far end is not a crossing of their own level and
+    piece keep their traced nodes. Returns the new (points, levels)."""
+    if len(p) == 0 or not at_curve.any():
+        return p, l
+    # the far end: the crossing of the same level and piece nearest to where the trace stopped
+    h_end = _row_step_at(ctx, xend, cdp[ix])
+    tree = cKDTree(seeds)
+    d, j = tree.query(xend, k=min(6, len(seeds)))
+    d, j = d.reshape(len(ix), -1), j.reshape(len(ix), -1)
+    same = (np.abs(lv[j] - lv[ix, None]) <= 1e-12 * np.maximum(1.0, np.abs(lv[ix, None])))
+    same &= (pcs[j] == pcs[ix, None]) & (j != ix[:, None]) & (d < 1.5 * h_end[:, None])
+    has = at_curve & same.any(axis=1)
+    far = j[np.arange(len(ix)), np.argmax(same, axis=1)]
+    order = np.argsort(tid, kind="stable")
+    p, l, tid = p[order], l[order], tid[order]
+    keep = ~has[tid]
+    out_p, out_l = [p[keep]], [l[keep]]
+    rows = np.flatnonzero(has)
+    if len(rows) == 0:
+        return p, l
+    # polylines: start, traced nodes, far end
+    cnt = np.bincount(tid, minlength=len(ix))[rows]
+    starts = np.cumsum(np.r_[0, cnt + 2])
+    pts = np.empty((starts[-1], 2))
+    pts[starts[:-1]] = seeds[ix[rows]]
+    pts[starts[1:] - 1] = seeds[far[rows]]
+    inner = np.flatnonzero(has[tid])
+    r_of = np.searchsorted(rows, tid[inner])
+    pos = starts[r_of] + 1 + (np.arange(len(inner)) - np.searchsorted(tid[inner], tid[inner]))
+    pts[pos] = p[inner]
+    row = np.repeat(np.arange(len(rows)), cnt + 2)
+    seg = np.flatnonzero(row[1:] == row[:-1])
+    mid = 0.5 * (pts[seg] + pts[seg + 1])
+    ln = np.linalg.norm(pts[seg + 1] - pts[seg], axis=1)
+    du = ln / _row_step_at(ctx, mid, cdp[ix[rows]][row[seg]])
+    U = np.bincount(row[seg], du, minlength=len(rows))
+    L = np.bincount(row[seg], ln, minlength=len(rows))
+    # spacing in step units: the rung of the row's mean step, relative to that step
+    hbar = L / np.maximum(U, 1e-300)
+    rung = np.round(np.log(ctx.h_max / hbar) / np.log(LADDER))
+    a = ctx.h_max * LADDER ** (-rung) / hbar
+    phi = np.where(par[ix[rows]] == 0, 1.0, 0.5)
+    m = np.round(U / a - 2 * phi + 1)
+    m = np.maximum(m, np.where(phi < 1, 1, 0)).astype(np.int64)
+    a = U / (2 * phi + m - 1)
+    # targets in step units, then along the polyline
+    rr = np.repeat(np.arange(len(rows)), m)
+    jj = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
+    ut = a[rr] * (phi[rr] + jj)
+    cu = np.zeros(len(pts))
+    cu[seg + 1] = du
+    cu = np.cumsum(cu)
+    cu -= cu[starts[:-1]][row]  # step units from each row's start
+    gk = row * (2.0 * (U.max() + 1)) + cu  # sortable: rows apart, u within
+    tk = rr * (2.0 * (U.max() + 1)) + ut
+    i = np.clip(np.searchsorted(gk, tk, side="right") - 1, starts[:-1][rr], starts[1:][rr] - 2)
+    w = np.clip((tk - gk[i]) / np.maximum(gk[i + 1] - gk[i], 1e-300), 0.0, 1.0)
+    x = pts[i] + w[:, None] * (pts[i + 1] - pts[i])
+    lev = lv[ix[rows]][rr]
+    x = project_to_level(ctx, x, lev, iters=3)
+    ok = ctx.inside(x)
+    out_p.append(x[ok])
+    out_l.append(lev[ok])
+    return np.concatenate(out_p), np.concatenate(out_l)
 
 
 def _level_dps(levs: np.ndarray, dps: np.ndarray, rlev: np.ndarray) -> np.ndarray:
