@@ -749,13 +749,14 @@ def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: floa
     """Points on the levels found along gradient lines (steepest ascent and descent paths
     started just inside every curve, on each side): they find the level curves that cross
     no curve at all (closed curves around a hole or an extremum). Returns (points, levels,
-    row spacings)."""
+    row spacings, pieces), in the order of the paths (stable)."""
     start = _two_way_starts(ctx, pieces, 64)
+    none = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, np.int64)
     if start is None:
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+        return none
     x, dirn, pc, _ = start
     kx = np.searchsorted(keys, pc * _STRIDE + ctx.f(x), side="right")
-    out_p, out_l, out_d = [], [], []
+    out_p, out_l, out_d, out_i = [], [], [], []
     max_steps = int(4.0 / dprime + 8 * ctx.domain.diameter / ctx.h_max + 100)
     for ids, xs, f, _, xn, fn, ok, _ in _gradient_walk(ctx, x, dirn, 0.5 * dprime,
                                                         0.25 * ctx.h_max, max_steps):
@@ -773,10 +774,13 @@ def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: floa
             out_p.append(project_to_level(ctx, p, L, iters=3))
             out_l.append(L)
             out_d.append(dps[kk])
+            out_i.append(ids[i])
         kx[ids[ok]] = kn[ok]
     if not out_p:
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
-    return np.vstack(out_p), np.concatenate(out_l), np.concatenate(out_d)
+        return none
+    o = np.argsort(np.concatenate(out_i), kind="stable")
+    path = np.concatenate(out_i)[o]
+    return np.vstack(out_p)[o], np.concatenate(out_l)[o], np.concatenate(out_d)[o], pc[path]
 
 
 def _known(rows: np.ndarray, rlev: np.ndarray, pts: np.ndarray, lev: np.ndarray,
@@ -823,34 +827,46 @@ def _place_rows(ctx: Context, pieces: _Pieces, keys, levs, dps, cross, dprime: f
         rows.append(p)
         rlev.append(l)
     with ctx.timed("seeds"):
-        sp, sl, sd_ = _gradient_seeds(ctx, pieces, keys, levs, dps, dprime)
+        sp, sl, sd_, spc = _gradient_seeds(ctx, pieces, keys, levs, dps, dprime)
     if len(sp):
         db, di = _distances(ctx, sp)
         h = _row_step_at(ctx, sp, sd_)
         far = (db > 0.55 * h) & (di > 0.55 * h)
-        sp, sl, sd_ = sp[far], sl[far], sd_[far]
+        sp, sl, sd_, spc = sp[far], sl[far], sd_[far], spc[far]
     for _ in range(64):
         if len(sp) == 0 or sum(len(r) for r in rows) > budget:
             break
         R, RL = np.vstack(rows), np.concatenate(rlev)
         new = ~_known(R, RL, sp, sl, 0.75 * _row_step_at(ctx, sp, sd_))
-        sp, sl, sd_ = sp[new], sl[new], sd_[new]
+        sp, sl, sd_, spc = sp[new], sl[new], sd_[new], spc[new]
         if len(sp) == 0:
             break
+        # one seed per level: the first path's (seeds come in path order), so that the
+        # seeds of nested closed rows lie on one gradient line and their phases agree
         _, first = np.unique(sl, return_index=True)
         pick = np.zeros(len(sp), bool)
         pick[first] = True
-        x, l, d = sp[pick], sl[pick], sd_[pick]
-        sp, sl, sd_ = sp[~pick], sl[~pick], sd_[~pick]
-        p1, l1, closed = _trace_rows(ctx, x, l, np.ones(len(x)), d, budget)
+        x, l, d, pc = sp[pick], sl[pick], sd_[pick], spc[pick]
+        sp, sl, sd_, spc = sp[~pick], sl[~pick], sd_[~pick], spc[~pick]
+        p1, l1, closed, tid, _, _ = _trace_rows(ctx, x, l, np.ones(len(x)), d, budget,
+                                                ends=True)
         p2, l2, _ = _trace_rows(ctx, x[~closed], l[~closed], -np.ones(int((~closed).sum())),
                                 d[~closed], budget)
-        rows += [x, p1, p2]
-        rlev += [l, l1, l2]
+        rows += [x[~closed], p1[~closed[tid]], p2]
+        rlev += [l[~closed], l1[~closed[tid]], l2]
+        if closed.any():  # closed rows: re-spaced from their seed, in phase (_respace_rows)
+            o = np.argsort(tid, kind="stable")
+            loops = np.flatnonzero(closed)
+            par = np.searchsorted(keys, pc * _STRIDE + l, side="left") % 2
+            xl, ll = _even_nodes(ctx, _polylines(x[loops], x[loops], p1[o], tid[o], loops, closed),
+                                 d[loops], l[loops], np.where(par[loops] == 0, 1.0, 0.5),
+                                 closed=True)
+            rows.append(xl)
+            rlev.append(ll)
     return np.vstack(rows), np.concatenate(rlev)
 
 
-#: ratio of the ladder of node spacings along open rows (:func:`_respace_rows`)
+#: ratio of the ladder of node counts of the rows that run from curve to curve (:func:`_respace_rows`)
 LADDER = 1.1
 
 
@@ -865,13 +881,16 @@ def _respace_rows(ctx: Context, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, a
     lines of dislocations (power_plate 0.03: q_avg 0.950). Here a row's nodes are spaced
     evenly in units of its local step, with
 
-    * the spacing quantised on a geometric ladder (ratio :data:`LADDER`) of the row's
-      mean step: adjacent rows in the same rung have the same spacing, so the phase between
-      them does not drift (an isosceles triangle 5 % wider than equilateral loses 0.0014
-      of q, an apex half a step off loses 0.18);
-    * alternate rows (by level index) starting a full and a half spacing from the curve
-      at both ends, the spacing adjusted (by under half a node over the row) so that the
-      row fits whole.
+    * the row's length in spacings, n, taken from its length in local steps U rounded to
+      a rung of a geometric ladder (ratio :data:`LADDER`, so the spacing is within 5 % of
+      the local step): adjacent rows on the same rung have the same n, their nodes sit at
+      the same fractions of their lengths and the phase between them does not drift (an
+      isosceles triangle 5 % wider than equilateral loses 0.0014 of q, an apex half a step
+      off loses 0.18). Between parallel rows of equal length (the plates) that is a shared
+      spacing; between nested arcs (round a hole) it is shared angles, the spacing
+      growing with the radius until the next rung;
+    * rows of even level index starting a full spacing from the curve at both ends and odd
+      rows a half spacing: n - 1 and n nodes, as in a staggered lattice.
 
     ``ix`` are the starts traced (into the crossing arrays); ``p, l, tid`` the traced
     nodes, their levels and traces; ``xend, at_curve`` where each trace stopped and
@@ -890,55 +909,66 @@ def _respace_rows(ctx: Context, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, a
     far = j[np.arange(len(ix)), np.argmax(same, axis=1)]
     order = np.argsort(tid, kind="stable")
     p, l, tid = p[order], l[order], tid[order]
-    keep = ~has[tid]
-    out_p, out_l = [p[keep]], [l[keep]]
     rows = np.flatnonzero(has)
     if len(rows) == 0:
         return p, l
-    # polylines: start, traced nodes, far end
-    cnt = np.bincount(tid, minlength=len(ix))[rows]
+    lines = _polylines(seeds[ix[rows]], seeds[far[rows]], p, tid, rows, has)
+    x, lev = _even_nodes(ctx, lines, cdp[ix[rows]], lv[ix[rows]],
+                         np.where(par[ix[rows]] == 0, 1.0, 0.5), closed=False)
+    keep = ~has[tid]
+    return np.concatenate([p[keep], x]), np.concatenate([l[keep], lev])
+
+
+def _polylines(first, last, p, tid, rows, has):
+    """Row polylines ``(points, start offsets)``: ``first``, the traced nodes ``p`` of trace
+    ``rows[r]`` in trace order (``tid`` sorted, ``has`` marking the traces kept), ``last``."""
+    cnt = np.bincount(tid, minlength=len(has))[rows]
     starts = np.cumsum(np.r_[0, cnt + 2])
     pts = np.empty((starts[-1], 2))
-    pts[starts[:-1]] = seeds[ix[rows]]
-    pts[starts[1:] - 1] = seeds[far[rows]]
+    pts[starts[:-1]] = first
+    pts[starts[1:] - 1] = last
     inner = np.flatnonzero(has[tid])
     r_of = np.searchsorted(rows, tid[inner])
     pos = starts[r_of] + 1 + (np.arange(len(inner)) - np.searchsorted(tid[inner], tid[inner]))
     pts[pos] = p[inner]
-    row = np.repeat(np.arange(len(rows)), cnt + 2)
+    return pts, starts
+
+
+def _even_nodes(ctx: Context, lines, dprime, level, phi, closed: bool):
+    """Nodes spaced evenly, in units of the local row step, along the polylines ``lines``
+    (:func:`_polylines`) of rows with spacing ``dprime`` in f at ``level``: n spacings per
+    row, n its length in local steps rounded to a rung of the ladder (:data:`LADDER`), the
+    first node ``phi`` (1 or 1/2) spacings from the start. An open row gets n - 1 nodes
+    (phi = 1) or n (phi = 1/2) and ends ``phi`` spacings before its end; a closed row
+    (first point = last) gets n, phi = 1 meaning a node on its start. Returns (points,
+    levels), projected onto the levels and inside the domain."""
+    pts, starts = lines
+    nrow = len(starts) - 1
+    row = np.repeat(np.arange(nrow), np.diff(starts))
     seg = np.flatnonzero(row[1:] == row[:-1])
     mid = 0.5 * (pts[seg] + pts[seg + 1])
-    ln = np.linalg.norm(pts[seg + 1] - pts[seg], axis=1)
-    du = ln / _row_step_at(ctx, mid, cdp[ix[rows]][row[seg]])
-    U = np.bincount(row[seg], du, minlength=len(rows))
-    L = np.bincount(row[seg], ln, minlength=len(rows))
-    # spacing in step units: the rung of the row's mean step, relative to that step
-    hbar = L / np.maximum(U, 1e-300)
-    rung = np.round(np.log(ctx.h_max / hbar) / np.log(LADDER))
-    a = ctx.h_max * LADDER ** (-rung) / hbar
-    phi = np.where(par[ix[rows]] == 0, 1.0, 0.5)
-    m = np.round(U / a - 2 * phi + 1)
-    m = np.maximum(m, np.where(phi < 1, 1, 0)).astype(np.int64)
-    a = U / (2 * phi + m - 1)
-    # targets in step units, then along the polyline
-    rr = np.repeat(np.arange(len(rows)), m)
+    du = np.linalg.norm(pts[seg + 1] - pts[seg], axis=1) / _row_step_at(ctx, mid, dprime[row[seg]])
+    U = np.bincount(row[seg], du, minlength=nrow)
+    n = np.maximum(np.round(LADDER ** np.round(np.log(np.maximum(U, 1.0)) / np.log(LADDER))), 1)
+    a = U / n
+    m = (n - ((phi == 1.0) & ~closed)).astype(np.int64)
+    # targets in step units from each row's start, then points along its polyline
+    rr = np.repeat(np.arange(nrow), m)
     jj = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
-    ut = a[rr] * (phi[rr] + jj)
+    ut = a[rr] * (np.where(closed, phi % 1.0, phi)[rr] + jj)
     cu = np.zeros(len(pts))
     cu[seg + 1] = du
     cu = np.cumsum(cu)
-    cu -= cu[starts[:-1]][row]  # step units from each row's start
-    gk = row * (2.0 * (U.max() + 1)) + cu  # sortable: rows apart, u within
-    tk = rr * (2.0 * (U.max() + 1)) + ut
+    cu -= cu[starts[:-1]][row]
+    span = 2.0 * (U.max() + 1)  # rows apart in one sorted key
+    gk, tk = row * span + cu, rr * span + ut
     i = np.clip(np.searchsorted(gk, tk, side="right") - 1, starts[:-1][rr], starts[1:][rr] - 2)
     w = np.clip((tk - gk[i]) / np.maximum(gk[i + 1] - gk[i], 1e-300), 0.0, 1.0)
     x = pts[i] + w[:, None] * (pts[i + 1] - pts[i])
-    lev = lv[ix[rows]][rr]
+    lev = level[rr]
     x = project_to_level(ctx, x, lev, iters=3)
     ok = ctx.inside(x)
-    out_p.append(x[ok])
-    out_l.append(lev[ok])
-    return np.concatenate(out_p), np.concatenate(out_l)
+    return x[ok], lev[ok]
 
 
 def _level_dps(levs: np.ndarray, dps: np.ndarray, rlev: np.ndarray) -> np.ndarray:
