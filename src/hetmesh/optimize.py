@@ -9,7 +9,10 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   ``steps``, and up the gradient of its star's summed quality (forward differences), with
   steps ``grad_steps`` times the mean edge length. Free nodes move in the plane; curve nodes
   along their curve (the candidate is projected, its parameter ``vt`` clipped to the middle
-  80 % of the interval to the neighbours along the curve, so their order holds); nodes of a
+  80 % of the interval to the neighbours along the curve, so their order holds; this includes
+  the crossings where rows of nodes end on a curve, which the placement keeps in place: moved
+  here, under the delta test, they raised q_min on power_plate at 0.05 from 0.659 to 0.759 and
+  on fgm_plate from 0.551 to 0.687); nodes of a
   composition row along their level curve (tangential move, then chord-Newton back onto the
   level) and, as a second candidate, freely. A node takes the candidate that raises its
   star's mean quality most among those that keep, for every element of its star,
@@ -455,7 +458,7 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
     P0, vt0, tris0, comp0, delta0 = ws.P.copy(), ws.vt.copy(), tris.copy(), comp, delta
     tris, comp = tris.copy(), comp.copy()
     reg = element_subregions(ctx.field, ws.P, tris) if ev.sub else None
-    movable = ~ws.pinned & (ws.vcurve != FIXED)
+    movable = ws.vcurve != FIXED  # row crossings too: they slide on their curve, delta checked
     near = movable
     for it in range(sweeps):
         nf = 0
