@@ -8,9 +8,9 @@ make near-equilateral triangles whose vertices sit on two adjacent rows, so ever
 has delta(T) = beta * delta_0 exactly: the threshold is used to the full (about 0.75-0.9 x N_iso
 elements). The rows are traced from where the level curves cross the boundary (predictor step
 along the tangent, Newton corrector back onto the level); a row that runs from curve to curve
-then gets its nodes re-spaced so that it is in phase with its neighbours (a spacing shared by
-adjacent rows, alternate rows starting a full and a half spacing from the curve,
-:func:`_respace_rows`). Where |grad f| -> 0 at a border
+then gets its nodes re-spaced so that it is in phase with its neighbours (a node count shared
+by adjacent rows, alternate rows starting a full and a half spacing from the curve,
+:func:`_respace_rows`; closed rows likewise from their seeds). Where |grad f| -> 0 at a border
 or an extremum the last band of rows is much higher than its neighbours: it gets
 intermediate levels, graded from both ends, and the rows next to it a node step that
 matches their bands (:func:`_grade_levels`); what no level covers is filled by
@@ -733,8 +733,9 @@ def _trace_rows(ctx: Context, x0: np.ndarray, lev: np.ndarray, dirn: np.ndarray,
         total += int(keep_node.sum())
         near = (db <= 0.3 * h) | (di <= 0.3 * h)
         cont = ok & ~closed & (~near | (step < 2))
-        # a trace ends next to a curve, or with a step that would leave its piece
-        at_curve[ia] = ~cont & ~closed & (step >= 2) & (ok | ~inside | (moved > 0.2 * h))
+        # where an open trace stops is its far end, if a crossing of its level lies there
+        # (:func:`_respace_rows` checks): next to a curve, or a step from leaving its piece
+        at_curve[ia] = ~cont & ~closed & (step >= 2)
         x[ia] = np.where(ok[:, None], xn, xa)
         active[ia[~cont]] = False
     at_curve &= ~active  # a trace cut short by the budget has no far end
