@@ -31,7 +31,11 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   levels apart, which breaks delta(T) < delta_0.
 * **Active set.** A sweep visits only the nodes with a triangle below ``q_active`` in their
   star; after the first, only those next to a node whose last move gained more than ``wake``
-  in star mean quality. This keeps the cost small on large meshes of regular rows.
+  in star mean quality. This keeps the cost small on large meshes of regular rows. The
+  defaults (4 sweeps, ``q_active`` 0.99) were measured against 2 sweeps at 0.9: q_avg +0.002
+  to +0.007 on the examples (fgm_plate 0.9385 -> 0.9448, power_plate 0.1 0.9500 -> 0.9566),
+  at twice the pass's time (unit_square, 381,656 elements: 0.61 -> 1.22 s); 6 sweeps over
+  every node gained under 0.001 more.
 
 The result is re-verified as a whole (orientation and delta_max, with the same computation as
 the refinement); should that fail, the input mesh is returned unchanged. Arrays first: the
@@ -437,8 +441,8 @@ def _grow(tris, mask):
 # --------------------------------------------------------------------------- the pass
 def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None, *,
              sampling: str = "vertices",
-             min_angle_deg: float = 30.0, sweeps: int = 2, steps=(1.0, 0.5, 0.25),
-             grad_steps=(0.1, 0.03), flips: int = 1, q_active: float = 0.9, wake: float = 1e-3,
+             min_angle_deg: float = 30.0, sweeps: int = 4, steps=(1.0, 0.5, 0.25),
+             grad_steps=(0.1, 0.03), flips: int = 1, q_active: float = 0.99, wake: float = 1e-3,
              callback=None):
     """Raise the element quality of a repaired mesh, keeping every claim (see the module).
 
