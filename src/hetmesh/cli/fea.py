@@ -14,8 +14,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from ..errors import OutputError
-from .mesh import _check_output_path, mesh_extensions, plot_extensions
+from .mesh import check_output_paths, mesh_extensions, plot_extensions
 
 __all__ = ["add_parser", "run", "probe_table"]
 
@@ -58,13 +57,7 @@ def check_fea_outputs(args: argparse.Namespace) -> None:
         outputs.append(("--report", args.report, None, ""))
     if args.plot is not None:
         outputs.append(("--plot", args.plot, plot_extensions(), "image"))
-    seen = {args.model.resolve(): "MODEL", args.mesh.resolve(): "--mesh"}
-    for label, path, extensions, kind in outputs:
-        _check_output_path(path, label, extensions, kind)
-        key = path.resolve()
-        if key in seen:
-            raise OutputError(f"{label} {path} is the same file as {seen[key]}")
-        seen[key] = label
+    check_output_paths(outputs, {args.model: "MODEL", args.mesh: "--mesh"})
 
 
 def probe_table(result) -> Table:

@@ -24,7 +24,8 @@ from .progress import progress_reporter
 
 __all__ = [
     "add_parser", "run", "add_meshing_options", "meshing_kwargs", "check_threshold",
-    "check_outputs", "check_writable_dir", "interface_markers", "write_outputs", "run_pipeline",
+    "check_outputs", "check_output_paths", "check_writable_dir", "interface_markers",
+    "write_outputs", "run_pipeline",
 ]
 
 
@@ -166,6 +167,19 @@ def plot_extensions() -> list[str]:
     return sorted("." + e for e in FigureCanvasBase.get_supported_filetypes())
 
 
+def check_output_paths(outputs: list, inputs: dict[Path, str]) -> None:
+    """``outputs`` as ``(option, path, known extensions or None, kind)``: known formats,
+    writable directories, distinct files, and none of them one of ``inputs`` ({path:
+    label})."""
+    seen = {p.resolve(): label for p, label in inputs.items()}
+    for label, path, extensions, kind in outputs:
+        _check_output_path(path, label, extensions, kind)
+        key = path.resolve()
+        if key in seen:
+            raise OutputError(f"{label} {path} is the same file as {seen[key]}")
+        seen[key] = label
+
+
 def check_outputs(args: argparse.Namespace, inputs: list[Path]) -> None:
     """Check ``--output``, ``--plot``, ``--stats``: known formats, writable, distinct, and none
     of them overwrites an input file."""
@@ -174,13 +188,7 @@ def check_outputs(args: argparse.Namespace, inputs: list[Path]) -> None:
         outputs.append(("--plot", args.plot, plot_extensions(), "image"))
     if args.stats is not None:
         outputs.append(("--stats", args.stats, None, ""))
-    seen: dict[Path, str] = {p.resolve(): "MODEL" for p in inputs}
-    for label, path, extensions, kind in outputs:
-        _check_output_path(path, label, extensions, kind)
-        key = path.resolve()
-        if key in seen:
-            raise OutputError(f"{label} {path} is the same file as {seen[key]}")
-        seen[key] = label
+    check_output_paths(outputs, {p: "MODEL" for p in inputs})
 
 
 # -- running -------------------------------------------------------------------
