@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 
 from .geometry import pslg_from_parameters
 from .mesh import edge_keys
-from .metrics import circumcircles
+from .metrics import circumcircles, signed_area2
 from . import cvt
 from .density import background_points, estimate_elements
 from .refine import (FREE, Context, WorkSet, add_free_points, edge_params, project_to_level,
@@ -57,9 +57,9 @@ def _row_step_at(ctx: Context, pts: np.ndarray, dprime: float) -> np.ndarray:
     return _row_step(ctx, np.linalg.norm(ctx.grad_f(pts), axis=1), dprime)
 
 
-def _anchor(ctx: Context) -> tuple[float, float]:
-    """The level the rows count from and their direction: the extreme value of f that the
-    boundary holds over the longer stretch (a boundary that is a level curve is a row).
+def _anchor(ctx: Context) -> float:
+    """The level the rows count from: the extreme value of f that the boundary holds over
+    the longer stretch (a boundary that is a level curve is a row).
     The fallback of pieces without a level curve on their border (:func:`_piece_levels`)."""
     dom = ctx.domain
     ts = np.linspace(0, 1, 401)
@@ -77,7 +77,7 @@ def _anchor(ctx: Context) -> tuple[float, float]:
     tol = 1e-9
     at_max = blen[np.abs(fb - fmax) < tol].sum()
     at_min = blen[np.abs(fb - fmin) < tol].sum()
-    return (fmax, -1.0) if at_max >= at_min else (fmin, 1.0)
+    return fmax if at_max >= at_min else fmin
 
 
 def _left_normal(c, t: np.ndarray) -> np.ndarray:
@@ -189,7 +189,7 @@ def _piece_levels(ctx: Context, pieces: _Pieces, dprime: float):
     close to the border for its row step to be kept, so the flat top was left to the fill
     and the repair loop (fgm_plate 0.1: 2,089 -> 1,828 elements, delta_avg/delta_0
     0.71 -> 0.79)."""
-    a0, s0 = _anchor(ctx)
+    a0 = _anchor(ctx)
     ts = (np.arange(400) + 0.5) / 400
     holders = [[] for _ in range(pieces.n)]
     near = [[] for _ in range(pieces.n)]  # borders that are nearly level curves (evening only)
@@ -307,7 +307,7 @@ def _gradient_walk(ctx: Context, x: np.ndarray, dirn: np.ndarray, step: float, c
         ids, x, f, dirn = ids[ok], xn[ok], fn[ok], dirn[ok]
 
 
-def _profiles(ctx: Context, pieces: _Pieces, keys, dprime: float):
+def _profiles(ctx: Context, pieces: _Pieces, dprime: float):
     """Gradient paths through every piece, as samples: steepest ascent and descent started
     just inside every curve, on each side, until f stops changing monotonically, the path
     leaves the domain or meets an interface. Returns (path id, arc length s, f, x, g) of the
@@ -352,7 +352,7 @@ def _grade_levels(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float,
     repair insertions 614 -> 77. Returns (keys, levs, dps, curve spacing caps)."""
     ncurve = len(ctx.curves)
     spacing = np.full(ncurve, np.inf)
-    prof = _profiles(ctx, pieces, keys, dprime)
+    prof = _profiles(ctx, pieces, dprime)
     if prof is None or len(keys) == 0:
         return keys, levs, dps, spacing
     (pid, s, f, x, gn), (ppc, pcv, pdir) = prof
@@ -426,7 +426,7 @@ def _grade_levels(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float,
     b_low = ubands % (nk + 2) - 1
     Hmap = dict(zip(ubands.tolist(), medH.tolist()))
     cap_h = np.sqrt(3.0) / 2.0 * ctx.h_max
-    cstep = ctx.domain.curve_batch.max_step(_sagitta(ctx, chord_tol))
+    cstep = ctx.domain.curve_batch.max_step(chord_tol)
 
     def end_size(j, upper):
         """The band height wanted at one end of band j: its neighbour's, or the curve's
@@ -442,7 +442,10 @@ def _grade_levels(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float,
         st = float(np.median(cstep[cur])) if len(cur) else np.inf
         return min(cap_h, np.sqrt(3.0) / 2.0 * st)
 
-    log.debug("bands %s", [(int(b_piece[j]), int(b_low[j]), round(float(medH[j]), 3), round(end_size(j, False), 3), round(end_size(j, True), 3)) for j in range(nb)])
+    if log.isEnabledFor(logging.DEBUG):  # (piece, low level, height, wanted at both ends)
+        log.debug("bands %s", [(int(b_piece[j]), int(b_low[j]), round(float(medH[j]), 3),
+                                round(end_size(j, False), 3), round(end_size(j, True), 3))
+                               for j in range(nb)])
     new_l, new_d, new_k = [], [], []
     row_d = {}
     for j in range(nb):
@@ -467,7 +470,6 @@ def _grade_levels(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float,
         rep = bpf[mm[np.argsort(Hf[mm])[len(mm) // 2]]]
         sel = pid == rep
         ps, pf, pg = s[sel], f[sel], gn[sel]
-        p_, lw = int(b_piece[j]), int(b_low[j])
         # where the band starts on that path: the low level's crossing (or the path start)
         asc_r = pdir[rep] > 0
         if lw >= first[p_]:
@@ -475,15 +477,11 @@ def _grade_levels(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float,
         else:
             flo = pf[0] if asc_r else pf[-1]
         if asc_r:
-            s0 = np.interp(flo, pf, ps) if lw >= first[p_] else ps[0]
-            sub_s = s0 + pos
-            sub_f = np.interp(sub_s, ps, pf)
-            sub_g = np.interp(sub_s, ps, pg)
+            sub_s = (np.interp(flo, pf, ps) if lw >= first[p_] else ps[0]) + pos
         else:  # descending path: f decreases along s
-            s0 = np.interp(-flo, -pf, ps) if lw >= first[p_] else ps[-1]
-            sub_s = s0 - pos
-            sub_f = np.interp(sub_s, ps, pf)
-            sub_g = np.interp(sub_s, ps, pg)
+            sub_s = (np.interp(-flo, -pf, ps) if lw >= first[p_] else ps[-1]) - pos
+        sub_f = np.interp(sub_s, ps, pf)
+        sub_g = np.interp(sub_s, ps, pg)
         hs = np.diff(np.concatenate([[0.0], pos, [Hj]]))  # sub-band heights, low to high
         ok = (np.diff(np.concatenate([[flo], sub_f])) > 1e-12 * max(1.0, abs(flo)))
         ok &= np.isfinite(sub_g) & (sub_g > 1e-12)  # rows need a gradient to follow
@@ -576,20 +574,12 @@ def _crossings(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: float):
             np.concatenate(pc_out), np.concatenate(dp_out))
 
 
-def _sagitta(ctx: Context, chord_tol: float) -> float:
-    """The chord tolerance of the rows' boundary sampling: ``chord_tol``. (It was once cut
-    further so that the lost area met a fixed share of the domain's area; ``adapt.finish``
-    now allows exactly the chords' loss and checks the coverage by the boundary edges, and
-    the finer sampling made the flat zones next to a ring's circles too fine.)"""
-    return chord_tol
-
-
 def _curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):
     """Per-curve sorted parameters: 0, crossings, 1, and between them nodes at the local row
     step (and the chord tolerance, the per-curve ``spacing`` cap of :func:`_grade_levels`,
     and the minimum interval counts, of :mod:`geometry`)."""
     batch = ctx.domain.curve_batch
-    cap, nmin = batch.max_step(_sagitta(ctx, chord_tol)), batch.min_intervals()
+    cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
     if spacing is not None:
         cap = np.minimum(cap, spacing)
     out = []
@@ -636,10 +626,6 @@ def _distances(ctx: Context, pts: np.ndarray):
     return db, di
 
 
-def _orient(p, q, r):
-    return (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
-
-
 def _crosses_interface(ctx: Context, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
     """Whether the steps ``xa -> xb`` cross an interface curve (rows and paths stop there)."""
     out = np.zeros(len(xa), bool)
@@ -671,8 +657,8 @@ def _crosses_interface(ctx: Context, xa: np.ndarray, xb: np.ndarray) -> np.ndarr
         elif hasattr(c, "p0"):  # segment: proper segment-segment intersection
             p0 = np.broadcast_to(np.asarray(c.p0, float), a.shape)
             p1 = np.broadcast_to(np.asarray(c.p1, float), a.shape)
-            hit = ((np.sign(_orient(p0, p1, a)) != np.sign(_orient(p0, p1, b)))
-                   & (np.sign(_orient(a, b, p0)) != np.sign(_orient(a, b, p1))))
+            hit = ((np.sign(signed_area2(p0, p1, a)) != np.sign(signed_area2(p0, p1, b)))
+                   & (np.sign(signed_area2(a, b, p0)) != np.sign(signed_area2(a, b, p1))))
         else:  # any other curve: the side of the nearest curve point changes
             tb = c.project(b)
             pb, tg = c.point(tb), c.tangent(tb)
@@ -1076,7 +1062,8 @@ def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     with ctx.timed("rows"):
         rows, rlev = _place_rows(ctx, pieces, keys, levs, dps, cross, dprime, budget)
     if len(rows):
-        # rows of one level traced twice (from both ends) or crossing: thin them
+        # row nodes too near a curve node or a node of another row (seed rows, rows
+        # meeting at a curve): thin them
         keep = thin_candidates_mask(ws, rows, 0.4 * _row_step_at(ctx, rows, _level_dps(levs, dps, rlev)))
         add_free_points(ws, rows[keep], level=rlev[keep])
     log.info("layers: %d pieces, %d boundary nodes, %d row nodes", pieces.n,
