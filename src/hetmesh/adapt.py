@@ -38,8 +38,8 @@ from .layers import place_layers
 from .mesh import Mesh, edge_keys
 from .optimize import optimize as optimize_mesh
 from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
-from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle, statistics,
-                      triangle_angles)
+from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle,
+                      side_lengths, statistics, triangle_angles)
 from .refine import (Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
@@ -50,7 +50,6 @@ log = logging.getLogger(__name__)
 
 #: the largest sagitta of a boundary chord, relative to the domain's diameter
 CHORD_TOL = 1e-3
-
 
 
 @dataclass
@@ -247,8 +246,7 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         cv = comp[tv]  # (k, 3, m)
         jumps = np.stack([np.abs(cv[:, (k + 1) % 3] - cv[:, (k + 2) % 3]).max(axis=1)
                           for k in range(3)], axis=1)
-        lens = np.stack([np.hypot(*(ws.P[tv[:, (k + 1) % 3]] - ws.P[tv[:, (k + 2) % 3]]).T)
-                         for k in range(3)], axis=1)
+        lens = side_lengths(ws.P, tv)
         kk = (jumps + 1e-9 * lens / lens.max()).argmax(axis=1)
         a = tv[np.arange(len(tv)), (kk + 1) % 3]
         b = tv[np.arange(len(tv)), (kk + 2) % 3]

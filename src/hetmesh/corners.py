@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .metrics import triangle_angles
+from .metrics import side_lengths, triangle_angles
 from .refine import FIXED, Context, WorkSet
 
 __all__ = ["sharp_corners", "shell_split", "corner_exempt"]
@@ -88,9 +88,9 @@ def corner_exempt(ws: WorkSet, tris: np.ndarray, ang_deg: float,
     tt = tris[touch]
     ang = triangle_angles(ws.P, tt)
     total = np.bincount(tt.ravel(), ang.ravel(), minlength=ws.n)
-    sharp = fixed & (total < 2 * ang_deg - 1e-9)
+    too_sharp = fixed & (total < 2 * ang_deg - 1e-9)
     vmin = tt[np.arange(len(tt)), ang.argmin(axis=1)]
-    out[touch] |= sharp[vmin]
+    out[touch] |= too_sharp[vmin]
     return out
 
 
@@ -99,9 +99,7 @@ def _seditious(ws: WorkSet, tris: np.ndarray, sharp: np.ndarray) -> np.ndarray:
     about the same distance from its apex (Shewchuk's seditious edges): splitting them
     only shrinks the wedge, which never ends, so they are left as they are."""
     P = ws.P
-    s = np.stack([np.hypot(*(P[tris[:, (k + 1) % 3]] - P[tris[:, (k + 2) % 3]]).T)
-                  for k in range(3)], axis=1)
-    k = s.argmin(axis=1)
+    k = side_lengths(P, tris).argmin(axis=1)
     r = np.arange(len(tris))
     a, b = tris[r, (k + 1) % 3], tris[r, (k + 2) % 3]
     ca, cb = ws.vcurve[a], ws.vcurve[b]
