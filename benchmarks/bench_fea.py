@@ -36,7 +36,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_core import ROOT, environment, err_text, limit_memory, median, print_table  # noqa: E402
+from bench_core import (ROOT, environment, err_text, limit_memory, median,  # noqa: E402
+                        print_table, timed)
 
 import hetmesh  # noqa: E402
 import hetmesh.fea as fea  # noqa: E402
@@ -53,7 +54,7 @@ def gpa(v: float) -> str:
 
 def table_reference(s) -> None:
     ref, chk = s.reference, s.reference.get("check")
-    names = [n for ns in (s.probe_sets[k] for k in s.probe_sets if k != "all") for n in ns]
+    names = [n for k, ns in s.probe_sets.items() if k != "all" for n in ns]
     if chk is None:
         rows = [[k, "", f"{ref['von_mises'][k] / 1e9:.5f}"] for k in names]
         headers = ["probe", "", "vm h_ref (GPa)"]
@@ -120,17 +121,13 @@ def table_needed(s) -> None:
 
 def table_speed(model, mesh, repeats: int = 3) -> dict:
     """F4 for the model's element order."""
-    times, phases = [], []
-    for _ in range(repeats):
-        try:
-            t0 = time.perf_counter()
-            r = fea.solve(mesh, model)
-            times.append(time.perf_counter() - t0)
-        except (Exception, MemoryError) as exc:  # a benchmark reports, it does not stop
-            print_table(f"F4. Solve time, element order {model.fea.order}",
-                        ["elements", "", "result"], [[f"{mesh.n_elements:,}", "", err_text(exc)]])
-            return {"elements": mesh.n_elements, "error": err_text(exc)}
-        phases.append(dict(r.timings))
+    phases = []
+    try:
+        _, times = timed(lambda: phases.append(dict(fea.solve(mesh, model).timings)), repeats)
+    except Exception as exc:  # a benchmark reports, it does not stop (MemoryError included)
+        print_table(f"F4. Solve time, element order {model.fea.order}",
+                    ["elements", "", "result"], [[f"{mesh.n_elements:,}", "", err_text(exc)]])
+        return {"elements": mesh.n_elements, "error": err_text(exc)}
     pick = {k: median([p[k] for p in phases]) for k in phases[0]}
     te = pick["thermal"] + pick["elastic"]
     rows = [[f"{mesh.n_elements:,}", "", f"{mesh.n_points:,}", f"{pick['material']:.2f}",

@@ -39,6 +39,7 @@ from scipy.sparse.linalg import cg, splu
 
 from ..errors import FEAError
 from ..mesh import Mesh
+from ..metrics import signed_area2
 from .config import ON_BOUNDARY, FEAConfig, rigid_rank
 from .mixing import lame, mix, thermal_modulus
 
@@ -110,7 +111,7 @@ class FEAResult:
 def _p1(P: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(gradients (M, 3, 2), areas (M,))`` of the P1 basis functions of every triangle."""
     a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
-    d = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    d = signed_area2(a, b, c)
     e = np.stack([c - b, a - c, b - a], axis=1)  # edge opposite each vertex
     g = np.stack([-e[..., 1], e[..., 0]], axis=-1) / d[:, None, None]
     return g, 0.5 * d
@@ -204,22 +205,27 @@ def _fixed_components(n: int, disp) -> tuple[np.ndarray, np.ndarray]:
     return fixed[:, 0], fixed[:, 1]
 
 
-def _condition_dofs(basis, domain, P, sk_facets, nodes, names, tol, comp: int | None = None
+def _condition_facets(basis, domain, P, sk_facets, nodes, names, tol) -> np.ndarray:
+    """The facets along the curves ``names`` whose dofs a condition also fixes: none for a
+    point condition or elements without facet dofs (P1), :func:`curve_facets` otherwise."""
+    if not names or not basis.facet_dofs.size:
+        return np.zeros(0, dtype=np.int64)
+    return curve_facets(domain, P, sk_facets, nodes, names, tol)
+
+
+def _condition_dofs(basis, nodes: np.ndarray, facets: np.ndarray, comp: int | None = None
                     ) -> np.ndarray:
-    """Dofs of ``basis`` on the mesh ``nodes`` and, for ``names`` (curves) with
-    higher-order elements, on the facets along them; component ``comp`` of a vector basis."""
-    nd = basis.nodal_dofs if comp is None else basis.nodal_dofs[comp:comp + 1]
-    out = [nd[:, nodes].ravel()]
-    fd = basis.facet_dofs if comp is None else basis.facet_dofs[comp:comp + 1]
-    if names and fd.size:
-        f = curve_facets(domain, P, sk_facets, nodes, names, tol)
-        out.append(fd[:, f].ravel())
-    return np.concatenate(out)
+    """Dofs of ``basis`` on the mesh ``nodes`` and ``facets`` (:func:`_condition_facets`);
+    component ``comp`` of a vector basis."""
+    rows = slice(None) if comp is None else slice(comp, comp + 1)
+    return np.concatenate([basis.nodal_dofs[rows, nodes].ravel(),
+                           basis.facet_dofs[rows][:, facets].ravel()])
 
 
-def check_thermal(t: np.ndarray, n: int, nodes: np.ndarray, P: np.ndarray) -> None:
-    """Raise :class:`FEAError` if a mesh component has no fixed temperature."""
-    count, label = _components(t, n)
+def check_thermal(parts: tuple[int, np.ndarray], nodes: np.ndarray, P: np.ndarray) -> None:
+    """Raise :class:`FEAError` if a mesh component (``parts``, :func:`_components`) has no
+    fixed temperature."""
+    count, label = parts
     has = np.zeros(count, dtype=bool)
     has[label[nodes]] = True
     if not has.all():
@@ -230,10 +236,12 @@ def check_thermal(t: np.ndarray, n: int, nodes: np.ndarray, P: np.ndarray) -> No
                        f"round, its temperature is undefined)")
 
 
-def check_rigid(t: np.ndarray, P: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> None:
-    """Raise :class:`FEAError` unless the constraints of every mesh component remove its
-    three rigid-body modes (:func:`~hetmesh.fea.config.rigid_rank`)."""
-    count, label = _components(t, len(P))
+def check_rigid(parts: tuple[int, np.ndarray], t: np.ndarray, P: np.ndarray, fx: np.ndarray,
+                fy: np.ndarray) -> None:
+    """Raise :class:`FEAError` unless the constraints of every mesh component (``parts``,
+    :func:`_components`) remove its three rigid-body modes
+    (:func:`~hetmesh.fea.config.rigid_rank`)."""
+    count, label = parts
     used = np.zeros(len(P), dtype=bool)
     used[t.ravel()] = True
     for k in range(count):
@@ -507,10 +515,11 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
 
     # boundary conditions, checked before any assembly
     tol = ON_BOUNDARY * domain.diameter
+    parts = _components(t, n)
     temps = temperature_nodes(mesh, domain, cfg)
-    check_thermal(t, n, np.concatenate([nd for nd, _ in temps] + [np.zeros(0, int)]), P)
+    check_thermal(parts, np.concatenate([nd for nd, _ in temps] + [np.zeros(0, int)]), P)
     disp = displacement_nodes(mesh, domain, cfg)
-    check_rigid(t, P, *_fixed_components(n, disp))
+    check_rigid(parts, t, P, *_fixed_components(n, disp))
 
     # local metres: shifted to the bounding-box centre (coordinates at 1e9 stay accurate)
     x0, y0, x1, y1 = domain.bounds
@@ -533,7 +542,8 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     t1 = time.perf_counter()
     value = np.full(basis.N, np.nan)
     for (nodes, v), bc in zip(temps, cfg.temperature):  # later conditions win where they meet
-        value[_condition_dofs(basis, domain, P, sk.facets, nodes, bc.curves, tol)] = v
+        f = _condition_facets(basis, domain, P, sk.facets, nodes, bc.curves, tol)
+        value[_condition_dofs(basis, nodes, f)] = v
     tdofs = np.flatnonzero(~np.isnan(value))
     Tfull = thermal(basis, props["conductivity"], tdofs, value[tdofs])
     T = Tfull[basis.nodal_dofs[0]]
@@ -545,9 +555,10 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     ud = np.zeros(vbasis.N)
     for nodes, bc in disp:
         names = bc.curves if bc.point is None else ()
+        f = _condition_facets(vbasis, domain, P, sk.facets, nodes, names, tol)
         for j, v in enumerate((bc.ux, bc.uy)):
             if v is not None:
-                d = _condition_dofs(vbasis, domain, P, sk.facets, nodes, names, tol, comp=j)
+                d = _condition_dofs(vbasis, nodes, f, comp=j)
                 fixed[d] = True
                 ud[d] = v * scale
     u = elastic(vbasis, lam, mu, beta, dT, fixed, ud)
@@ -563,7 +574,7 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     groups = mesh.regions.astype(np.int64) * (int(sub.max()) + 1 if sub is not None else 1) \
         + (sub if sub is not None else 0)
     edofs, enode = pieces(t, n, groups)
-    _, areas = _p1(Pm, t)
+    areas = 0.5 * signed_area2(Pm[t[:, 0]], Pm[t[:, 1]], Pm[t[:, 2]])
     phi = np.vstack([1 - basis.X[0] - basis.X[1], basis.X[0], basis.X[1]])  # P1 at (3, Q)
     copies = recover(edofs, len(enode), areas, phi, w, sq)
     nodal = _node_mean(copies, enode, n)
@@ -572,12 +583,11 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     vm, cvm = von_mises(nodal), von_mises(cell)
     probes = _probes(cfg, field, P, t, groups, sub, edofs, copies, T, U)
     timings["total"] = time.perf_counter() - t0
-    names = STRESS_NAMES
     out = mesh.with_data(
-        point_data={"temperature": T, "displacement": U, **{k: nodal[:, i] for i, k in
-                                                           enumerate(names)}, "von_mises": vm},
-        cell_data={"temperature": (dT @ w) + cfg.reference_temperature, **{k: cell[:, i] for i, k in
-                                                       enumerate(names)}, "von_mises": cvm})
+        point_data={"temperature": T, "displacement": U,
+                    **{k: nodal[:, i] for i, k in enumerate(STRESS_NAMES)}, "von_mises": vm},
+        cell_data={"temperature": (dT @ w) + cfg.reference_temperature,
+                   **{k: cell[:, i] for i, k in enumerate(STRESS_NAMES)}, "von_mises": cvm})
     log.info("fea %s: %d elements, T in [%.6g, %.6g] K, max von Mises %.4g Pa (%.2f s)",
              model.name, len(t), T.min(), T.max(), vm.max(), timings["total"])
     return FEAResult(mesh=out, temperature=T, displacement=U, stress=nodal, von_mises=vm,

@@ -29,7 +29,7 @@ LENGTH_UNITS: dict[str, float] = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "um
                                   "µm": 1e-6, "km": 1e3, "in": 0.0254, "ft": 0.3048}
 PLANES = ("strain", "stress")
 MIXINGS = ("linear", "mori-tanaka")
-#: property key -> (attribute, what it is, the check that applies)
+#: property key (a :class:`Properties` attribute) -> what it is and the check that applies
 PROPERTY_KEYS = {
     "conductivity": "thermal conductivity k in W/(m K), > 0",
     "youngs_modulus": "Young's modulus E in Pa, > 0",
@@ -183,7 +183,7 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
                                           "every edge insulated the temperature is undefined)")
     disps = tuple(_displacement(ctx, item, f"fea.displacement[{i}]", names, domain)
                   for i, item in enumerate(_array(ctx, t["displacement"], "fea.displacement")))
-    _check_rigid(ctx, disps, domain)
+    _check_rigid(ctx, disps, domain, names)
     probes = _probes(ctx, t.get("probes", {}), domain)
     return FEAConfig(properties=props, temperature=temps, displacement=disps, probes=probes,
                      plane=plane, reference_temperature=ref, mixing=mixing, matrix=matrix,
@@ -315,7 +315,7 @@ def rigid_rank(points: np.ndarray, fixed_x: np.ndarray, fixed_y: np.ndarray) -> 
     3
     >>> rigid_rank(np.array([[0., 0], [1, 0]]), np.array([True, True]),
     ...            np.array([False, False]))
-    2
+    1
     """
     p = np.asarray(points, dtype=np.float64)
     if not len(p):
@@ -332,12 +332,12 @@ def rigid_rank(points: np.ndarray, fixed_x: np.ndarray, fixed_y: np.ndarray) -> 
     return int((ev > 1e-10 * max(float(ev.max()), 1e-300)).sum())
 
 
-def _check_rigid(ctx, disps, domain) -> None:
+def _check_rigid(ctx, disps, domain, idx: dict[str, list[int]]) -> None:
     """Fail unless the displacement conditions remove the three rigid-body modes, judged on
-    the points and on samples of the constrained curves (ends and 3 interior points)."""
+    the points and on samples of the constrained curves (ends and 3 interior points);
+    ``idx`` is :func:`_curve_names` of the domain."""
     if not disps:
         raise ctx.fail("fea.displacement", "at least one displacement condition is needed")
-    idx = _curve_names(domain)
     pts, fx, fy = [], [], []
     t = np.linspace(0.0, 1.0, 5)
     for bc in disps:
