@@ -8,17 +8,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 from rich.console import Console
 
 from ..errors import OutputError
+from ..io.jsondoc import jsonable
 from ..options import check_options
 from .progress import progress_reporter
 
@@ -200,23 +199,6 @@ def run_pipeline(func: Callable, model, threshold: float, kwargs: dict[str, Any]
         t0 = time.perf_counter()
         result = func(model, threshold, progress=progress, **kwargs)
         return result, time.perf_counter() - t0
-
-
-def jsonable(value: Any) -> Any:
-    """``value`` with numpy scalars/arrays, paths and tuples made JSON-serialisable."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
-    return value
 
 
 def stats_document(args: argparse.Namespace, model, result, seconds: float) -> dict[str, Any]:

@@ -8,36 +8,24 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ..io.jsondoc import jsonable
 
 __all__ = ["report_document", "write_report", "von_mises_figure", "plot_von_mises"]
 
 log = logging.getLogger(__name__)
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return _jsonable(value.item())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def report_document(result, **extra) -> dict[str, Any]:
     """:meth:`FEAResult.report` plus ``extra`` keys (file names, version), JSON-ready."""
     from .. import __version__
 
-    return _jsonable({"hetmesh_version": __version__, **extra, **result.report()})
+    return jsonable({"hetmesh_version": __version__, **extra, **result.report()},
+                    infinity_as_string=False)
 
 
 def write_report(result, path: str | Path, **extra) -> Path:
