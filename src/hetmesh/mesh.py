@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from .errors import MeshingError
 from .metrics import signed_area2
 
-__all__ = ["Mesh", "edge_keys"]
+__all__ = ["Mesh", "edge_keys", "component_labels"]
 
 
 def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -32,6 +32,17 @@ def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     lo = np.minimum(a, b).astype(np.int64)
     hi = np.maximum(a, b).astype(np.int64)
     return (lo << 32) | hi
+
+
+def component_labels(m: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Connected-component label of each of ``m`` triangles joined by the (src, dst) pairs,
+    numbered in the order of each component's first triangle."""
+    g = coo_matrix((np.ones(len(src)), (src, dst)), shape=(m, m))
+    _, label = connected_components(g, directed=False)
+    _, first, inv = np.unique(label, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return rank[inv]
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -180,13 +191,8 @@ class Mesh:
         pair = np.flatnonzero(keys[1:] == keys[:-1])  # interior edges: two owners in a row
         cut = np.isin(keys[pair], edge_keys(cut_edges[:, 0], cut_edges[:, 1]))
         pair = pair[~cut]
-        m = len(self.triangles)
-        g = coo_matrix((np.ones(len(pair)), (owner[pair], owner[pair + 1])), shape=(m, m))
-        _, label = connected_components(g, directed=False)
-        _, first, inv = np.unique(label, return_index=True, return_inverse=True)
-        rank = np.empty(len(first), np.int64)
-        rank[np.argsort(first)] = np.arange(len(first))
-        return rank[inv].astype(np.int32)
+        return component_labels(len(self.triangles), owner[pair],
+                                owner[pair + 1]).astype(np.int32)
 
     @cached_property
     def boundary_edges(self) -> np.ndarray:

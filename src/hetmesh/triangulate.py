@@ -10,11 +10,9 @@ import logging
 
 import numpy as np
 import pythoncdt as cdt
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from .errors import MeshingError
-from .mesh import edge_keys
+from .mesh import component_labels, edge_keys
 
 __all__ = ["constrained_delaunay"]
 
@@ -71,17 +69,6 @@ def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
     return np.ascontiguousarray(tris[keep])
 
 
-def _label(m: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """Connected-component label of each of ``m`` triangles joined by (src, dst) pairs,
-    numbered in the order of each component's first triangle."""
-    g = coo_matrix((np.ones(len(src)), (src, dst)), shape=(m, m))
-    _, label = connected_components(g, directed=False)
-    _, first, inv = np.unique(label, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first)] = np.arange(len(first))
-    return rank[inv]
-
-
 def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     """Flood the triangle adjacency graph without crossing boundary edges; keep the inside pieces."""
     m = len(tris)
@@ -95,7 +82,7 @@ def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     bkeys = np.unique(edge_keys(boundary_edges[:, 0], boundary_edges[:, 1]))
     pos = np.minimum(np.searchsorted(bkeys, keys), len(bkeys) - 1)
     cut = bkeys[pos] == keys if len(bkeys) else np.zeros(len(keys), bool)
-    label = _label(m, src[~cut], dst[~cut])
+    label = component_labels(m, src[~cut], dst[~cut])
     _, first = np.unique(label, return_index=True)  # one representative triangle per piece
     comp_inside = np.asarray(inside(pts[tris[first]].mean(axis=1)), dtype=bool)
     return comp_inside[label]
