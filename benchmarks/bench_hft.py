@@ -19,7 +19,6 @@ Tables
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -29,17 +28,17 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from bench_core import (ROOT, environment, err_text, fmt, limit_memory, median,  # noqa: E402
-                        print_table, timed)
+                        print_table, save_json, timed)
 
 import hetmesh  # noqa: E402
 from hetmesh.density import n_iso  # noqa: E402
 from hetmesh.discontinuity import crossing_elements, embedded_count, FIT_TOL  # noqa: E402
+from hetmesh.reproduce.paper import CASES  # noqa: E402
 
 EXAMPLES = ROOT / "examples"
 # (model, delta_0) -> the paper's (adaptive Ne, uniform Ne): Table 3 (ring), Table 5.
-PAPER = {("hft_ring", 0.15): (1820, 3319), ("hft_ring", 0.10): (2700, 8024),
-         ("hft_ring", 0.08): (4198, 12707), ("hft_ring", 0.05): (9042, 34231),
-         ("hft_complex", 0.1): (9717, 66922), ("fgm_plate", 0.1): (2329, 29758)}
+PAPER = {(name, t): (CASES[name].adaptive[t].n_elements, CASES[name].uniform[t].n_elements)
+         for name in ("hft_ring", "hft_complex", "fgm_plate") for t in CASES[name].thresholds}
 # the element-ratio targets: no worse than the paper's ratio at these points
 RATIO_TARGET = {("hft_ring", 0.05): 0.26, ("hft_complex", 0.1): 0.15, ("fgm_plate", 0.1): 0.08}
 
@@ -54,9 +53,9 @@ def crossings(result, model) -> int:
 
 def table_cases(repeats: int) -> dict:
     rows, out = [], []
-    models = {}
+    models = {name: hetmesh.load_model(EXAMPLES / f"{name}.toml") for name, _ in PAPER}
     for (name, d0), (pa, pu) in PAPER.items():
-        model = models.setdefault(name, hetmesh.load_model(EXAMPLES / f"{name}.toml"))
+        model = models[name]
         runs = {}
         for kind, fn in (("layers", lambda: hetmesh.generate(model, d0)),
                          ("uniform", lambda: hetmesh.uniform(model, d0))):
@@ -160,8 +159,7 @@ def main(argv=None) -> int:
     res["total_seconds"] = time.perf_counter() - t0
     print(f"\ntotal {res['total_seconds']:.0f} s")
     if a.out:
-        a.out.write_text(json.dumps(res, indent=2, default=float))
-        print(f"wrote {a.out}")
+        save_json(a.out, res)
     return 0
 
 

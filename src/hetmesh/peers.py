@@ -51,15 +51,16 @@ import numpy as np
 
 from .density import background_points, gradient_norm, size_at
 from .errors import HetmeshError, MeshingError, OptionError
-from .metrics import MeshStats
+from .metrics import MeshStats, signed_area2
 
 __all__ = ["PEERS", "PeerMesh", "PeerResult", "PeerUnavailable", "available", "size_field",
            "gmsh_mesh", "triangle_mesh", "peer_statistics", "search",
-           "S_START", "S_FACTOR", "S_TRIES", "SizeField"]
+           "S_START", "S_FACTOR", "S_TRIES", "S_BISECT", "SizeField"]
 
 log = logging.getLogger(__name__)
 
 S_START, S_FACTOR, S_TRIES = 1.2, 0.9, 40
+S_BISECT = 2                # bisections of the last step of the search
 GMSH_ALGORITHM = 6          # Frontal-Delaunay
 MIN_ANGLE = 30.0            # Triangle's -q, hetmesh's default floor
 GRADATION = 0.3             # size growth per unit length (Lipschitz limit)
@@ -248,7 +249,8 @@ def _gmsh_geometry(gmsh, domain) -> tuple[int, list[int]]:
     return surface, embedded
 
 
-def gmsh_mesh(domain, size, *, field: str = "grid", cells: int = 400, h_max: float | None = None,
+def gmsh_mesh(domain, size, *, field: str = "grid", cells: int = GRID_CELLS,
+              h_max: float | None = None,
               threads: int = 1, algorithm: int = GMSH_ALGORITHM) -> PeerMesh:
     """Mesh ``domain`` with Gmsh, element sizes only from a background field.
 
@@ -380,8 +382,7 @@ def triangle_mesh(domain, size: Callable[[np.ndarray], np.ndarray], *,
     mesh = triangle.triangulate(data, f"p{q}Q")
     for _ in range(max_rounds):
         P, T = mesh["vertices"], mesh["triangles"]
-        a, b = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
-        area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        area = 0.5 * np.abs(signed_area2(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]))
         bound = math.sqrt(3.0) / 4.0 * size(P[T].mean(axis=1)) ** 2
         if (area <= bound * (1.0 + 1e-9)).all():
             break
@@ -409,7 +410,7 @@ def peer_statistics(model, mesh: PeerMesh) -> MeshStats:
 
 
 def search(peer: str, model, threshold: float, *, s_start: float = S_START,
-           factor: float = S_FACTOR, tries: int = S_TRIES, bisect: int = 2,
+           factor: float = S_FACTOR, tries: int = S_TRIES, bisect: int = S_BISECT,
            h_max: float | None = None, gradation: float | None = GRADATION,
            size: Callable[[float], object] | None = None, **options) -> PeerResult:
     """The coarsest mesh of ``peer`` with delta_max < ``threshold`` over the scale ``s``.
@@ -468,12 +469,7 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
         return ok
 
     s = s_start
-    first = attempt(s)
-    s_pass = s_fail = None
-    if first:
-        s_pass = s
-    else:
-        s_fail = s
+    s_pass, s_fail = (s, None) if attempt(s) else (None, s)
     while len(trace) < tries and (s_pass is None or s_fail is None):
         s = s * factor if s_pass is None else s / factor
         if attempt(s):

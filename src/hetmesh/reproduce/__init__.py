@@ -82,11 +82,8 @@ def plan(cases: Sequence[str] | None = None, quick: bool = False) -> list[tuple[
                           f"(known: {', '.join(CASES)})")
     if not names:
         raise OptionError(f"no case given (known: {', '.join(CASES)})")
-    seen: list[str] = []
-    for n in names:
-        if n not in seen:
-            seen.append(n)
-    return [(CASES[n], t) for n in seen for t in (CASES[n].quick if quick else CASES[n].thresholds)]
+    return [(CASES[n], t) for n in dict.fromkeys(names)
+            for t in (CASES[n].quick if quick else CASES[n].thresholds)]
 
 
 def fea_study_function():

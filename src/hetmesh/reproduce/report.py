@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
+from .. import peers as pc
 from ..io.atomic import atomic_write
 from .paper import CASES, NOTE_KEYS, NOTES, PAPER_TABLE7
 
@@ -94,7 +95,7 @@ def _paper_row(case, kind: str, threshold: float):
     return None
 
 
-def _stats_table(report, table: str, runs) -> list[str]:
+def _stats_table(runs) -> list[str]:
     headers = ["model", "δ0", "mesh"]
     for label, _, _ in STAT_COLUMNS:
         headers += [label, f"{label} paper"]
@@ -170,7 +171,7 @@ def _case_sections(report) -> list[str]:
         figs = ", ".join(CASES[n].figures for n in names)
         out += [f"## {table} analog: {', '.join(names)}", ""]
         out += [f"- `{n}`: {CASES[n].title}" for n in names] + [""]
-        out += _stats_table(report, table, runs) + [""]
+        out += _stats_table(runs) + [""]
         out += [f"Element counts against N_iso and the uniform baseline ({table}):", ""]
         out += _ratio_table(runs) + [""]
         out += [f"Figures ({figs} analogs): meshes coloured by the last constituent's fraction, "
@@ -192,6 +193,10 @@ def peer_verdicts(run) -> dict | None:
             "quality": h.q_avg >= b.q_avg - Q_SLACK}
 
 
+def _times(n: int) -> str:
+    return {1: "once", 2: "twice"}.get(n, f"{n} times")
+
+
 def _yes(v) -> str:
     return NA if v is None else ("yes" if v else "no")
 
@@ -208,15 +213,17 @@ def _peer_section(report) -> list[str]:
     out += [
         "Each peer meshes the domain as hetmesh meshed it (material discontinuities embedded "
         "as constraint curves) with the size field h = min(h_max, s·δ0/|∇f|), h_max = domain "
-        "diameter / 8, sampled on a 400-cell grid and graded (h grows by at most 0.3 per unit "
-        "length), `hetmesh.peers`. s starts at 1.2 and is lowered by the factor 0.9 until the "
-        "peer's δ_max < δ0 (raised while it already holds), then the last step is bisected "
-        "twice: the peer's mesh is the coarsest found that meets the threshold. δ and q are "
-        "evaluated exactly as for hetmesh's meshes. "
-        "Gmsh: Frontal-Delaunay (`Mesh.Algorithm = 6`), 1 thread, lines and circular arcs, "
-        "sizes from the background field only (a PostView). Triangle: the curves sampled "
-        "with the same size, `-pq30` (hetmesh's 30° angle floor), then `-rpq30a` with a "
-        "per-triangle maximum area √3/4·h(centroid)² until every triangle obeys it. "
+        f"diameter / 8, sampled on a {pc.GRID_CELLS}-cell grid and graded (h grows by at most "
+        f"{pc.GRADATION:g} per unit length), `hetmesh.peers`. s starts at {pc.S_START:g} and is "
+        f"lowered by the factor {pc.S_FACTOR:g} until the peer's δ_max < δ0 (raised while it "
+        f"already holds), then the last step is bisected {_times(pc.S_BISECT)}: the peer's mesh "
+        "is the coarsest found that meets the threshold. δ and q are evaluated exactly as for "
+        "hetmesh's meshes. "
+        f"Gmsh: Frontal-Delaunay (`Mesh.Algorithm = {pc.GMSH_ALGORITHM}`), 1 thread, lines and "
+        "circular arcs, sizes from the background field only (a PostView). Triangle: the "
+        f"curves sampled with the same size, `-pq{pc.MIN_ANGLE:g}` (hetmesh's {pc.MIN_ANGLE:g}° "
+        f"angle floor), then `-rpq{pc.MIN_ANGLE:g}a` with a per-triangle maximum area "
+        "√3/4·h(centroid)² until every triangle obeys it. "
         "*time*: wall seconds of the one accepted peer run (geometry, field, meshing; the "
         "search costs more, column *search s*); hetmesh's time is its `generate` call.",
         "",
@@ -248,7 +255,7 @@ def _peer_section(report) -> list[str]:
             cells += [num(pr.stats.n_elements), num(pr.stats.q_min), num(pr.stats.q_avg),
                       num(pr.seconds, 3), num(pr.search_seconds, 2), num(pr.s, 3)]
         v = peer_verdicts(r)
-        verdicts.append((r, v))
+        verdicts.append(v)
         if v is None:
             cells += [NA] * 5
         else:
@@ -261,7 +268,7 @@ def _peer_section(report) -> list[str]:
 
 
 def _peer_summary(verdicts) -> list[str]:
-    vs = [v for _, v in verdicts if v is not None]
+    vs = [v for v in verdicts if v is not None]
     if not vs:
         return ["No peer met any threshold.", ""]
     fewer = sum(v["fewer"] for v in vs)
