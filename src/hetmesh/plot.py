@@ -23,9 +23,17 @@ from .errors import OptionError, OutputError
 from .io.atomic import atomic_path
 from .mesh import Mesh
 
-__all__ = ["mesh_figure", "plot_mesh", "delta_histogram_figure", "plot_delta_histogram"]
+__all__ = ["mesh_figure", "plot_mesh", "delta_histogram_figure", "plot_delta_histogram",
+           "interface_markers"]
 
 log = logging.getLogger(__name__)
+
+
+def interface_markers(model) -> list[int]:
+    """Edge markers (curve index + 1, as in :class:`~hetmesh.mesh.Mesh`) of the interface
+    curves of ``model``: its own interfaces and, for the model as meshed
+    (``Result.model``), the embedded material discontinuities. Drawn red by the figures."""
+    return [i + 1 for i, info in enumerate(model.domain.curves) if info.kind == "interface"]
 
 DeltaLike = np.ndarray | Sequence[float] | Mesh
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from rich.console import Console
 
 from ..errors import OutputError
-from .mesh import check_threshold, check_writable_dir, interface_markers, run_pipeline
+from .mesh import check_threshold, check_writable_dir, run_pipeline
 
 __all__ = ["add_parser", "run", "EXAMPLE"]
 
@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     from ..adapt import generate
     from ..io.export import write_mesh
     from ..io.model import load_model
-    from ..plot import plot_delta_histogram, plot_mesh
+    from ..plot import interface_markers, plot_delta_histogram, plot_mesh
     from ..uniform import uniform
 
     with resources.as_file(resources.files("hetmesh") / "examples" / f"{EXAMPLE}.toml") as path:

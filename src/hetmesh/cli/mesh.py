@@ -23,8 +23,8 @@ from .progress import progress_reporter
 
 __all__ = [
     "add_parser", "run", "add_meshing_options", "meshing_kwargs", "check_threshold",
-    "check_outputs", "check_output_paths", "check_writable_dir", "interface_markers",
-    "write_outputs", "run_pipeline",
+    "check_outputs", "check_output_paths", "check_writable_dir", "write_outputs",
+    "run_pipeline",
 ]
 
 
@@ -218,18 +218,13 @@ def stats_document(args: argparse.Namespace, model, result, seconds: float) -> d
     })
 
 
-def interface_markers(model) -> list[int]:
-    """Edge markers of the model's interface curves (marker = curve index + 1, as in Mesh)."""
-    return [i + 1 for i, info in enumerate(model.domain.curves) if info.kind == "interface"]
-
-
 def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> list[Path]:
     """Write the mesh, then the optional plot and stats JSON (all atomically)."""
     from ..io.export import write_mesh
 
     written = [write_mesh(result.mesh, args.output, file_format=args.format)]
     if args.plot is not None:
-        from ..plot import plot_mesh
+        from ..plot import interface_markers, plot_mesh
 
         meshed = result.model if result.model is not None else model  # with discontinuities
         plot_mesh(result.mesh, args.plot, interface_markers=interface_markers(meshed),

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import HetmeshError
 from ..metrics import MeshStats
 
-__all__ = ["MeshRun", "PeerRun", "CaseRun", "mesh_pair", "uniform_like", "interface_markers",
+__all__ = ["MeshRun", "PeerRun", "CaseRun", "mesh_pair", "uniform_like",
            "draw_figures", "run_peer"]
 
 log = logging.getLogger(__name__)
@@ -109,18 +109,12 @@ def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
     return delta
 
 
-def interface_markers(model) -> list[int]:
-    """Edge markers (curve index + 1, as in :class:`~hetmesh.mesh.Mesh`) of the interface
-    curves of the model as meshed: its own interfaces and the embedded discontinuities."""
-    return [i + 1 for i, info in enumerate(model.domain.curves) if info.kind == "interface"]
-
-
 def draw_figures(out: Path, name: str, threshold: float, adaptive, *, histogram: bool,
                  histogram_delta: np.ndarray | None = None) -> tuple[str, str | None]:
     """The mesh picture (coloured by composition, interfaces and discontinuities in red) and,
     if ``histogram``, delta histograms of the adaptive mesh against ``histogram_delta``.
     Returns the paths relative to ``out``."""
-    from ..plot import plot_delta_histogram, plot_mesh
+    from ..plot import interface_markers, plot_delta_histogram, plot_mesh
 
     figdir = out / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
