@@ -84,7 +84,7 @@ def summary_table(report):
     from rich.table import Table
 
     from ..reproduce.paper import CASES
-    from ..reproduce.report import num, peer_verdicts
+    from ..reproduce.report import num, paper_row, peer_verdicts
 
     table = Table(title=f"hetmesh reproduce ({'quick' if report.quick else 'full'}): elements "
                         "adaptive, uniform, best peer", title_justify="left",
@@ -98,8 +98,7 @@ def summary_table(report):
             table.add_row(r.case, f"{r.threshold:g}", "error: " + r.error)
             continue
         case = CASES[r.case]
-        pa = next((v for t, v in case.adaptive.items() if abs(t - r.threshold) < 1e-12), None)
-        pu = next((v for t, v in case.uniform.items() if abs(t - r.threshold) < 1e-12), None)
+        pa, pu = paper_row(case, "adaptive", r.threshold), paper_row(case, "uniform", r.threshold)
         v = peer_verdicts(r)
         best = str(r.peers[v["best"]].stats.n_elements) if v else "-"
         table.add_row(r.case, f"{r.threshold:g}", str(r.adaptive.stats.n_elements),

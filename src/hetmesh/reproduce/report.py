@@ -15,7 +15,8 @@ from .. import peers as pc
 from ..io.atomic import atomic_write
 from .paper import CASES, NOTE_KEYS, NOTES, PAPER_TABLE7
 
-__all__ = ["render", "write_report", "markdown_table", "num", "PEER_LABELS", "peer_verdicts"]
+__all__ = ["render", "write_report", "markdown_table", "num", "PEER_LABELS", "peer_verdicts",
+           "paper_row"]
 
 NA = "n/a"
 PEER_LABELS = {"gmsh": "Gmsh", "triangle": "Triangle"}
@@ -87,7 +88,8 @@ def _header(report) -> list[str]:
     ]
 
 
-def _paper_row(case, kind: str, threshold: float):
+def paper_row(case, kind: str, threshold: float):
+    """The paper's ``kind`` ("adaptive" or "uniform") row of ``case`` at ``threshold``, or None."""
     rows = getattr(case, kind)
     for t, row in rows.items():
         if math.isclose(t, threshold):
@@ -109,7 +111,7 @@ def _stats_table(runs) -> list[str]:
             continue
         for kind in ("adaptive", "uniform"):
             mr = getattr(r, kind)
-            paper = _paper_row(case, kind, r.threshold)
+            paper = paper_row(case, kind, r.threshold)
             cells = [r.case, num(r.threshold, 2), kind]
             for label, key, digits in STAT_COLUMNS:
                 cells.append(num(getattr(mr.stats, key), digits))
@@ -136,7 +138,7 @@ def _ratio_table(runs) -> list[str]:
         if r.error:
             continue
         case = CASES[r.case]
-        pa, pu = _paper_row(case, "adaptive", r.threshold), _paper_row(case, "uniform", r.threshold)
+        pa, pu = paper_row(case, "adaptive", r.threshold), paper_row(case, "uniform", r.threshold)
         a, u = r.adaptive.stats, r.uniform.stats
         rows.append([r.case, num(r.threshold, 2), num(r.n_iso, 0), num(a.n_elements),
                      num(u.n_elements), num(r.ratio, 3),
