@@ -17,7 +17,7 @@ from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestF
 
 from conftest import check_invariants, square_domain
 
-EX = hetmesh.example_path if hasattr(hetmesh, "example_path") else None
+EX = hetmesh.example_path
 
 
 @pytest.fixture(scope="module")

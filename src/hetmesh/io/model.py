@@ -267,6 +267,14 @@ class _Ctx:
                                  f"{_describe(value)}")
         return (float(value[0]), float(value[1]))
 
+    def ccw(self, table: Mapping, key: str) -> bool:
+        """The optional ``direction`` of ``table``: True for ``"ccw"`` (the default)."""
+        direction = self.string(table, key, "direction", default="ccw")
+        if direction not in ("ccw", "cw"):
+            raise self.fail(f"{key}.direction", f"expected \"ccw\" or \"cw\", got "
+                                                f"{direction!r}")
+        return direction == "ccw"
+
     def wrap(self, key: str, exc: HetmeshError) -> HetmeshError:
         """Re-raise a geometry/material error with this file's prefix and ``key``."""
         msg = str(exc)
@@ -324,11 +332,7 @@ def _curves(ctx: _Ctx, key: str, start, path) -> list:
             curve = Arc.through(p0, mid, p1, name=name, where=here)
         elif "center" in t:
             c = ctx.point(t["center"], f"{k}.center")
-            direction = ctx.string(t, k, "direction", default="ccw")
-            if direction not in ("ccw", "cw"):
-                raise ctx.fail(f"{k}.direction", f"expected \"ccw\" or \"cw\", got "
-                                                 f"{direction!r}")
-            curve = Arc.from_center(p0, p1, c, ccw=direction == "ccw", name=name, where=here)
+            curve = Arc.from_center(p0, p1, c, ccw=ctx.ccw(t, k), name=name, where=here)
         else:
             if p0 == p1:
                 raise ctx.fail(f"{k}.to", f"zero-length segment: {_fmt_point(p1)} is where "

@@ -27,11 +27,10 @@ import numpy as np
 from ...errors import MaterialError, ModelFileError
 from ...expr import compile_expr
 from ...geometry import Arc, Segment
+from ...geometry.curves import TWO_PI
 
 __all__ = ["PointFeature", "CurveFeature", "NearestFeature", "SelectFeature", "BlendFeature",
            "inside_predicate"]
-
-TWO_PI = 2.0 * math.pi
 
 
 class _Eval:
@@ -86,7 +85,7 @@ class _Leaf:
         if on.any():
             unit[on] = normal[on]
         comp = self.c0 + t[:, None] * self.dc
-        if np.any(self.dc) and dtdp is not None:
+        if np.any(self.dc):
             dcomp = self.dc[None, :, None] * dtdp[:, None, :]
         else:
             dcomp = np.zeros((len(p), len(self.c0), 2))
@@ -206,7 +205,7 @@ class _Parent:
                 continue
             mask = owner == k
             if mask.any():
-                yield k, child, (slice(None) if mask.all() else mask)
+                yield k, child, (slice(None) if mask.all() else np.flatnonzero(mask))
 
     def region(self, p):
         owner = self._owner(p)
@@ -467,7 +466,7 @@ class BlendFeature:
         self.n_regions = first.n_regions * self.n2
         variables = tuple(self.distances)
         self.exprs = []
-        for i, (text, _owner) in enumerate(weights):
+        for text, _owner in weights:
             e = compile_expr(text, variables, parameters,
                              where=f"{pre}feature {fid!r}: weight {text!r}")
             self.exprs.append((e, {v: e.diff(v) for v in e.names}))
@@ -495,10 +494,6 @@ class BlendFeature:
 
     def curves(self) -> list:
         return []
-
-    def weight(self, p, region=None):
-        """``(W (N,), grad W (N, 2), region (N,))`` at points ``p`` (global coordinates)."""
-        return self._weight(p, *self._children(p, region))[:2]
 
     def _children(self, p, region):
         r1 = r2 = None

@@ -74,6 +74,10 @@ class HFTField(_Shiftable):
         ``composition(p)`` followed by ``gradient(p)`` (as the mesher calls them) evaluates
         the tree once; callers get copies.
         """
+        return tuple(a.copy() for a in self._cached(points, region))
+
+    def _cached(self, points, region):
+        """``(composition, gradient, region)`` of the one-entry cache (not copies)."""
         p = self._global(points)
         r = self._region_arg(region, len(p))
         key = (p.shape, hash(p.tobytes()), None if r is None else hash(r.tobytes()))
@@ -81,15 +85,15 @@ class HFTField(_Shiftable):
         if cached is None or cached[0] != key:
             ev = self.root.evaluate(p, r)
             cached = self._cache = (key, ev.comp, ev.dcomp, ev.region)
-        return cached[1].copy(), cached[2].copy(), cached[3].copy()
+        return cached[1:]
 
     def composition(self, points, region=None) -> np.ndarray:
         """Volume fractions ``(N, m)``; with ``region``, those of the given subregions."""
-        return self.evaluate(points, region)[0]
+        return self._cached(points, region)[0].copy()
 
     def gradient(self, points, region=None) -> np.ndarray:
         """Exact gradients ``(N, m, 2)``; with ``region``, those of the given subregions."""
-        return self.evaluate(points, region)[1]
+        return self._cached(points, region)[1].copy()
 
     def region(self, points) -> np.ndarray:
         """The subregion id ``(N,)`` owning each point (see :attr:`region_names`)."""

@@ -133,12 +133,8 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
                 elif kind == "circle":
                     c = ctx.point(item["center"], f"{key}.center")
                     r = ctx.number(item["radius"], f"{key}.radius", positive=True)
-                    direction = ctx.string(item, key, "direction", default="ccw")
-                    if direction not in ("ccw", "cw"):
-                        raise ctx.fail(f"{key}.direction", f"expected \"ccw\" or \"cw\", "
-                                                           f"got {direction!r}")
-                    feat = CurveFeature(fid, Arc.circle(c, r, ccw=direction == "ccw",
-                                                        name=fid), c0, c1)
+                    feat = CurveFeature(fid, Arc.circle(c, r, ccw=ctx.ccw(item, key), name=fid),
+                                        c0, c1)
                 else:
                     a, b = ctx.point(item["from"], f"{key}.from"), ctx.point(item["to"],
                                                                           f"{key}.to")
@@ -152,12 +148,9 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
                         arc = Arc.through(a, ctx.point(item["through"], f"{key}.through"), b,
                                           name=fid, where=here)
                     else:
-                        direction = ctx.string(item, key, "direction", default="ccw")
-                        if direction not in ("ccw", "cw"):
-                            raise ctx.fail(f"{key}.direction", f"expected \"ccw\" or \"cw\", "
-                                                               f"got {direction!r}")
+                        ccw = ctx.ccw(item, key)
                         arc = Arc.from_center(a, b, ctx.point(item["center"], f"{key}.center"),
-                                              ccw=direction == "ccw", name=fid, where=here)
+                                              ccw=ccw, name=fid, where=here)
                     feat = CurveFeature(fid, arc, c0, c1)
             except GeometryError as exc:
                 raise ctx.wrap(key, exc) from None
