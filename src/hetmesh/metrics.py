@@ -148,9 +148,6 @@ def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray
     difference over vertex pairs equals the largest per-constituent range over the vertices.
     """
     c = composition if composition.ndim == 2 else composition[:, None]
-    if c.shape[1] == 2:  # two fractions summing to 1 have the same range: use one
-        v = c[:, 1][triangles]
-        return v.max(axis=1) - v.min(axis=1)
     v = c[triangles]  # (M, 3, m)
     return (v.max(axis=1) - v.min(axis=1)).max(axis=1)
 

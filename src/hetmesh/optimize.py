@@ -82,9 +82,6 @@ class _Eval:
         ``C (n, 3, m)``; ``reg`` their subregions (or None)."""
         n = len(X)
         if self.sampling == "vertices" and reg is None:
-            if C.shape[2] == 2:
-                v = C[:, :, 1]
-                return v.max(axis=1) - v.min(axis=1)
             return (C.max(axis=1) - C.min(axis=1)).max(axis=1)
         tl = np.arange(3 * n).reshape(n, 3)
         return element_delta(self.field, X.reshape(-1, 2), tl, self.sampling,
