@@ -33,6 +33,7 @@ from .corners import corner_exempt, sharp_corners, shell_split
 from .discontinuity import (FIT_TOL, crossing_elements, element_subregions,
                             embed_discontinuities, has_subregions)
 from .errors import BudgetError, MeshingError, OptionError
+from .frame import local_field, local_frame
 from .geometry import build_pslg
 from .layers import place_layers
 from .mesh import Mesh, edge_keys
@@ -66,14 +67,15 @@ class Result:
     model: object = None
 
 
-def prepare(model, threshold, max_size):
-    """Shift the model to local coordinates and build the refinement context."""
-    domain, fld = model.domain, model.material
-    x0, y0, x1, y1 = domain.bounds
-    offset = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
-    dom = domain.translated(-offset)
-    fl = fld.shifted(offset) if hasattr(fld, "shifted") else _Shifted(fld, offset)
-    h_max = float(max_size) if max_size is not None else dom.diameter / 8.0
+def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL):
+    """The refinement context in the model's :class:`~hetmesh.frame.LocalFrame` (moved to
+    the origin and scaled to a diameter near 1, so that no tolerance depends on the user's
+    units), and that frame. ``max_size`` is in user units, ``chord_tol`` relative to the
+    domain's diameter."""
+    frame = local_frame(model.domain.bounds)
+    dom = model.domain.translated(-frame.offset).scaled(1.0 / frame.scale)
+    fl = local_field(model.material, frame)
+    h_max = float(max_size) / frame.scale if max_size is not None else dom.diameter / 8.0
     infos = dom.curves
     curves = [ci.curve for ci in infos]
     scale = dom.diameter
@@ -81,20 +83,9 @@ def prepare(model, threshold, max_size):
     bnd = np.array([ci.kind != "interface" for ci in infos], bool)
     scalar = 1 if len(fl.constituents) == 2 else None
     ctx = Context(domain=dom, curves=curves, closed=closed, boundary_curve=bnd, field=fl,
-                  threshold=threshold, h_max=h_max, scalar=scalar)
-    return ctx, offset
-
-
-class _Shifted:
-    def __init__(self, base, offset):
-        self.base, self.offset = base, np.asarray(offset, float)
-        self.constituents = base.constituents
-
-    def composition(self, points, **kw):
-        return self.base.composition(np.asarray(points) + self.offset, **kw)
-
-    def gradient(self, points, **kw):
-        return self.base.gradient(np.asarray(points) + self.offset, **kw)
+                  threshold=threshold, h_max=h_max, scalar=scalar,
+                  chord_tol=chord_tol * dom.diameter)
+    return ctx, frame
 
 
 # --------------------------------------------------------------------------- placement
@@ -376,7 +367,7 @@ def _coverage_problems(ws: WorkSet, ctx: Context, local: Mesh) -> list[str]:
     return out
 
 
-def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, min_angle_deg,
+def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, min_angle_deg,
            check_delta=True) -> tuple[Mesh, MeshStats]:
     """Verify every claim on the final mesh; build the :class:`Mesh` (user coordinates) and
     its statistics.
@@ -424,7 +415,7 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, offset, *, threshold, m
                         "the angle refinement was stopped to keep the loop finite",
                         int(low.sum()), min_angle_deg, float(ang.min()))
     interfaces = ws.E[~ctx.boundary_curve[ws.ecurve]]
-    mesh = Mesh(points=P + offset, triangles=tris, regions=local.pieces(interfaces),
+    mesh = Mesh(points=frame.to_user(P), triangles=tris, regions=local.pieces(interfaces),
                 edges=ws.E, edge_markers=ws.ecurve + 1,
                 marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
                 point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
@@ -476,7 +467,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     timings: dict = {}
     t0 = time.perf_counter()
     model = embed_discontinuities(model)
-    ctx, offset = prepare(model, threshold, max_size)
+    ctx, frame = prepare(model, threshold, max_size)
     est = dens.estimate_elements(ctx.field, ctx.domain, threshold, ctx.h_max)
     if est > max_elements:
         raise BudgetError(f"the a-priori estimate is {est:,.0f} elements, above the budget of "
@@ -484,7 +475,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     if method == "layers" and ctx.scalar is None:
         method = "cvt"  # level rows need one scalar composition (two constituents)
     rng = np.random.default_rng(seed)
-    chord_tol = CHORD_TOL * ctx.domain.diameter
+    chord_tol = ctx.chord_tol
     timings["prepare"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     ws = PLACEMENTS[method](ctx, rng, chord_tol, progress=progress)
@@ -502,14 +493,14 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
                                               min_angle_deg=min_angle)
         timings["optimize"] = time.perf_counter() - t4
     t3 = time.perf_counter()
-    mesh, stats = finish(ws, ctx, tris, comp, delta, offset, threshold=threshold,
+    mesh, stats = finish(ws, ctx, tris, comp, delta, frame, threshold=threshold,
                          min_angle_deg=min_angle)
     timings["verify"] = time.perf_counter() - t3
     timings["total"] = time.perf_counter() - t0
     # where the time went, across the phases above (seconds): Delaunay rebuilds, Lloyd steps
     # (CVT and row staggering), refinement-point computation, delta/quality evaluation
     timings.update({f"{k}_s": v for k, v in sorted(ctx.clock.items())})
-    opts = dict(threshold=threshold, min_angle=min_angle, max_size=ctx.h_max,
+    opts = dict(threshold=threshold, min_angle=min_angle, max_size=ctx.h_max * frame.scale,
                 max_elements=max_elements, sampling=sampling, method=method, seed=seed,
                 min_quality=min_quality, optimize=optimize, estimate=float(est))
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,

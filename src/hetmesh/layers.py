@@ -44,6 +44,8 @@ log = logging.getLogger(__name__)
 
 STAGGER_ITERS = 8
 BETA = 0.985  # row spacing in composition, as a fraction of delta_0
+#: a node projected onto its level is kept if |f - level| <= LEVEL_TOL x the row spacing in f
+LEVEL_TOL = 0.05
 
 
 def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float) -> np.ndarray:
@@ -579,7 +581,8 @@ def _curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):
     step (and the chord tolerance, the per-curve ``spacing`` cap of :func:`_grade_levels`,
     and the minimum interval counts, of :mod:`geometry`)."""
     batch = ctx.domain.curve_batch
-    cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
+    chord_cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
+    cap = chord_cap
     if spacing is not None:
         cap = np.minimum(cap, spacing)
     out = []
@@ -597,6 +600,8 @@ def _curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):
         a, b = full[:-1], full[1:]
         h = np.minimum(_row_step_at(ctx, c.point(0.5 * (a + b)), dprime), cap[k])
         nseg = np.maximum(np.ceil((b - a) * c.length / (1.15 * h)), np.ceil(nmin[k] * (b - a)))
+        # the chord tolerance is a bound, not a target: never a chord longer than its cap
+        nseg = np.maximum(nseg, np.ceil((b - a) * c.length / chord_cap[k] * (1 - 1e-12)))
         nseg = np.maximum(nseg, 1).astype(np.int64)
         gap = np.repeat(np.arange(len(a)), nseg)
         step = np.arange(nseg.sum()) - np.repeat(np.cumsum(nseg) - nseg, nseg) + 1
@@ -758,10 +763,11 @@ def _gradient_seeds(ctx: Context, pieces: _Pieces, keys, levs, dps, dprime: floa
             L = levs[kk]
             u = (L - f[i]) / (fn[i] - f[i])
             p = xs[i] + u[:, None] * (xn[i] - xs[i])
-            out_p.append(project_to_level(ctx, p, L, iters=3))
-            out_l.append(L)
-            out_d.append(dps[kk])
-            out_i.append(ids[i])
+            p, good = project_to_level(ctx, p, L, iters=3, tol=LEVEL_TOL * dps[kk])
+            out_p.append(p[good])
+            out_l.append(L[good])
+            out_d.append(dps[kk][good])
+            out_i.append(ids[i][good])
         kx[ids[ok]] = kn[ok]
     if not out_p:
         return none
@@ -953,8 +959,7 @@ def _even_nodes(ctx: Context, lines, dprime, level, phi, closed: bool):
     w = np.clip((tk - gk[i]) / np.maximum(gk[i + 1] - gk[i], 1e-300), 0.0, 1.0)
     x = pts[i] + w[:, None] * (pts[i + 1] - pts[i])
     lev = level[rr]
-    x = project_to_level(ctx, x, lev, iters=3)
-    ok = ctx.inside(x)
+    x, ok = project_to_level(ctx, x, lev, iters=3, tol=LEVEL_TOL * dprime[rr])
     return x[ok], lev[ok]
 
 

@@ -39,6 +39,7 @@ class Context:
     threshold: float
     h_max: float
     scalar: int | None = None  # constituent whose level sets carry nodes (layers)
+    chord_tol: float | None = None  # largest sagitta of a curved boundary or interface chord
     clock: dict = field(default_factory=dict)  # seconds spent per kind of work (phase split)
 
     @contextmanager
@@ -136,6 +137,48 @@ def curve_bounds(ws: WorkSet, ctx: Context) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def chord_window(ws: WorkSet, ctx: Context, lo: np.ndarray, hi: np.ndarray):
+    """The parameters a curve vertex may slide to without a chord to its neighbours (at
+    ``lo`` and ``hi``, :func:`curve_bounds`) exceeding the chord tolerance ``ctx.chord_tol``
+    (sagitta, exact for arcs): ``(t_min, t_max)``. Where the window is empty (a chord
+    already too long on both sides) the vertex keeps its parameter. Unbounded for
+    segments and without a tolerance."""
+    t_min, t_max = np.full(ws.n, -np.inf), np.full(ws.n, np.inf)
+    on = ws.vcurve >= 0
+    if ctx.chord_tol is None or not on.any():
+        return t_min, t_max
+    batch = ctx.domain.curve_batch
+    step_t = batch.max_step(ctx.chord_tol) / np.array([c.length for c in ctx.curves])
+    st = step_t[np.where(on, ws.vcurve, 0)]
+    t_min = np.where(on, hi - st, -np.inf)
+    t_max = np.where(on, lo + st, np.inf)
+    empty = t_min > t_max
+    t_min[empty] = t_max[empty] = ws.vt[empty]
+    return t_min, t_max
+
+
+def chord_violators(ws: WorkSet, ctx: Context, t_new: np.ndarray, moving: np.ndarray) -> np.ndarray:
+    """The moving curve vertices (mask) an end of a chord that would exceed the chord
+    tolerance with the curve parameters ``t_new``: neighbours moved at the same time can
+    stretch a chord that each move alone (:func:`chord_window`) kept short. Reverting them
+    to their old parameters restores chords that were within the tolerance before."""
+    bad = np.zeros(ws.n, bool)
+    if ctx.chord_tol is None or not moving.any():
+        return bad
+    et = edge_params(ws, ctx)
+    for j in (0, 1):
+        v = ws.E[:, j]
+        own = (ws.vcurve[v] == ws.ecurve) & moving[v]
+        et[own, j] = t_new[v[own]]
+    step_t = (ctx.domain.curve_batch.max_step(ctx.chord_tol)
+              / np.array([c.length for c in ctx.curves]))[ws.ecurve]
+    long = np.abs(et[:, 1] - et[:, 0]) > step_t
+    for j in (0, 1):
+        v = ws.E[long, j]
+        bad[v] |= moving[v] & (ws.vcurve[v] >= 0)
+    return bad
+
+
 def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
     with ctx.timed("cdt"):
         bmask = ctx.boundary_curve[ws.ecurve]
@@ -209,9 +252,18 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     return out
 
 
-def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: int = 3) -> np.ndarray:
-    """Newton steps along the gradient onto f = level (for nodes on iso-composition curves)."""
+def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: int = 3,
+                     tol: float | None = None):
+    """Newton steps along the gradient onto f = level (for nodes on iso-composition curves).
+
+    Every step is capped at ``ctx.h_max``: where the field is nearly flat (a plateau of a
+    steep tanh front, |grad f| ~ 1e-20) an uncapped Newton step would throw the point
+    arbitrarily far (1e13 domain widths were seen). With ``tol``, also returns whether each
+    point ended on its level, |f - level| <= ``tol``, and inside the domain: callers drop
+    (or do not move) the points that did not.
+    """
     p = pts.copy()
+    cap = ctx.h_max
     for _ in range(iters):
         f = ctx.f(p)
         gr = ctx.grad_f(p)
@@ -219,8 +271,16 @@ def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: in
         ok = g2 > 1e-30
         step = np.zeros_like(p)
         step[ok] = ((f[ok] - level[ok]) / g2[ok])[:, None] * gr[ok]
+        ln = np.hypot(step[:, 0], step[:, 1])
+        big = ln > cap
+        if big.any():
+            step[big] *= (cap / ln[big])[:, None]
         p = p - step
-    return p
+    if tol is None:
+        return p
+    good = np.abs(ctx.f(p) - level) <= tol
+    good[good] = ctx.inside(p[good])
+    return p, good
 
 
 def row_tangent(gr: np.ndarray) -> np.ndarray:
@@ -274,12 +334,24 @@ def _lloyd_step(ws: WorkSet, ctx: Context, tris: np.ndarray, active: np.ndarray 
         lo, hi = curve_bounds(ws, ctx)
         slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, ws.vcurve, -1), ws.vt,
                                          ctx.curves, lo, hi)
+        t_min, t_max = chord_window(ws, ctx, lo, hi)
+        clip = oncurve & ((tnew < t_min) | (tnew > t_max))
+        if clip.any():  # a chord would exceed the tolerance: slide only as far as allowed
+            tnew = np.where(clip, np.clip(tnew, t_min, t_max), tnew)
+            for c in np.unique(ws.vcurve[clip]):
+                s = np.flatnonzero(clip & (ws.vcurve == c))
+                slid[s] = ctx.curves[c].point(tnew[s])
         target = np.where(oncurve[:, None], slid, target)
     moved = cvt.limit_to_star(ws.P, sub, target, movable)
     if oncurve.any():
         # keep the parameter of curve nodes consistent with where they ended up
         ok = oncurve & np.all(moved == target, axis=1)
+        vt_old = ws.vt
         ws.vt = np.where(ok, tnew, ws.vt)
         back = oncurve & ~ok
         moved[back] = ws.P[back]
+        stretch = chord_violators(ws, ctx, ws.vt, ok & (ws.vt != vt_old))
+        if stretch.any():
+            ws.vt = np.where(stretch, vt_old, ws.vt)
+            moved[stretch] = ws.P[stretch]
     ws.P = moved

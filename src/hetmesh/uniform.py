@@ -79,7 +79,7 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
                               sampling=sampling, min_quality=min_quality)
     t0 = time.perf_counter()
     model = embed_discontinuities(model)
-    ctx, offset = prepare(model, threshold, None)
+    ctx, frame = prepare(model, threshold, None)
     pts = background_points(ctx.domain, 200)
     gmax = float(gradient_norm(ctx.field, pts).max()) if len(pts) else 0.0
     h = threshold / gmax if gmax > 0 else ctx.domain.diameter / 10
@@ -92,7 +92,7 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
                               max_elements=max_elements)
         comp, delta = evaluate(ctx, ws, tris, sampling)
         ok = delta.max() < threshold
-        history.append({"round": i, "h": h, "elements": int(len(tris)),
+        history.append({"round": i, "h": h * frame.scale, "elements": int(len(tris)),
                         "delta_max": float(delta.max()), "pass": bool(ok)})
         if progress:
             progress("uniform", (i + 1) / tries)
@@ -113,9 +113,9 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     if best is None:
         raise BudgetError(f"no uniform mesh met delta_max < {threshold:g} within {tries} tries")
     ws, tris, comp, delta, h = best
-    mesh, stats = finish(ws, ctx, tris, comp, delta, offset, threshold=threshold,
+    mesh, stats = finish(ws, ctx, tris, comp, delta, frame, threshold=threshold,
                          min_angle_deg=min_angle)
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings={"total": time.perf_counter() - t0},
-                  options=dict(threshold=threshold, size=h, min_angle=min_angle,
+                  options=dict(threshold=threshold, size=h * frame.scale, min_angle=min_angle,
                                sampling=sampling, max_elements=max_elements), model=model)

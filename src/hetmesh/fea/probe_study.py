@@ -152,11 +152,11 @@ def uniform_mesher(model) -> Callable[[float], Any]:
     from ..mesh import Mesh
     from ..uniform import uniform_at
 
-    ctx, offset = prepare(embed_discontinuities(model), 0.1, None)
+    ctx, frame = prepare(embed_discontinuities(model), 0.1, None)
 
     def mesh(h: float) -> Mesh:
-        ws, tris = uniform_at(ctx, float(h), max_elements=10_000_000)
-        return Mesh(ws.P + offset, tris)
+        ws, tris = uniform_at(ctx, float(h) / frame.scale, max_elements=10_000_000)
+        return Mesh(frame.to_user(ws.P), tris)
 
     return mesh
 

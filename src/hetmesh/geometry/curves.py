@@ -150,6 +150,11 @@ class Segment:
         o = np.asarray(_pair(offset, "offset"))
         return Segment(np.array(self.p0) + o, np.array(self.p1) + o, self.name)
 
+    def scaled(self, factor: float) -> Segment:
+        """The segment with every coordinate multiplied by ``factor`` (> 0)."""
+        f = float(factor)
+        return Segment(np.array(self.p0) * f, np.array(self.p1) * f, self.name)
+
     def green_area(self, origin=(0.0, 0.0)) -> float:
         """``∫ (x dy - y dx) / 2`` along the segment, coordinates taken relative to ``origin``."""
         return float(CurveBatch.from_curves([self]).green_area(origin)[0])
@@ -318,6 +323,12 @@ class Arc:
         o = _pair(offset, "offset")
         c = (self.center[0] + o[0], self.center[1] + o[1])
         return Arc(c, self.radius, self.theta0, self.theta1, self.name)
+
+    def scaled(self, factor: float) -> Arc:
+        """The arc with every coordinate multiplied by ``factor`` (> 0); same angles."""
+        f = float(factor)
+        return Arc((self.center[0] * f, self.center[1] * f), self.radius * f, self.theta0,
+                   self.theta1, self.name)
 
     def green_area(self, origin=(0.0, 0.0)) -> float:
         """``∫ (x dy - y dx) / 2`` along the arc, coordinates taken relative to ``origin``."""

@@ -69,6 +69,9 @@ class _Chain:
     def translated(self, offset):
         return replace(self, curves=tuple(c.translated(offset) for c in self.curves))
 
+    def scaled(self, factor: float):
+        return replace(self, curves=tuple(c.scaled(factor) for c in self.curves))
+
 
 @dataclass(frozen=True)
 class Loop(_Chain):
@@ -291,6 +294,17 @@ class Domain:
         return Domain(self.outer.translated(o), tuple(h.translated(o) for h in self.holes),
                       tuple(p.translated(o) for p in self.interfaces),
                       {k: tuple(np.asarray(v) + o) for k, v in self.points.items()})
+
+    def scaled(self, factor: float) -> Domain:
+        """The domain with every coordinate multiplied by ``factor`` (> 0).
+
+        With a power of two for ``factor`` the result is exact: the mesher works on the
+        domain scaled to a diameter near 1, whatever the user's units.
+        """
+        f = float(factor)
+        return Domain(self.outer.scaled(f), tuple(h.scaled(f) for h in self.holes),
+                      tuple(p.scaled(f) for p in self.interfaces),
+                      {k: tuple(np.asarray(v) * f) for k, v in self.points.items()})
 
     def validate(self, where: str = "") -> Domain:
         """Check the domain; raise :class:`GeometryError` naming the curve and the place.

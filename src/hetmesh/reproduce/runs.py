@@ -97,10 +97,10 @@ def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
     from ..adapt import evaluate, prepare
     from ..uniform import uniform_at
 
-    ctx, _ = prepare(model, threshold, None)
+    ctx, frame = prepare(model, threshold, None)
     h = math.sqrt(4.0 * model.domain.area / (math.sqrt(3.0) * max(int(n_elements), 1)))
     for _ in range(tries):
-        ws, tris = uniform_at(ctx, h)
+        ws, tris = uniform_at(ctx, h / frame.scale)
         ratio = len(tris) / n_elements
         if abs(ratio - 1.0) <= tol:
             break
