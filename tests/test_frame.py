@@ -83,3 +83,9 @@ def test_steep_tanh_front(eps, threshold):
     r = hetmesh.generate(m, threshold)
     check_invariants(r, m, threshold)
     assert np.abs(r.mesh.points).max() <= 1.0 + 1e-12
+
+
+@pytest.mark.parametrize("L", [1e-300, 1e300])
+def test_sizes_beyond_the_range_are_a_clear_error(L):
+    with pytest.raises(hetmesh.errors.GeometryError, match="outside the range hetmesh supports"):
+        square(L)

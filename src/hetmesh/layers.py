@@ -38,25 +38,37 @@ from .refine import (FREE, Context, WorkSet, add_free_points, edge_params, proje
                      slide_along_rows, smooth, thin_candidates_mask, triangulate,
                      workset_from_pslg)
 
-__all__ = ["place_layers", "BETA"]
+__all__ = ["place_layers", "ROW_SPACING", "ECONOMY_SPACING"]
 
 log = logging.getLogger(__name__)
 
 STAGGER_ITERS = 8
-BETA = 0.985  # row spacing in composition, as a fraction of delta_0
+#: the default step in composition between adjacent rows, as a fraction of delta_0: rows
+#: 0.85 delta_0 apart leave the elements 15 % of slack, which the quality pass spends on
+#: shape (q_avg +0.01 to +0.015 over 0.985 on the examples, for 15-35 % more elements)
+ROW_SPACING = 0.85
+#: the spacing that gives the fewest elements (elements just under delta_0)
+ECONOMY_SPACING = 0.985
 #: a node projected onto its level is kept if |f - level| <= LEVEL_TOL x the row spacing in f
 LEVEL_TOL = 0.05
 
 
 def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float) -> np.ndarray:
-    """Node spacing along a row, 2 w / sqrt(3) with w = delta' / |grad f| (capped at h_max)."""
-    with np.errstate(divide="ignore"):
+    """Node spacing along a row, 2 w / sqrt(3) with w = delta' / |grad f|, between h_min and
+    h_max (where |grad f| is infinite, nan or zero too)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
         s = 2.0 * dprime / (np.sqrt(3.0) * gnorm)
-    return np.minimum(np.nan_to_num(s, nan=ctx.h_max, posinf=ctx.h_max), ctx.h_max)
+    s = np.nan_to_num(s, nan=ctx.h_max, posinf=ctx.h_max)
+    return np.clip(s, ctx.h_min, ctx.h_max)
 
 
-def _row_step_at(ctx: Context, pts: np.ndarray, dprime: float) -> np.ndarray:
-    return _row_step(ctx, np.linalg.norm(ctx.grad_f(pts), axis=1), dprime)
+def _row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None = None
+                 ) -> np.ndarray:
+    """:func:`_row_step` at ``pts`` (``grad``: grad f there, if known), for the gradient
+    capped by the context (:meth:`Context.cap_at`)."""
+    gr = ctx.grad_f(pts) if grad is None else grad
+    gn = np.minimum(np.nan_to_num(np.linalg.norm(gr, axis=1), nan=np.inf), ctx.cap_at(pts))
+    return _row_step(ctx, gn, dprime)
 
 
 def _anchor(ctx: Context) -> float:
@@ -702,7 +714,7 @@ def _trace_rows(ctx: Context, x0: np.ndarray, lev: np.ndarray, dirn: np.ndarray,
         xa, la, da = x[ia], lev[ia], dirn[ia, None]
         g = ctx.grad_f(xa)
         gn = np.linalg.norm(g, axis=1)
-        h = _row_step(ctx, gn, dpr[ia])
+        h = _row_step_at(ctx, xa, dpr[ia], grad=g)
         xm = xa + 0.5 * h[:, None] * da * row_tangent(g)  # midpoint predictor
         tm = da * row_tangent(ctx.grad_f(xm))
         xn = project_to_level(ctx, xa + h[:, None] * tm, la, iters=3)
@@ -1053,7 +1065,7 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
 
 def place_layers(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
     """Place nodes on rows along the iso-composition curves (see the module docstring)."""
-    dprime = BETA * ctx.threshold
+    dprime = ctx.row_spacing * ctx.threshold
     # the pieces between interfaces come from the curves sampled without the crossings
     ws0 = _pslg_workset(ctx, _curve_params(ctx, np.zeros(0, np.int64), np.zeros(0), dprime,
                                            chord_tol))

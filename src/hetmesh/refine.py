@@ -40,6 +40,15 @@ class Context:
     h_max: float
     scalar: int | None = None  # constituent whose level sets carry nodes (layers)
     chord_tol: float | None = None  # largest sagitta of a curved boundary or interface chord
+    #: smallest element size the placement aims at: where |grad f| blows up (sqrt(x) at
+    #: x = 0, a kink) the density is capped at g = delta_0 / h_min; the delta-driven
+    #: refinement then splits only where the composition really varies
+    h_min: float = 0.0
+    #: a local cap on |grad f| from the composition's sampled variation (a
+    #: :class:`~hetmesh.sizecap.VariationCap`), or None
+    variation_cap: object = None
+    #: step in composition between the rows of the layers placement, over delta_0
+    row_spacing: float = 0.985
     clock: dict = field(default_factory=dict)  # seconds spent per kind of work (phase split)
 
     @contextmanager
@@ -53,8 +62,21 @@ class Context:
     def inside(self, pts: np.ndarray) -> np.ndarray:
         return self.domain.contains(pts)
 
+    @property
+    def g_cap(self) -> float:
+        """The largest gradient norm the size and density fields use (inf without h_min)."""
+        return self.threshold / self.h_min if self.h_min > 0 else np.inf
+
     def g(self, pts: np.ndarray) -> np.ndarray:
-        return dens.gradient_norm(self.field, pts)  # Eq. (5)
+        """|grad f| (Eq. 5), capped at :attr:`g_cap` (also where it is nan or inf)."""
+        g = dens.gradient_norm(self.field, pts)
+        return np.minimum(np.nan_to_num(g, nan=np.inf, posinf=np.inf), self.cap_at(pts))
+
+    def cap_at(self, pts: np.ndarray) -> np.ndarray:
+        """The cap on |grad f| at ``pts``: :attr:`g_cap` and the variation cap."""
+        if self.variation_cap is None:
+            return np.full(len(pts), self.g_cap)
+        return np.minimum(self.variation_cap(pts), self.g_cap)
 
     def rho(self, pts: np.ndarray) -> np.ndarray:
         return dens.density(self.g(pts), self.h_max, self.threshold)  # Eq. (9)

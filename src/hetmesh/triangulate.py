@@ -13,6 +13,7 @@ import pythoncdt as cdt
 
 from .errors import MeshingError
 from .mesh import component_labels, edge_keys
+from .metrics import signed_area2
 
 __all__ = ["constrained_delaunay"]
 
@@ -83,6 +84,16 @@ def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     pos = np.minimum(np.searchsorted(bkeys, keys), len(bkeys) - 1)
     cut = bkeys[pos] == keys if len(bkeys) else np.zeros(len(keys), bool)
     label = component_labels(m, src[~cut], dst[~cut])
-    _, first = np.unique(label, return_index=True)  # one representative triangle per piece
+    # one representative triangle per piece: its largest. Boundary nodes sit on their curves
+    # up to rounding, so a straight boundary can bulge outwards by 1e-16 and the kernel then
+    # fills the bulge with slivers of zero area, whose centroids lie on the boundary and
+    # test inside or outside by chance; a piece of (numerically) zero area is such a bulge
+    # and never inside
+    area = 0.5 * np.abs(signed_area2(pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]))
+    n = int(label.max()) + 1
+    total = np.bincount(label, area, minlength=n)
+    order = np.lexsort((-area, label))
+    first = order[np.searchsorted(label[order], np.arange(n))]
     comp_inside = np.asarray(inside(pts[tris[first]].mean(axis=1)), dtype=bool)
+    comp_inside &= total > 1e-12 * area.sum()
     return comp_inside[label]

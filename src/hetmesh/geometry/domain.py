@@ -357,7 +357,7 @@ _LOC = re.compile(r"\[\s*(\S+)\s+([^\s\]]+)")
 
 def _validate(d: Domain) -> None:
     """Run every check in order; the first failure raises."""
-    for check in (_check_structure, _check_finite, _check_curves, _check_chains,
+    for check in (_check_structure, _check_finite, _check_scale, _check_curves, _check_chains,
                   _check_loops, _check_holes, _check_interfaces, _check_points):
         check(d)
 
@@ -405,6 +405,20 @@ def _check_finite(d: Domain) -> None:
     for k, v in d.points.items():
         if not np.isfinite(v).all():
             raise GeometryError(f"point '{k}' has a non-finite coordinate {fmt_point(v)}")
+
+
+#: the range of domain sizes (diameter) hetmesh meshes: areas and squared lengths of the
+#: model's own coordinates must be representable in double precision (1e-308 to 1e308)
+SIZE_RANGE = (1e-152, 1e152)
+
+
+def _check_scale(d: Domain) -> None:
+    lo, hi = SIZE_RANGE
+    diam = d.diameter
+    if not (lo <= diam <= hi):
+        raise GeometryError(f"the domain's size (diameter {fmt_num(diam)}) is outside the range "
+                            f"hetmesh supports, {lo:g} to {hi:g}: its area cannot be computed in "
+                            "floating point; give the model in other units")
 
 
 def _first(mask: np.ndarray) -> int | None:
