@@ -77,6 +77,9 @@ def mesh_argv(model, out, *extra, command="mesh", threshold=THRESHOLD):
     (["--max-elements", "0"], "--max-elements 0"),
     (["--max-elements", "1.5"], "--max-elements"),
     (["--sampling", "sparse"], "--sampling"),
+    (["--chord-tol", "0"], "--chord-tol 0 is outside [1e-07, 0.05]"),
+    (["--chord-tol", "0.5"], "--chord-tol 0.5 is outside"),
+    (["--chord-tol", "nan"], "--chord-tol nan"),
 ])
 def test_bad_options(command, extra, contains, model, tmp_path, capsys):
     out = tmp_path / "out.vtu"
@@ -244,10 +247,154 @@ def test_internal_error_is_one_line_or_traceback_with_debug(model, tmp_path, cap
     code, _, err = run(mesh_argv(model, tmp_path / "o.vtu"), capsys)
     assert code == 1
     assert err.strip().splitlines() == [
-        "hetmesh: error: internal error: ZeroDivisionError: boom "
-        "(run with --debug for the traceback)"]
+        "hetmesh: error: internal error: ZeroDivisionError: boom (a bug in hetmesh: please "
+        "report it with the model file and the command; --debug shows the traceback)"]
     with pytest.raises(ZeroDivisionError):
         main([str(a) for a in mesh_argv(model, tmp_path / "o.vtu", "--debug")])
+
+
+def test_help_states_the_exit_codes(capsys):
+    code, out, _ = run(["--help"], capsys)
+    assert code == 0
+    text = " ".join(out.split())
+    assert "2 bad input" in text and "element budget" in text
+    assert "1 system error, or internal error" in text and "please report it" in text
+
+
+def _error_classes():
+    import hetmesh.errors as E
+
+    return [getattr(E, n) for n in E.__all__]
+
+
+@pytest.mark.parametrize("cls", _error_classes(), ids=lambda c: c.__name__)
+def test_every_error_class_has_its_exit_code(cls, model, tmp_path, capsys, monkeypatch):
+    """Bad input (and the budget the user chose) exits 2 with the message; hetmesh failing
+    on valid input (MeshingError, VerificationError) exits 1 asking for a report."""
+    import hetmesh.io.model
+    from hetmesh.errors import BudgetError, MeshDataError, MeshingError
+
+    def fail(*a, **k):
+        raise cls("something went wrong")
+
+    monkeypatch.setattr(hetmesh.io.model, "load_model", fail)
+    code, out, err = run(mesh_argv(model, tmp_path / "o.vtu"), capsys)
+    internal = issubclass(cls, MeshingError) and not issubclass(cls, (BudgetError,
+                                                                     MeshDataError))
+    assert code == (1 if internal else 2) == cls.exit_code
+    assert cls.internal is internal
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    if internal:
+        assert lines[0].startswith("hetmesh: error: internal error: something went wrong")
+        assert "please report it" in lines[0] and "--debug" in lines[0]
+    else:
+        assert lines[0] == "hetmesh: error: something went wrong"
+    assert not (tmp_path / "o.vtu").exists()
+
+
+def test_a_verification_failure_on_valid_input_is_an_internal_error(model, tmp_path, capsys,
+                                                                   monkeypatch):
+    import hetmesh.adapt
+    from hetmesh.errors import VerificationError
+
+    def failing_finish(*a, **k):
+        raise VerificationError("the mesh failed verification: 3 degenerate or inverted "
+                                "triangles (first #7)")
+
+    monkeypatch.setattr(hetmesh.adapt, "finish", failing_finish)
+    out = tmp_path / "o.vtu"
+    code, _, err = run(mesh_argv(model, out), capsys)
+    assert code == 1
+    assert err.strip().splitlines() == [
+        "hetmesh: error: internal error: the mesh failed verification: 3 degenerate or "
+        "inverted triangles (first #7) (a bug in hetmesh: please report it with the model "
+        "file and the command; --debug shows the traceback)"]
+    assert not out.exists()
+    with pytest.raises(VerificationError):
+        main([str(a) for a in mesh_argv(model, out, "--debug")])
+
+
+def test_a_stalled_refinement_is_internal_and_a_budget_overrun_bad_input(model, tmp_path,
+                                                                         capsys, monkeypatch):
+    code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "--max-elements", "10"), capsys)
+    assert code == 2 and "budget" in err and "internal" not in err
+    import hetmesh.adapt
+    from hetmesh.errors import MeshingError
+
+    def stalled(*a, **k):
+        raise MeshingError("refinement stalled in round 3 with 2 elements at delta >= 0.1")
+
+    monkeypatch.setattr(hetmesh.adapt, "repair", stalled)
+    code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "--method", "cvt"), capsys)
+    assert code == 1 and len(err.strip().splitlines()) == 1
+    assert err.startswith("hetmesh: error: internal error: refinement stalled")
+
+
+def _noisy(then=None):
+    """A stand-in for ``load_model`` that logs warnings and lets numpy warn (twice each),
+    then raises ``then`` or loads the model."""
+    import logging
+
+    import numpy as np
+
+    import hetmesh.io.model
+
+    real = hetmesh.io.model.load_model
+
+    def load(path, *a, **k):
+        for _ in range(2):
+            logging.getLogger("hetmesh.adapt").warning("the angle floor was given up\nsomewhere")
+            logging.getLogger("somelib").warning("a library warning")
+            np.log(np.array([-1.0]))  # RuntimeWarning: invalid value encountered in log
+        if then is not None:
+            raise then
+        return real(path, *a, **k)
+
+    return load
+
+
+@pytest.mark.parametrize("exc", ["bad input", "internal", "bug"])
+def test_a_failing_run_prints_exactly_one_line(exc, model, tmp_path, capsys, monkeypatch):
+    """Warnings logged or raised before the error (numpy's RuntimeWarning with its source
+    line, hetmesh's and other libraries' logged warnings) do not reach stderr."""
+    import hetmesh.io.model
+    from hetmesh.errors import GeometryError, VerificationError
+
+    then = {"bad input": GeometryError("outer: self-intersection at (1, 2)"),
+            "internal": VerificationError("the mesh failed verification: x"),
+            "bug": ZeroDivisionError("boom")}[exc]
+    monkeypatch.setattr(hetmesh.io.model, "load_model", _noisy(then))
+    code, out, err = run(mesh_argv(model, tmp_path / "o.vtu"), capsys)
+    assert code == (2 if exc == "bad input" else 1)
+    assert len(err.splitlines()) == 1 and err.startswith("hetmesh: error: "), err
+    assert out == ""
+
+
+def test_warnings_of_a_successful_run_come_after_it_one_line_each(model, tmp_path, capsys,
+                                                                  monkeypatch):
+    import hetmesh.io.model
+
+    monkeypatch.setattr(hetmesh.io.model, "load_model", _noisy())
+    for extra in ([], ["--quiet"]):
+        code, out, err = run([a for a in mesh_argv(model, tmp_path / "o.vtu", *extra)
+                              if extra or a != "--quiet"], capsys)
+        assert code == 0
+        lines = err.splitlines()
+        assert lines[0] == ("hetmesh: warning: the angle floor was given up somewhere "
+                            "(2 times)")
+        assert lines[1] == "hetmesh: warning: a library warning (2 times)"
+        assert lines[2].startswith("hetmesh: warning: RuntimeWarning: invalid value "
+                                   "encountered in log (")
+        assert len(lines) == 3, err  # numpy's source line is never printed
+        assert "np.log" not in err
+        assert ("wrote" in out) is not bool(extra)
+
+
+def test_verbose_streams_the_log(model, tmp_path, capsys):
+    code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "-v"), capsys)
+    assert code == 0
+    assert any(line.startswith("hetmesh: info: hetmesh.") for line in err.splitlines())
 
 
 # -- meshing ---------------------------------------------------------------------------
@@ -274,6 +421,9 @@ def test_mesh_writes_mesh_stats_and_plot(meshed):
     assert doc["command"] == "mesh"
     assert doc["options"]["seed"] == 3
     assert doc["options"]["sampling"] == "vertices"
+    assert doc["options"]["chord_tol"] == 1e-3
+    # the dense lattice's maximum beside the guarantee of the sampling (the vertices')
+    assert 0.9 * THRESHOLD < doc["stats"]["delta_max_dense"] < 1.1 * THRESHOLD
     assert doc["hetmesh_version"]
     assert isinstance(doc["history"], list) and doc["history"]
     assert all("elements" in h and "delta_max" in h for h in doc["history"])
@@ -293,7 +443,8 @@ def test_mesh_prints_summary(model, tmp_path, capsys):
     code, stdout, _ = run(argv, capsys)
     assert code == 0
     assert out.exists()
-    for label in ("Np", "Ne", "q_min", "q_avg", "delta_min", "delta_avg", "delta_max"):
+    for label in ("Np", "Ne", "q_min", "q_avg", "delta_min", "delta_avg", "delta_max",
+                  "delta_max_dense"):
         assert label in stdout
     assert f"wrote {out}" in stdout
 
@@ -323,12 +474,21 @@ def test_uniform_writes_mesh_and_stats(model, meshed, tmp_path, capsys):
     assert read_mesh(out).n_elements == doc["stats"]["n_elements"]
 
 
+def test_chord_tolerance_reaches_the_uniform_mesher(model, tmp_path, capsys):
+    out, stats = tmp_path / "u.vtu", tmp_path / "u.json"
+    code, _, err = run(mesh_argv(model, out, "--stats", stats, "--chord-tol", "0.01",
+                                 command="uniform"), capsys)
+    assert code == 0, err
+    assert json.loads(stats.read_text())["options"]["chord_tol"] == 0.01
+
+
 def test_stats_prints_the_numbers(model, meshed, capsys):
     out, stats, _ = meshed
     expected = json.loads(stats.read_text())["stats"]
     code, stdout, _ = run(["stats", out, "--model", model], capsys)
     assert code == 0
-    for label in ("Np", "Ne", "q_min", "q_avg", "delta_min", "delta_avg", "delta_max"):
+    for label in ("Np", "Ne", "q_min", "q_avg", "delta_min", "delta_avg", "delta_max",
+                  "delta_max_dense"):
         assert label in stdout
     assert str(expected["n_elements"]) in stdout
     assert f"{expected['q_min']:.4f}" in stdout
@@ -340,6 +500,12 @@ def test_stats_prints_the_numbers(model, meshed, capsys):
     assert got["n_points"] == expected["n_points"]
     assert got["delta_max"] == pytest.approx(expected["delta_max"], rel=1e-6)
     assert got["q_min"] == pytest.approx(expected["q_min"], rel=1e-6)
+    assert got["delta_max_dense"] == pytest.approx(expected["delta_max_dense"], rel=1e-6)
+    code, stdout, _ = run(["stats", out, "--model", model, "--json", "--sampling", "dense"],
+                          capsys)
+    got = json.loads(stdout)
+    assert got["delta_max"] >= got["delta_max_dense"] == pytest.approx(
+        expected["delta_max_dense"], rel=1e-6)
 
 
 def test_delta_max_never_prints_as_the_threshold():

@@ -188,3 +188,46 @@ def test_a_mesh_with_a_hole_or_a_triangle_outside_is_rejected(monkeypatch, what)
     msg = str(err.value)
     assert ("hole in the mesh" if what == "hole" else "are inside the mesh") in msg, msg
     assert "inverted" not in msg
+
+
+def test_stats_report_the_dense_maximum_beside_the_sampling_guarantee(tmp_path):
+    """delta_max is the guarantee of the chosen sampling; delta_max_dense the maximum over
+    the 15-point lattice of every element. A wavy field peaks between vertices: with vertex
+    sampling the lattice sees more than delta_0, with dense sampling it cannot."""
+    path = tmp_path / "wave.toml"
+    path.write_text('[domain.outer]\nstart = [0, 0]\npath = [{ to = [1, 0] }, { to = [1, 1] }, '
+                    '{ to = [0, 1] }, { to = [0, 0] }]\n[material]\nconstituents = ["a", "b"]\n'
+                    '[material.composition]\nb = "0.5 + 0.45*sin(9*x)*sin(9*y)"\n')
+    model = hetmesh.load_model(path)
+    from hetmesh.metrics import delta_dense
+
+    v = hetmesh.generate(model, 0.1)
+    assert v.stats.delta_max < 0.1 < v.stats.delta_max_dense
+    assert v.stats.delta_max_dense == pytest.approx(
+        delta_dense(model.material, v.mesh.points, v.mesh.triangles).max(), rel=1e-12)
+    d = hetmesh.generate(model, 0.1, sampling="dense")
+    assert d.stats.delta_max_dense <= d.stats.delta_max < 0.1
+    assert "delta_max_dense" in d.stats.as_dict()
+
+
+def test_dense_maximum_of_a_feature_tree_takes_each_element_in_its_own_subregion():
+    from hetmesh.metrics import delta_dense
+
+    model = hetmesh.load_model(hetmesh.example_path("fgm_plate"))
+    r = hetmesh.generate(model, 0.1)
+    m = r.mesh
+    own = delta_dense(model.material, m.points, m.triangles, regions=m.cell_data["subregion"])
+    assert r.stats.delta_max_dense == pytest.approx(own.max(), rel=1e-12)
+    # evaluated in whatever subregion each lattice point falls in, elements along a
+    # discontinuity would see the jump
+    assert delta_dense(model.material, m.points, m.triangles).max() > own.max()
+
+
+def test_chord_tolerance_option_is_validated_and_recorded():
+    model = hetmesh.load_model(hetmesh.example_path("power_plate"))
+    for bad in (0, -1e-3, 0.2, float("nan")):
+        with pytest.raises(OptionError, match="chord tolerance"):
+            hetmesh.generate(model, 0.1, chord_tol=bad)
+        with pytest.raises(OptionError, match="chord tolerance"):
+            hetmesh.uniform(model, 0.1, chord_tol=bad)
+    assert hetmesh.generate(model, 0.1).options["chord_tol"] == 1e-3

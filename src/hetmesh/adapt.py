@@ -32,25 +32,34 @@ from . import density as dens
 from .corners import corner_exempt, sharp_corners, shell_split
 from .discontinuity import (FIT_TOL, crossing_elements, element_subregions,
                             embed_discontinuities, has_subregions)
-from .errors import BudgetError, MeshingError, OptionError
+from .errors import BudgetError, MeshDataError, MeshingError, OptionError, VerificationError
 from .frame import local_field, local_frame
+from .sizecap import variation_cap
 from .geometry import build_pslg
 from .layers import place_layers
 from .mesh import Mesh, edge_keys
 from .optimize import optimize as optimize_mesh
-from .options import DEFAULT_MAX_ELEMENTS, SAMPLINGS, check_options
-from .metrics import (MeshStats, circumcircles, element_delta, quality_and_angle,
-                      side_lengths, statistics, triangle_angles)
+from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
+                      check_options)
+from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
+                      quality_and_angle, side_lengths, statistics, triangle_angles)
 from .refine import (Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
+from .refine import edge_params
+from .verify import chord_areas, chord_problems, coverage_problems
 
 __all__ = ["generate", "Result", "mesh_statistics", "prepare", "finish", "check_options"]
 
 log = logging.getLogger(__name__)
 
-#: the largest sagitta of a boundary chord, relative to the domain's diameter
-CHORD_TOL = 1e-3
+#: the largest sagitta of a boundary or interface chord, relative to the domain's diameter:
+#: the default of ``chord_tol`` (:data:`hetmesh.options.DEFAULT_CHORD_TOL`)
+CHORD_TOL = DEFAULT_CHORD_TOL
+#: how far a curve node may be from its curve in the final verification, x diameter
+ON_CURVE_TOL = 1e-8
+#: the smallest size the placement aims at, relative to the largest (``Context.h_min``)
+H_MIN_RATIO = 2.0 ** -10
 
 
 @dataclass
@@ -67,7 +76,8 @@ class Result:
     model: object = None
 
 
-def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL):
+def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL, *,
+            row_spacing: float = DEFAULT_ROW_SPACING):
     """The refinement context in the model's :class:`~hetmesh.frame.LocalFrame` (moved to
     the origin and scaled to a diameter near 1, so that no tolerance depends on the user's
     units), and that frame. ``max_size`` is in user units, ``chord_tol`` relative to the
@@ -84,7 +94,9 @@ def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL):
     scalar = 1 if len(fl.constituents) == 2 else None
     ctx = Context(domain=dom, curves=curves, closed=closed, boundary_curve=bnd, field=fl,
                   threshold=threshold, h_max=h_max, scalar=scalar,
-                  chord_tol=chord_tol * dom.diameter)
+                  chord_tol=chord_tol * dom.diameter, h_min=H_MIN_RATIO * h_max,
+                  row_spacing=row_spacing,
+                  variation_cap=variation_cap(fl.composition, dom.bounds, threshold))
     return ctx, frame
 
 
@@ -343,27 +355,23 @@ def _nearest_constraint(ws: WorkSet, pts: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- output
-def _coverage_problems(ws: WorkSet, ctx: Context, local: Mesh) -> list[str]:
-    """The mesh covers the domain: its boundary edges are exactly the outer loop's and the
-    holes' constraint edges (no hole in the mesh, nothing outside), and its area is the
-    domain's up to the chords of the curved boundary (sagitta <= CHORD_TOL x diameter)."""
-    out = []
-    bnd = ws.E[ctx.boundary_curve[ws.ecurve]]
-    want = np.unique(edge_keys(bnd[:, 0], bnd[:, 1]))
-    mb = local.boundary_edges
-    have = np.unique(edge_keys(mb[:, 0], mb[:, 1]))
-    if (n := int((~np.isin(have, want)).sum())):
-        out.append(f"{n} mesh boundary edges are not on the domain's boundary (a hole in "
-                   f"the mesh)")
-    if (n := int((~np.isin(want, have)).sum())):
-        out.append(f"{n} boundary edges of the domain are inside the mesh (triangles "
-                   f"outside the domain)")
-    arcs = sum(c.length for c, b in zip(ctx.curves, ctx.boundary_curve)
-               if b and hasattr(c, "radius"))
-    chord_loss = 2.0 / 3.0 * CHORD_TOL * ctx.domain.diameter * arcs
-    area, exact = float(local.area), ctx.domain.area
-    if abs(area - exact) > 2e-3 * exact + chord_loss:
-        out.append(f"mesh area {area:.9g} differs from the domain's {exact:.9g}")
+def _curve_problems(ws: WorkSet, ctx: Context, local: Mesh, scale: float) -> list[str]:
+    """The mesh against the domain's curves (:mod:`hetmesh.verify`): every boundary and
+    interface edge within the chord tolerance of its curve, chord by chord; the mesh's
+    boundary edges exactly the outer loop's and the holes' (no hole in the mesh, nothing
+    outside); its area the domain's up to the circular segments of the boundary chords.
+    Lengths in the messages are multiplied by ``scale`` (the frame's: user units)."""
+    tol = ctx.chord_tol if ctx.chord_tol is not None else CHORD_TOL * ctx.domain.diameter
+    batch, et = ctx.domain.curve_batch, edge_params(ws, ctx)
+    out = chord_problems(batch, ws.ecurve, et, tol,
+                         names=[ci.name for ci in ctx.domain.curves], scale=scale)
+    bnd = ctx.boundary_curve[ws.ecurve]
+    perimeter = float(batch.length[ctx.boundary_curve].sum())
+    out += coverage_problems(local.boundary_edges, ws.E[bnd], float(local.area),
+                             ctx.domain.area, float(chord_areas(batch, ws.ecurve[bnd],
+                                                                et[bnd]).sum()),
+                             node_area=ON_CURVE_TOL * ctx.domain.diameter * perimeter,
+                             scale=scale)
     return out
 
 
@@ -373,20 +381,27 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
     its statistics.
 
     Claims checked: a valid triangulation (:meth:`Mesh.problems`), every boundary and
-    interface edge an edge of it (conforming), its boundary exactly the domain's boundary
-    edges and its area the domain's up to the boundary chords, delta_max < delta_0
-    strictly, curve nodes on their curves, and for a feature-tree field no element crossing
-    a subregion boundary (:func:`hetmesh.discontinuity.crossing_elements`; the elements get
-    their subregion id as cell data ``subregion``). A failure raises :class:`MeshingError`.
+    interface edge an edge of it (conforming) and within the chord tolerance
+    (``ctx.chord_tol``) of its curve, chord by chord; its boundary exactly the domain's
+    boundary edges and its area the domain's up to the boundary chords
+    (:mod:`hetmesh.verify`), delta_max < delta_0 strictly, curve nodes on their curves, and
+    for a feature-tree field no element crossing a subregion boundary
+    (:func:`hetmesh.discontinuity.crossing_elements`; the elements get their subregion id as
+    cell data ``subregion``). A failure raises :class:`~hetmesh.errors.VerificationError`.
+    The statistics also get ``delta_max_dense``, from the order-4 lattice of every element
+    (:func:`hetmesh.metrics.delta_dense`; each element in its own subregion).
     """
     P = ws.P
     q, ang = quality_and_angle(P, tris)
-    local = Mesh(P, tris)  # checked in local coordinates: no loss of precision far from 0
+    try:  # checked in local coordinates: no loss of precision far from 0
+        local = Mesh(P, tris)
+    except MeshDataError as exc:  # our own arrays: not the user's fault
+        raise VerificationError(f"the mesh failed verification: {exc}") from exc
     problems = local.problems()
     missing = ~local.has_edges(ws.E)
     if missing.any():
         problems.append(f"{int(missing.sum())} boundary or interface edges are not mesh edges")
-    problems += _coverage_problems(ws, ctx, local)
+    problems += _curve_problems(ws, ctx, local, frame.scale)
     if check_delta and delta.max() >= threshold:
         problems.append(f"delta_max {delta.max():.6g} >= threshold {threshold:g}")
     on = ws.vcurve >= 0
@@ -395,8 +410,8 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
         for c in np.unique(ws.vcurve[on]):
             s = np.flatnonzero(ws.vcurve == c)
             off = max(off, float(np.hypot(*(ctx.curves[c].point(ws.vt[s]) - P[s]).T).max()))
-        if off > 1e-8 * ctx.domain.diameter:
-            problems.append(f"boundary nodes are off their curve by {off:.3g}")
+        if off > ON_CURVE_TOL * ctx.domain.diameter:
+            problems.append(f"boundary nodes are off their curve by {off * frame.scale:.3g}")
     cell_data = {"delta": delta, "quality": q}
     if has_subregions(ctx.field):
         cell_data["subregion"] = element_subregions(ctx.field, P, tris)
@@ -406,7 +421,7 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
         if cross.any():
             problems.append(f"{int(cross.sum())} elements cross a material discontinuity")
     if problems:
-        raise MeshingError("the mesh failed verification: " + "; ".join(problems))
+        raise VerificationError("the mesh failed verification: " + "; ".join(problems))
     low = ang < min_angle_deg - 1e-9
     if low.any():
         low &= ~corner_exempt(ws, tris, min_angle_deg, sharp_corners(ws, ctx))
@@ -420,7 +435,8 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
                 marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
                 point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
                 cell_data=cell_data)
-    return mesh, statistics(P, tris, delta, quality=q, angle=ang)
+    dense = delta_dense(ctx.field, P, tris, regions=cell_data.get("subregion"))
+    return mesh, statistics(P, tris, delta, quality=q, angle=ang, dense=dense)
 
 
 # --------------------------------------------------------------------------- the pipeline
@@ -428,10 +444,49 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
 PLACEMENTS = {"cvt": place_cvt, "layers": place_layers}
 
 
+#: failures of a placement after which :func:`generate` starts again from the CVT placement:
+#: meshing errors other than the element budget, and internal errors (never bad input)
+FALLBACK_ERRORS = (MeshingError, ArithmeticError, ValueError, IndexError, RuntimeError)
+
+
+def _cause(exc: Exception) -> str:
+    """A one-line reason for a fallback, e.g. ``MeshingError: the mesh failed verification``."""
+    first = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{type(exc).__name__}: {first[:200]}"
+
+
+def _mesh_with(method: str, ctx: Context, frame, threshold: float, chord_tol: float,
+               history: list, timings: dict, *, min_angle: float, min_quality: float,
+               sampling: str, max_elements: int, seed: int, optimize: bool, progress):
+    """Placement (MOR start), refinement (MOR + GOR), optimisation and verification with the
+    placement ``method``; fills ``history`` and ``timings``; returns ``(mesh, stats)``."""
+    rng = np.random.default_rng(seed)
+    t1 = time.perf_counter()
+    ws = PLACEMENTS[method](ctx, rng, chord_tol, progress=progress)
+    timings["placement"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    tris, comp, delta = repair(ws, ctx, min_angle_deg=min_angle, min_quality=min_quality,
+                               sampling=sampling, max_elements=max_elements, history=history,
+                               progress=progress)
+    timings["refine"] = time.perf_counter() - t2
+    if optimize:
+        t4 = time.perf_counter()
+        with ctx.timed("optimize"):
+            tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta, sampling=sampling,
+                                              min_angle_deg=min_angle)
+        timings["optimize"] = time.perf_counter() - t4
+    t3 = time.perf_counter()
+    mesh, stats = finish(ws, ctx, tris, comp, delta, frame, threshold=threshold,
+                         min_angle_deg=min_angle)
+    timings["verify"] = time.perf_counter() - t3
+    return mesh, stats
+
+
 def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: float | None = None,
              max_elements: int = DEFAULT_MAX_ELEMENTS, sampling: str = "vertices",
              method: str = "layers", seed: int = 0, min_quality: float = 0.6,
-             optimize: bool = True, progress=None) -> Result:
+             optimize: bool = True, chord_tol: float = CHORD_TOL,
+             row_spacing: float = DEFAULT_ROW_SPACING, progress=None) -> Result:
     """Mesh ``model`` so that every element has delta(T) < ``threshold`` (Eq. 1).
 
     Parameters
@@ -450,6 +505,17 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     optimize : after the refinement, raise the element quality by smoothing and edge flips
         that keep delta(T) < threshold and never lower a node star's minimum quality
         (:func:`hetmesh.optimize.optimize`); same nodes and elements.
+    chord_tol : the largest distance between a curved boundary or interface curve and any
+        of its chords (the mesh edges along it), relative to the domain's diameter, in
+        [1e-7, 0.05]; verified chord by chord.
+    row_spacing : the step in composition between the rows of nodes of the layers
+        placement, as a fraction of ``threshold``, in [0.3, 0.99]. The default 0.85 leaves
+        every element some slack that the quality pass spends on shape; 0.985 gives the
+        fewest elements (most of them just under the threshold) at a lower mean quality.
+
+    If the layers placement fails on a model (an internal error of the row tracing or a
+    mesh that fails verification), the run starts again from the CVT placement, logs a
+    warning with the reason and records it in ``Result.options["fallbacks"]``.
 
     Examples
     --------
@@ -461,48 +527,51 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     """
     threshold = check_options(threshold, min_angle=min_angle, max_elements=max_elements,
                               max_size=max_size, sampling=sampling, min_quality=min_quality,
-                              seed=seed)
+                              seed=seed, chord_tol=chord_tol, row_spacing=row_spacing)
     if method not in PLACEMENTS:
         raise OptionError(f"method {method!r} is not one of {', '.join(sorted(PLACEMENTS))}")
     timings: dict = {}
     t0 = time.perf_counter()
     model = embed_discontinuities(model)
-    ctx, frame = prepare(model, threshold, max_size)
+    ctx, frame = prepare(model, threshold, max_size, chord_tol, row_spacing=row_spacing)
     est = dens.estimate_elements(ctx.field, ctx.domain, threshold, ctx.h_max)
     if est > max_elements:
         raise BudgetError(f"the a-priori estimate is {est:,.0f} elements, above the budget of "
                           f"{max_elements:,}; raise --max-elements or the threshold")
     if method == "layers" and ctx.scalar is None:
         method = "cvt"  # level rows need one scalar composition (two constituents)
-    rng = np.random.default_rng(seed)
-    chord_tol = ctx.chord_tol
+    rel_chord_tol, chord_tol = chord_tol, ctx.chord_tol  # relative (the option), absolute
     timings["prepare"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    ws = PLACEMENTS[method](ctx, rng, chord_tol, progress=progress)
-    timings["placement"] = time.perf_counter() - t1
-    t2 = time.perf_counter()
     history: list = []
-    tris, comp, delta = repair(ws, ctx, min_angle_deg=min_angle, min_quality=min_quality,
-                               sampling=sampling, max_elements=max_elements, history=history,
-                               progress=progress)
-    timings["refine"] = time.perf_counter() - t2
-    if optimize:
-        t4 = time.perf_counter()
-        with ctx.timed("optimize"):
-            tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta, sampling=sampling,
-                                              min_angle_deg=min_angle)
-        timings["optimize"] = time.perf_counter() - t4
-    t3 = time.perf_counter()
-    mesh, stats = finish(ws, ctx, tris, comp, delta, frame, threshold=threshold,
-                         min_angle_deg=min_angle)
-    timings["verify"] = time.perf_counter() - t3
+    fallbacks: list = []
+    run = dict(min_angle=min_angle, min_quality=min_quality, sampling=sampling,
+               max_elements=max_elements, seed=seed, optimize=optimize, progress=progress)
+    try:
+        mesh, stats = _mesh_with(method, ctx, frame, threshold, chord_tol, history, timings,
+                                 **run)
+    except FALLBACK_ERRORS as exc:
+        if method == "cvt" or isinstance(exc, BudgetError):
+            raise
+        # the row placement could not handle this model: start from the CVT placement
+        cause = _cause(exc)
+        log.warning("the %s placement failed (%s); meshing from the CVT placement instead",
+                    method, cause)
+        fallbacks.append({"from": method, "to": "cvt", "cause": cause,
+                          "stage": "refinement" if history else "placement"})
+        ctx.clock.clear()
+        history.clear()
+        mesh, stats = _mesh_with("cvt", ctx, frame, threshold, chord_tol, history, timings,
+                                 **run)
+        method = "cvt"
     timings["total"] = time.perf_counter() - t0
     # where the time went, across the phases above (seconds): Delaunay rebuilds, Lloyd steps
     # (CVT and row staggering), refinement-point computation, delta/quality evaluation
     timings.update({f"{k}_s": v for k, v in sorted(ctx.clock.items())})
     opts = dict(threshold=threshold, min_angle=min_angle, max_size=ctx.h_max * frame.scale,
                 max_elements=max_elements, sampling=sampling, method=method, seed=seed,
-                min_quality=min_quality, optimize=optimize, estimate=float(est))
+                min_quality=min_quality, optimize=optimize, estimate=float(est),
+                fallbacks=fallbacks, chord_tol=float(rel_chord_tol),
+                row_spacing=float(row_spacing))
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings=timings, options=opts, model=model)
 

@@ -38,17 +38,12 @@ from .refine import (FREE, Context, WorkSet, add_free_points, edge_params, proje
                      slide_along_rows, smooth, thin_candidates_mask, triangulate,
                      workset_from_pslg)
 
-__all__ = ["place_layers", "ROW_SPACING", "ECONOMY_SPACING"]
+__all__ = ["place_layers"]
 
 log = logging.getLogger(__name__)
 
 STAGGER_ITERS = 8
-#: the default step in composition between adjacent rows, as a fraction of delta_0: rows
-#: 0.85 delta_0 apart leave the elements 15 % of slack, which the quality pass spends on
-#: shape (q_avg +0.01 to +0.015 over 0.985 on the examples, for 15-35 % more elements)
-ROW_SPACING = 0.85
-#: the spacing that gives the fewest elements (elements just under delta_0)
-ECONOMY_SPACING = 0.985
+
 #: a node projected onto its level is kept if |f - level| <= LEVEL_TOL x the row spacing in f
 LEVEL_TOL = 0.05
 

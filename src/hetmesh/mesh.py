@@ -17,7 +17,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .errors import MeshingError
+from .errors import MeshDataError
 from .metrics import signed_area2
 
 __all__ = ["Mesh", "edge_keys", "component_labels"]
@@ -90,14 +90,14 @@ class Mesh:
         p = np.asarray(self.points, dtype=np.float64)
         t = np.asarray(self.triangles)
         if p.ndim != 2 or p.shape[1] != 2:
-            raise MeshingError(f"points must have shape (N, 2), got {p.shape}")
+            raise MeshDataError(f"points must have shape (N, 2), got {p.shape}")
         if t.size == 0:
             t = t.reshape(0, 3)
         if t.ndim != 2 or t.shape[1] != 3:
-            raise MeshingError(f"triangles must have shape (M, 3), got {t.shape}")
+            raise MeshDataError(f"triangles must have shape (M, 3), got {t.shape}")
         t = t.astype(np.int32)
         if t.size and (t.min() < 0 or t.max() >= len(p)):
-            raise MeshingError(f"triangles index points outside 0..{len(p) - 1}")
+            raise MeshDataError(f"triangles index points outside 0..{len(p) - 1}")
         # counter-clockwise orientation
         a = _signed_area2(p, t)
         if np.any(a < 0):
@@ -106,22 +106,22 @@ class Mesh:
             t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()
         reg = np.zeros(len(t), np.int32) if self.regions is None else np.asarray(self.regions, np.int32)
         if reg.shape != (len(t),):
-            raise MeshingError(f"len(triangles) = {len(t)}, but regions has shape {reg.shape}")
+            raise MeshDataError(f"len(triangles) = {len(t)}, but regions has shape {reg.shape}")
         e = np.zeros((0, 2), np.int32) if self.edges is None else np.asarray(self.edges, np.int32).reshape(-1, 2)
         em = np.ones(len(e), np.int32) if self.edge_markers is None else np.asarray(self.edge_markers, np.int32)
         if em.shape != (len(e),):
-            raise MeshingError(f"len(edges) = {len(e)}, but edge_markers has shape {em.shape}")
+            raise MeshDataError(f"len(edges) = {len(e)}, but edge_markers has shape {em.shape}")
         pd = {}
         for k, v in dict(self.point_data).items():
             v = np.asarray(v)
             if len(v) != len(p):
-                raise MeshingError(f"len(points) = {len(p)}, but len(point_data[{k!r}]) = {len(v)}")
+                raise MeshDataError(f"len(points) = {len(p)}, but len(point_data[{k!r}]) = {len(v)}")
             pd[k] = _frozen(v)
         cd = {}
         for k, v in dict(self.cell_data).items():
             v = np.asarray(v)
             if len(v) != len(t):
-                raise MeshingError(f"len(triangles) = {len(t)}, but len(cell_data[{k!r}]) = {len(v)}")
+                raise MeshDataError(f"len(triangles) = {len(t)}, but len(cell_data[{k!r}]) = {len(v)}")
             cd[k] = _frozen(v)
         set_ = object.__setattr__
         set_(self, "points", _frozen(p))
@@ -219,22 +219,33 @@ class Mesh:
         Checks: no degenerate or inverted triangles, no repeated or unused points, every edge
         held by one or two triangles, and boundary edges forming closed loops (each boundary
         vertex in exactly two boundary edges, so no hanging node and no pinched fan).
+
+        A triangle is degenerate when its area is at most ``rel_tol`` times the square of the
+        mesh's extent: that of the points the triangles use, so a stray unused point far
+        away (itself reported) does not make every triangle degenerate.
+
+        >>> Mesh([[0, 0], [1, 0], [0, 1], [-7e13, -6543]], [[0, 1, 2]]).problems()
+        ['1 point is not used by any triangle']
         """
         out: list[str] = []
         p, t = self.points, self.triangles
         if len(t) == 0:
             return ["the mesh has no triangles"]
-        scale = max(float(np.ptp(p, axis=0).max()), 1e-300)
+        used = np.zeros(len(p), bool)
+        used[t.ravel()] = True
+        pu = p[used]
+        finite = np.isfinite(pu).all(axis=1)
+        extent = np.ptp(pu[finite], axis=0).max() if finite.any() else 0.0
+        scale = max(float(extent), 1e-300)
         a = self.areas
-        bad = np.flatnonzero(a <= rel_tol * scale * scale)
+        bad = np.flatnonzero(~(a > rel_tol * scale * scale))  # nan areas too
         if bad.size:
             out.append(f"{bad.size} degenerate or inverted triangles (first #{bad[0]})")
         if np.any(~np.isfinite(p)):
             out.append("non-finite point coordinates")
-        used = np.zeros(len(p), bool)
-        used[t.ravel()] = True
         if not used.all():
-            out.append(f"{int((~used).sum())} points are not used by any triangle")
+            n = int((~used).sum())
+            out.append(f"{n} point{' is' if n == 1 else 's are'} not used by any triangle")
         order = np.lexsort((p[:, 1], p[:, 0]))
         ps = p[order]
         if len(ps) > 1 and np.any(np.all(ps[1:] == ps[:-1], axis=1)):

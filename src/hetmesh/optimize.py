@@ -9,7 +9,9 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   ``steps``, and up the gradient of its star's summed quality (forward differences), with
   steps ``grad_steps`` times the mean edge length. Free nodes move in the plane; curve nodes
   along their curve (the candidate is projected, its parameter ``vt`` clipped to the middle
-  80 % of the interval to the neighbours along the curve, so their order holds; this includes
+  80 % of the interval to the neighbours along the curve, so their order holds, and to the
+  window where both its chords stay within the chord tolerance, :func:`refine.chord_window`,
+  so that no slide moves the curve farther from the mesh than the placement may; this includes
   the crossings where rows of nodes end on a curve, which the placement keeps in place: moved
   here, under the delta test, they raised q_min on power_plate at 0.05 from 0.659 to 0.759 and
   on fgm_plate from 0.551 to 0.687); nodes of a
@@ -52,7 +54,7 @@ import numpy as np
 from .discontinuity import element_subregions, has_subregions
 from .mesh import edge_keys
 from .metrics import element_delta, signed_area2
-from .refine import FIXED, FREE, Context, WorkSet, curve_bounds, row_tangent
+from .refine import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
 __all__ = ["optimize", "independent_sets"]
 
@@ -290,7 +292,11 @@ class _Constraints:
         self.modes = ("row", "free") if len(self.lv) else ("free",)
         if len(self.oc):
             lo, hi = curve_bounds(ws, ctx)
+            # no slide may stretch a chord beyond the chord tolerance: it moves the curve
+            # off its chord (the neighbours along the curve do not move in this set)
+            tmin, tmax = chord_window(ws, ctx, lo, hi)
             self.lo, self.hi = lo[idx[self.oc]], hi[idx[self.oc]]
+            self.tmin, self.tmax = tmin[idx[self.oc]], tmax[idx[self.oc]]
         if len(self.lv):
             x = ws.P[idx[self.lv]]
             gr = ctx.grad_f(x)
@@ -320,7 +326,11 @@ class _Constraints:
                 if ctx.closed[c]:
                     tt = np.where(tt - cu > 0.5, tt - 1.0, np.where(cu - tt > 0.5, tt + 1.0, tt))
                 lo, sp = self.lo[sel], span[sel]
-                tt = np.clip(tt, lo + 0.1 * sp, lo + 0.9 * sp)
+                a = np.maximum(lo + 0.1 * sp, self.tmin[sel])
+                b = np.minimum(lo + 0.9 * sp, self.tmax[sel])
+                stay = a > b  # both chords already too long: the node keeps its place
+                a[stay] = b[stay] = cu[stay]
+                tt = np.clip(tt, a, b)
                 tc[:, k] = tt
                 cand[:, k] = ctx.curves[c].point(tt.ravel()).reshape(K, -1, 2)
             if len(self.lv):  # "free" duplicates the curve nodes' candidates

@@ -39,7 +39,8 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
                max_elements=DEFAULT_MAX_ELEMENTS):
     """A quality mesh with edges ~h everywhere; returns ``(workset, triangles)``."""
     uc = _uniform_ctx(ctx)
-    ws = workset_from_pslg(build_pslg(ctx.domain, h, CHORD_TOL * ctx.domain.diameter))
+    tol = ctx.chord_tol if ctx.chord_tol is not None else CHORD_TOL * ctx.domain.diameter
+    ws = workset_from_pslg(build_pslg(ctx.domain, h, tol))
     x0, y0, x1, y1 = ctx.domain.bounds
     dy = h * np.sqrt(3) / 2
     ny = int(np.ceil((y1 - y0) / dy)) + 1
@@ -66,8 +67,13 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
 
 def uniform(model, threshold: float, *, min_angle: float = 30.0,
             max_elements: int = DEFAULT_MAX_ELEMENTS, sampling: str = "vertices",
-            min_quality: float = 0.6, tries: int = 14, progress=None) -> Result:
+            min_quality: float = 0.6, chord_tol: float = CHORD_TOL, tries: int = 14,
+            progress=None) -> Result:
     """The coarsest uniform quality mesh with delta_max < ``threshold`` (the paper's baseline).
+
+    ``chord_tol`` is the largest distance between a curved boundary or interface and its
+    chords, relative to the domain's diameter (as for :func:`hetmesh.generate`); the other
+    options as there.
 
     Examples
     --------
@@ -76,10 +82,10 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     True
     """
     threshold = check_options(threshold, min_angle=min_angle, max_elements=max_elements,
-                              sampling=sampling, min_quality=min_quality)
+                              sampling=sampling, min_quality=min_quality, chord_tol=chord_tol)
     t0 = time.perf_counter()
     model = embed_discontinuities(model)
-    ctx, frame = prepare(model, threshold, None)
+    ctx, frame = prepare(model, threshold, None, chord_tol)
     pts = background_points(ctx.domain, 200)
     gmax = float(gradient_norm(ctx.field, pts).max()) if len(pts) else 0.0
     h = threshold / gmax if gmax > 0 else ctx.domain.diameter / 10
@@ -118,4 +124,5 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings={"total": time.perf_counter() - t0},
                   options=dict(threshold=threshold, size=h * frame.scale, min_angle=min_angle,
-                               sampling=sampling, max_elements=max_elements), model=model)
+                               sampling=sampling, max_elements=max_elements,
+                               chord_tol=float(chord_tol)), model=model)

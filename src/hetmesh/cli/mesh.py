@@ -69,13 +69,23 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                    help="element budget; meshing stops with an error rather than exceed it "
                         "(default: 5000000)")
     p.add_argument("--sampling", choices=("vertices", "dense"),
-                   help="delta(T) from the vertex compositions (the paper's) or from a dense "
-                        "lattice in every element, which sees peaks between vertices "
-                        "(default: vertices)")
+                   help="where delta(T) < D is guaranteed: at the vertices (the paper's "
+                        "definition) or also on a 15-point lattice in every element, which "
+                        "sees composition peaks between vertices (default: vertices); the "
+                        "statistics show the lattice's delta_max_dense either way")
+    p.add_argument("--chord-tol", type=float, metavar="C",
+                   help="largest distance between a curved boundary or interface and any of "
+                        "its mesh edges (chords), relative to the domain diameter, "
+                        "1e-7 <= C <= 0.05; verified chord by chord (default: 0.001)")
     if adaptive:
         p.add_argument("--method", choices=("layers", "cvt"),
                        help="point placement: nodes on iso-composition layers, or the "
                             "paper's density-weighted CVT (default: layers)")
+        p.add_argument("--row-spacing", type=float, metavar="R",
+                       help="step in composition between the rows of nodes of the layers "
+                            "placement, as a fraction of the threshold, 0.3 <= R <= 0.99: "
+                            "lower gives more elements of better shape, 0.985 the fewest "
+                            "(default: 0.85)")
         p.add_argument("--seed", type=int, metavar="S",
                        help="random seed, >= 0; same input and seed give the same mesh (default: 0)")
     p.add_argument("--plot", type=Path, metavar="PNG",
@@ -83,7 +93,7 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
     p.add_argument("--stats", type=Path, metavar="JSON",
                    help="also write the statistics, history, timings and options as JSON")
     p.add_argument("--quiet", "-q", action="store_true",
-                   help="no progress bar and no summary; errors only")
+                   help="no progress bar and no summary; only errors and warnings")
 
 
 def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
@@ -103,7 +113,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 #: how the CLI names the options in error messages
 FLAGS = {"threshold": "--threshold", "min_angle": "--min-angle", "max_elements": "--max-elements",
-         "max_size": "--max-size", "sampling": "--sampling", "seed": "--seed"}
+         "max_size": "--max-size", "sampling": "--sampling", "seed": "--seed",
+         "chord_tol": "--chord-tol", "row_spacing": "--row-spacing"}
 
 
 def check_threshold(value: float) -> None:
@@ -117,7 +128,8 @@ def meshing_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     Options not given are left out, so the library's defaults apply.
     """
     kw: dict[str, Any] = {}
-    for key in ("min_angle", "max_size", "max_elements", "sampling", "method", "seed"):
+    for key in ("min_angle", "max_size", "max_elements", "sampling", "method", "seed",
+                "chord_tol", "row_spacing"):
         value = getattr(args, key, None)
         if value is not None:
             kw[key] = value
