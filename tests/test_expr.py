@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from hetmesh import expr as expr_module
 from hetmesh.errors import FormulaError, MaterialError
-from hetmesh.expr import MAX_LENGTH, Expr, compile_expr
+from hetmesh.expr import MAX_LENGTH, Expr, compile_expr, split_conditions
 
 RNG = np.random.default_rng(20240611)
 X = RNG.uniform(0.05, 0.95, 64)
@@ -194,6 +194,51 @@ def test_diff_of_unknown_variable() -> None:
     with pytest.raises(FormulaError, match=r"^f\.toml: k: cannot differentiate with respect "
                                            r"to 'z' \(variables: x, y\)$"):
         compile_expr("x", where="f.toml: k").diff("z")
+
+
+# --------------------------------------------------------------------------- conditions
+@pytest.mark.parametrize("texts, conditions", [
+    (["x**2 + abs(y - 0.5) + min(x, y) + clip(x, 0.2, 0.8)"], []),  # kinks are no jumps
+    (["where(x < 0.5, 0.2, 0.8)"], ["x < 0.5"]),
+    (["0.3 if x + y < 1 else 0.6"], ["x + y < 1"]),
+    (["where(x < 0.5 and not y >= 0.2 or x > 0.9, x, y)"], ["x < 0.5", "y >= 0.2", "x > 0.9"]),
+    (["0.2 if 0.1 <= x < 0.7 else 0.4"], ["0.1 <= x", "x < 0.7"]),
+    (["0.5 + 0.3*sign(x - y)"], ["x - y >= 0"]),
+    (["where(x < 0.5, where(y < 0.5, 0.1, 0.2), 0.3)", "where(x < 0.5, 0.3, 0.4) + sign(y)"],
+     ["x < 0.5", "y < 0.5", "y >= 0"]),  # shared once, in order of first occurrence
+    (["where(x < 0.5, 0.2, 0.2)"], []),  # equal branches fold away
+])
+def test_split_conditions_finds_the_jumps(texts, conditions) -> None:
+    conds, fixed = split_conditions([compile_expr(t) for t in texts])
+    assert [c.text for c in conds] == conditions
+    assert len(fixed) == len(texts)
+    names = [f"_c{i}" for i in range(len(conds))]
+    for f in fixed:
+        assert set(f.variables) == {"x", "y", *names}
+
+
+def test_fixed_conditions_reproduce_the_formula_and_continue_its_branches() -> None:
+    text = "where(x < 0.5 and y > 0.2, x**2, 1 - y) + 0.1*sign(x - y)"
+    f = compile_expr(text)
+    conds, (g,) = split_conditions([f])
+    vals = {c: np.asarray(e(x=X, y=Y)) != 0 for c, e in zip(("_c0", "_c1", "_c2"), conds)}
+    np.testing.assert_array_equal(g(x=X, y=Y, **vals), f(x=X, y=Y))  # bit for bit off x = y
+    # fixed to one pattern: one smooth branch everywhere, its derivative exact
+    on = dict(_c0=True, _c1=True, _c2=False)
+    np.testing.assert_allclose(g(x=X, y=Y, **on), X**2 - 0.1)
+    np.testing.assert_allclose(g.diff("x")(x=X, y=Y, **on), 2 * X)
+    assert g.diff("y")(x=X, y=Y, **on).max() == 0.0
+    # sign(0) takes the side u >= 0
+    assert compile_expr("sign(x)")(x=0.0) == 0.0
+    assert split_conditions([compile_expr("sign(x)")])[1][0](x=0.0, _c0=True) == 1.0
+
+
+def test_split_conditions_of_smooth_formulas_keeps_them() -> None:
+    f = compile_expr("((b - y)/b)**2", parameters={"b": 30.0})
+    conds, (g,) = split_conditions([f])
+    assert conds == [] and g.text == f.text
+    np.testing.assert_array_equal(g(x=X, y=Y), f(x=X, y=Y))
+    assert split_conditions([]) == ([], [])
 
 
 # --------------------------------------------------------------------------- rejections

@@ -88,6 +88,93 @@ def test_analytic_errors(formulas, constituents, exc, text):
     assert msg.startswith("m.toml: ") and text in msg and "\n" not in msg
 
 
+# ------------------------------------------------------------- kinks and infinite slopes
+
+@pytest.mark.parametrize("formula, point", [
+    ("exp(-sqrt((x - 4)**2 + (y - 4)**2)/2)", (4.0, 4.0)),   # the tip of a cone: 0/0
+    ("sqrt((x - 0.5)**2)", (0.5, 0.3)),                       # a kink line: 0/0
+    ("sqrt(x)", (0.0, 0.3)),                                  # an infinite slope: 1/0
+    ("x**0.25*y", (0.0, 0.7)),
+])
+def test_gradient_where_the_derivative_fails_is_a_finite_difference(formula, point):
+    f = AnalyticField({"metal": formula}, ["ceramic", "metal"], length=10.0)
+    p = np.array([point, (point[0] + 0.25, point[1] + 0.25)])
+    g = f.gradient(p)
+    assert np.isfinite(g).all()
+    np.testing.assert_array_equal(g[:, 0], -g[:, 1])
+    exact = AnalyticField({"metal": formula}, ["ceramic", "metal"])
+    np.testing.assert_array_equal(g[1], exact.gradient(p[1:])[0])  # exact elsewhere
+    with np.errstate(all="ignore"):  # the raw derivative really fails at the point
+        raw = f._grads[0][0](x=p[:1, 0], y=p[:1, 1])
+    assert not np.isfinite(raw).all()
+
+
+def test_one_sided_difference_at_an_edge_of_definition():
+    f = AnalyticField({"metal": "sqrt(x)"}, ["ceramic", "metal"], length=1.0)
+    g = f.gradient([[0.0, 0.5]])[0, 1]
+    np.testing.assert_allclose(g, [np.sqrt(0.01) / 0.01, 0.0], rtol=1e-12)  # forward
+    g = AnalyticField({"metal": "sqrt(1 - x)"}, ["ceramic", "metal"], length=1.0)
+    np.testing.assert_allclose(g.gradient([[1.0, 0.5]])[0, 1], [-10.0, 0.0], rtol=1e-12)
+
+
+def test_length_must_be_positive():
+    for bad in (0.0, -1.0, float("nan"), True):
+        with pytest.raises(MaterialError, match="length must be a positive number"):
+            AnalyticField({"metal": "x"}, ["ceramic", "metal"], length=bad)
+
+
+# ----------------------------------------------------------------------- piecewise formulas
+
+def test_piecewise_field_regions_are_condition_bits():
+    f = AnalyticField({"a": "where(x < 0.5, 0.2, 0.6)", "b": "0.3*sign(y - 0.5) + 0.3"},
+                      ["a", "b", "c"])
+    assert f.conditions == ("x < 0.5", "y - 0.5 >= 0") and f.n_regions == 4
+    p = np.array([[0.2, 0.2], [0.7, 0.2], [0.2, 0.7], [0.7, 0.7], [0.7, 0.5]])
+    np.testing.assert_array_equal(f.region(p), [1, 0, 3, 2, 2])
+    assert list(f.region_names) == ["not x < 0.5 and not y - 0.5 >= 0",
+                                    "x < 0.5 and not y - 0.5 >= 0",
+                                    "not x < 0.5 and y - 0.5 >= 0", "x < 0.5 and y - 0.5 >= 0"]
+    assert f.region_names[-1] == "x < 0.5 and y - 0.5 >= 0" and len(f.region_names) == 4
+    # composition in its own subregion: the formula (sign(0) counted as +1)
+    np.testing.assert_allclose(f.composition(p)[:, :2], [[0.2, 0], [0.6, 0], [0.2, 0.6],
+                                                         [0.6, 0.6], [0.6, 0.6]])
+    np.testing.assert_array_equal(f.composition(p), f.composition(p, region=f.region(p)))
+    # another subregion's field, continued: every point evaluated as in subregion 1
+    np.testing.assert_allclose(f.composition(p, region=1)[:, :2], [[0.2, 0.0]] * 5)
+    assert f.describe_jump(0, 2) == "material.composition.b: condition 'y - 0.5 >= 0'"
+    assert f.shifted([1.0, 0.0]).region(p[:1] - [1.0, 0.0]).tolist() == [1]
+
+
+def test_smooth_formula_field_has_no_subregions(rng):
+    f = AnalyticField({"metal": "x*y + abs(x - 0.5)/4"}, ["ceramic", "metal"])
+    assert not hasattr(f, "region") and f.n_regions == 1 and f.conditions == ()
+
+
+def test_piecewise_gradient_stays_on_its_side():
+    f = AnalyticField({"metal": "where(x < 0.5, 0.5*x, 0.5 + x)"}, ["ceramic", "metal"])
+    p = np.array([[0.5, 0.5], [0.5 - 1e-12, 0.5], [0.25, 0.5]])
+    np.testing.assert_array_equal(f.gradient(p)[:, 1, 0], [1.0, 0.5, 0.5])
+    np.testing.assert_array_equal(f.gradient(p, region=1)[:, 1, 0], [0.5, 0.5, 0.5])
+    np.testing.assert_array_equal(f.gradient(p, region=0)[:, 1, 0], [1.0, 1.0, 1.0])
+
+
+def test_continued_branch_is_finite_just_past_its_boundary():
+    """sqrt(x - 0.5) continued a hair left of x = 0.5: its value from the defined side."""
+    f = AnalyticField({"metal": "where(x > 0.5, sqrt(x - 0.5), 0)"}, ["ceramic", "metal"])
+    p = np.array([[0.5 - 1e-12, 0.3], [0.7, 0.3]])
+    c = f.composition(p, region=1)
+    assert np.isfinite(c).all() and c[0, 1] < 1e-5
+    np.testing.assert_allclose(c[1, 1], np.sqrt(0.2))
+    assert np.isfinite(f.gradient(p, region=1)).all()
+
+
+def test_region_argument_is_checked():
+    f = AnalyticField({"metal": "where(x < 0.5, 0.2, 0.8)"}, ["ceramic", "metal"])
+    for bad in ([0, 1, 0], [2, 0], [-1, 0]):
+        with pytest.raises(MaterialError, match=r"region must be 2 ids in \[0, 2\)"):
+            f.composition(np.zeros((2, 2)), region=bad)
+
+
 # ----------------------------------------------------------------------------- CallableField
 
 def test_callable_two_constituents_gradient_vs_exact(rng):
@@ -113,6 +200,14 @@ def test_callable_m_columns_and_step(rng):
         g = f.gradient(p)
         np.testing.assert_allclose(g[:, 0], 0.5 * p[:, ::-1], atol=1e-8)
         np.testing.assert_allclose(g[:, 1], 0.0, atol=1e-8)
+
+
+def test_callable_one_sided_where_the_function_is_undefined():
+    f = CallableField(lambda x, y: np.sqrt(x), ["ceramic", "metal"])
+    g = f.gradient([[0.0, 0.5], [0.25, 0.5]])
+    assert np.isfinite(g).all()
+    np.testing.assert_allclose(g[0, 1], [1 / np.sqrt(1e-6), 0.0], rtol=1e-9)  # forward
+    np.testing.assert_allclose(g[1, 1], [1.0, 0.0], rtol=1e-6)  # central
 
 
 def test_callable_bad_shape_and_args():
@@ -222,6 +317,51 @@ def test_check_field_nan_gradient():
 
     with pytest.raises(MaterialError, match="material.composition.b: gradient is undefined"):
         check_field(Bad(), d, "m.toml")
+
+
+def test_check_field_infinite_gradient_of_a_foreign_field():
+    d = _rect(0, 0, 1, 1)
+
+    class Bad:
+        constituents = ("a", "b")
+
+        def composition(self, p):
+            return np.full((len(p), 2), 0.5)
+
+        def gradient(self, p):
+            g = np.zeros((len(p), 2, 2))
+            g[-1, 0, 1] = np.inf
+            return g
+
+    with pytest.raises(MaterialError, match=r"material.composition.a: gradient is infinite at "
+                                            r"\(.*\) \(the field must return finite"):
+        check_field(Bad(), d, "m.toml")
+
+
+def test_check_field_accepts_kinks_and_infinite_slopes():
+    d = _rect(0, 0, 10, 10)
+    for formula in ("exp(-sqrt((x - 4)**2 + (y - 4)**2)/2)", "sqrt(x/10)", "abs(x - 5)/5"):
+        check_field(AnalyticField({"metal": formula}, ["ceramic", "metal"]), d, "m.toml")
+    check_field(CallableField(lambda x, y: np.sqrt(x / 10), ["ceramic", "metal"]), d)
+
+
+def test_check_field_reports_a_jump_on_the_boundary():
+    d = _rect(0, 0, 1, 1)
+    with pytest.raises(MaterialError) as info:
+        check_field(AnalyticField({"metal": "x**1e308"}, ["ceramic", "metal"]), d, "m.toml")
+    msg = str(info.value)
+    assert msg.startswith("m.toml: material.composition.metal: value jumps from 0 to 1 "
+                          "within 1.41421e-09 of (1, ")
+    assert "\n" not in msg
+    # a jump inside the domain that a curve sample lies on, approached along the boundary
+    with pytest.raises(MaterialError, match=r"value jumps from 0\.1 to 0\.9 within "
+                                            r"1\.41421e-09 of \(0\.3, 0\)"):
+        check_field(AnalyticField({"metal": "0.5 + 0.4*tanh(1e20*(x - 0.3))"},
+                                  ["ceramic", "metal"]), d, "m.toml")
+    # the same jump written as a condition is embedded in the mesh: no error
+    check_field(AnalyticField({"metal": "where(x < 1, 0, 1)"}, ["ceramic", "metal"]), d)
+    # steep but continuous at the boundary: fine
+    check_field(AnalyticField({"metal": "x**50"}, ["ceramic", "metal"]), d)
 
 
 def test_check_field_wrong_shape():

@@ -1,19 +1,23 @@
-"""Material discontinuities of feature-tree models: found, fitted and embedded (Sec. 3.3).
+"""Material discontinuities of piecewise fields: found, fitted and embedded (Sec. 3.3).
 
 A heterogeneous feature tree (:mod:`hetmesh.material.hft`) divides the domain into
 subregions, each with its own smooth material distribution (Secs. 3.3.1-3.3.3). Where the
 owning subregion changes -- the medial curves between the sub-features of a composite curve,
 the boundary of a ``select`` rule -- the composition may jump. An element straddling such a
-curve is not homogeneous however small it is, so the curves must be mesh edges.
+curve is not homogeneous however small it is, so the curves must be mesh edges. A formula
+field with jumps (``where``, ``sign``; :class:`~hetmesh.material.AnalyticField`) has
+subregions too: the patterns of truth values of its conditions.
 
-The paper derives those curves by hand per model. Here they are found for any tree:
+The paper derives those curves by hand per model. Here they are found for any such field
+(anything with ``region(points)`` and ``n_regions > 1``):
 
 1. **Trace.** The subregion id is sampled on a grid over the domain's bounding box; every
    grid edge whose ends differ is bisected to the switch point (to ~1e-12 of the diameter),
    the crossings are linked cell by cell (marching squares; a cell with three or more
    subregions holds a junction, located by nested refinement) and chained into polylines.
 2. **Clip.** Polylines are cut at the domain boundary, where the end point is located *on
-   the boundary curve* by bisecting the subregion along it (or snapped to a corner).
+   the boundary curve* by bisecting the subregion along it (or snapped to a corner), and
+   at the corners they run through (a straight jump through a re-entrant corner).
    Pieces lying on an existing interface (a ``select`` rule "inside A" where A is an
    interface of the domain) are dropped: they are embedded already.
 3. **Fit.** Each polyline becomes a chain of circular arcs and segments within ``tol`` of the
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -48,6 +53,10 @@ DISCONTINUITY = "discontinuity"
 GRID_CELLS = 400          # grid cells along the longer side of the bounding box
 FIT_TOL = 1e-5            # default fitting tolerance, relative to the domain diameter
 BISECT = 48               # bisection steps for a crossing (2^-48 of a grid edge)
+#: most grid edges inside the domain that discontinuities may cross, per grid cell along
+#: the longer side (about as many curves spanning the domain): more pieces than this are
+#: not embedded (:func:`embed_discontinuities` raises MaterialError)
+MAX_CROSSINGS_PER_CELL = 100
 
 
 @dataclass(frozen=True)
@@ -62,7 +71,7 @@ class Discontinuity:
 
 def has_subregions(field) -> bool:
     """Whether ``field`` divides the domain into subregions (a feature tree with more than
-    one): it has ``region(points)`` and ``n_regions > 1``."""
+    one, a formula field with jumps): it has ``region(points)`` and ``n_regions > 1``."""
     return callable(getattr(field, "region", None)) and getattr(field, "n_regions", 1) > 1
 
 
@@ -129,6 +138,53 @@ def _crossings(field, xs: np.ndarray, ys: np.ndarray, lab: np.ndarray):
     return np.concatenate(pts), np.concatenate(pair), hid, vid
 
 
+class _Untraceable(MeshingError):
+    """The subregions cannot be traced: ``point`` (a coordinate of the trouble), ``pair``
+    (the two subregions meeting there) and ``reason`` (the rest of a message)."""
+
+    def __init__(self, point, pair, reason: str):
+        super().__init__(reason)
+        self.point, self.pair, self.reason = np.asarray(point, float), pair, reason
+
+
+def _check_resolved(field, xs: np.ndarray, ys: np.ndarray, lab: np.ndarray, inside,
+                    max_crossings: int | None) -> None:
+    """Raise :class:`_Untraceable` if, on the part of the grid inside the domain
+    (``inside(points) -> bool``), the subregion boundaries cross more than
+    ``max_crossings`` grid edges, or a cell's centre lies in another subregion than its
+    four corners (a piece narrower than the grid, which the tracing would miss)."""
+    gx, gy = np.meshgrid(xs, ys)
+    ins = np.asarray(inside(np.column_stack([gx.ravel(), gy.ravel()])),
+                     dtype=bool).reshape(lab.shape)
+    h = float(xs[1] - xs[0])
+    if max_crossings is not None:
+        hor = (lab[:, :-1] != lab[:, 1:]) & (ins[:, :-1] | ins[:, 1:])
+        ver = (lab[:-1] != lab[1:]) & (ins[:-1] | ins[1:])
+        n = int(hor.sum() + ver.sum())
+        if n > max_crossings:  # name the first crossed edge (a horizontal one if any)
+            dj, di = (0, 1) if hor.any() else (1, 0)
+            j, i = np.argwhere(hor if hor.any() else ver)[0]
+            pair = (int(lab[j, i]), int(lab[j + dj, i + di]))
+            at = (xs[i] + 0.5 * h * di, ys[j] + 0.5 * h * dj)
+            raise _Untraceable(at, pair, f"its curves cross {n:,} edges of the "
+                               f"{len(xs) - 1} x {len(ys) - 1} tracing grid inside the domain "
+                               f"(at most {max_crossings:,}): too many pieces to mesh")
+    c00 = lab[:-1, :-1]
+    same = ((c00 == lab[:-1, 1:]) & (c00 == lab[1:, :-1]) & (c00 == lab[1:, 1:])
+            & ins[:-1, :-1] & ins[:-1, 1:] & ins[1:, :-1] & ins[1:, 1:])
+    jj, ii = np.nonzero(same)
+    if not len(jj):
+        return
+    centre = np.column_stack([xs[ii] + 0.5 * h, ys[jj] + 0.5 * h])
+    cen = np.asarray(field.region(centre), dtype=np.int64)
+    odd = np.flatnonzero(cen != c00[jj, ii])
+    if len(odd):
+        k = odd[0]
+        raise _Untraceable(centre[k], (int(c00[jj[k], ii[k]]), int(cen[k])),
+                           f"a piece narrower than the tracing grid's spacing {h:.3g} lies "
+                           f"there, which the grid cannot follow")
+
+
 def _labels(field, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     gx, gy = np.meshgrid(xs, ys, indexing="xy")
     return np.asarray(field.region(np.column_stack([gx.ravel(), gy.ravel()])),
@@ -167,12 +223,19 @@ def _junction(field, center: np.ndarray, size: float, tol: float) -> np.ndarray:
 
 
 def trace_discontinuities(field, bounds, *, cells: int = GRID_CELLS,
-                          tol: float | None = None) -> list[Discontinuity]:
+                          tol: float | None = None, inside=None,
+                          max_crossings: int | None = None) -> list[Discontinuity]:
     """Every curve in the box ``bounds = (x0, y0, x1, y1)`` where ``field.region`` changes,
     as ordered polylines (see the module docstring, step 1).
 
     The grid resolves features larger than the box's longer side / ``cells``; a subregion
-    thinner than a grid cell everywhere can be missed.
+    thinner than a grid cell everywhere can be missed. With ``inside`` (a callable
+    ``points -> bool``, the domain), that is checked first on the grid cells inside: a
+    cell whose centre lies in another subregion than its corners, or more than
+    ``max_crossings`` grid edges crossed, raise an exception (a
+    :class:`~hetmesh.errors.MeshingError` with the attributes ``point``, ``pair`` and
+    ``reason``; :func:`embed_discontinuities` turns it into a
+    :class:`~hetmesh.errors.MaterialError` naming the jump).
     """
     x0, y0, x1, y1 = (float(v) for v in bounds)
     span = max(x1 - x0, y1 - y0)
@@ -183,6 +246,8 @@ def trace_discontinuities(field, bounds, *, cells: int = GRID_CELLS,
     xs = x0 - pad + h * np.arange(nx + 1)
     ys = y0 - pad + h * np.arange(ny + 1)
     lab = _labels(field, xs, ys)
+    if inside is not None:
+        _check_resolved(field, xs, ys, lab, inside, max_crossings)
     tol = 1e-9 * span if tol is None else tol
 
     P, pairs, hid, vid = _crossings(field, xs, ys, lab)
@@ -491,6 +556,39 @@ def _split_at_interfaces(part: np.ndarray, domain) -> list[np.ndarray]:
     return [o for o in out if len(o) >= 2]
 
 
+def _split_at_corners(part: np.ndarray, domain, tol: float) -> list[np.ndarray]:
+    """``part`` cut where it passes within ``tol`` of a fixed point of the domain (a curve
+    end point, e.g. a re-entrant corner that a straight jump runs through, or a named
+    point): each piece ends exactly there, so it meets the boundary, other curves and named
+    points only at curve end points."""
+    corners = np.asarray(domain.corners, dtype=float).reshape(-1, 2)
+    if len(corners) == 0 or len(part) < 2:
+        return [part]
+    a, d = part[:-1], part[1:] - part[:-1]
+    l2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    rel = corners[:, None, :] - a[None]
+    t = np.clip(np.einsum("ksj,sj->ks", rel, d) / l2, 0.0, 1.0)
+    dist = np.hypot(*(rel - t[..., None] * d).transpose(2, 0, 1))  # (corners, segments)
+    near = np.min(np.hypot(*(corners[:, None, :] - part[[0, -1]][None]).transpose(2, 0, 1)),
+                  axis=1)
+    cuts = []
+    for k in np.flatnonzero((dist.min(axis=1) <= tol) & (near > tol)):
+        s = int(np.argmin(dist[k]))
+        cuts.append((s, float(t[k, s]), corners[k]))
+    if not cuts:
+        return [part]
+    out, head = [], part[:1]
+    start = 1
+    for s, _, c in sorted(cuts, key=lambda x: (x[0], x[1])):
+        body = part[start:s + 1]
+        body = body[np.hypot(*(body - c).T) > tol]
+        out.append(np.vstack([head, body, c]))
+        head, start = c[None], s + 1
+    tail = part[start:]
+    out.append(np.vstack([head, tail[np.hypot(*(tail - head[0]).T) > tol]]))
+    return [o for o in out if len(o) >= 2]
+
+
 def _segment_of(part: np.ndarray, q: np.ndarray) -> int:
     """Index ``i`` of the polyline segment ``part[i] -> part[i + 1]`` nearest to ``q``."""
     a, b = part[:-1], part[1:]
@@ -509,8 +607,14 @@ def embed_discontinuities(model, *, tol: float | None = None, cells: int = GRID_
 
     Returns ``model`` itself if its field has no subregions or no discontinuity lies inside
     the domain. ``tol`` is the fitting tolerance (default ``1e-5`` x the domain diameter).
-    Raises :class:`MeshingError` if the curves cannot be embedded (e.g. one runs along a
-    boundary curve for a while).
+    Raises :class:`MaterialError` if the subregions cannot be traced (more pieces than
+    :data:`MAX_CROSSINGS_PER_CELL` x ``cells`` grid edges crossed inside the domain, or a
+    piece narrower than the tracing grid) or if the traced curves cannot be embedded (two
+    jumps closer than the geometric tolerance, one running along a boundary curve for a
+    while): both are properties of the model. Messages start with the
+    field's ``describe_jump(ra, rb)`` for the two subregions concerned if it has one (a
+    formula field names its key and condition), else with the model's name, and give a
+    coordinate.
     """
     field, domain = model.material, model.domain
     if not has_subregions(field) or embedded_count(domain) is not None:
@@ -523,13 +627,23 @@ def embed_discontinuities(model, *, tol: float | None = None, cells: int = GRID_
     tol = FIT_TOL * diam if tol is None else float(tol)
     h = max(x1 - x0, y1 - y0) * 1.04 / cells
     labels = _DomainRegions(fl, dom)
-    found = trace_discontinuities(labels, dom.bounds, cells=cells, tol=1e-3 * tol)
-    pieces = []
+    try:
+        found = trace_discontinuities(labels, dom.bounds, cells=cells, tol=1e-3 * tol,
+                                      inside=dom.contains,
+                                      max_crossings=MAX_CROSSINGS_PER_CELL * cells)
+    except _Untraceable as exc:
+        x, y = exc.point + offset  # the material's fault, not the mesher's
+        raise MaterialError(f"{_jump_name(model, exc.pair)}: the jump near ({x:.6g}, "
+                            f"{y:.6g}) cannot be embedded in the mesh: {exc.reason}") from None
+    pieces, pairs = [], []
     for disc in found:
-        for part in _clip(labels, dom, disc, h, 1e-9 * diam):
-            if _on_curves(dom, part, 10 * tol):
-                continue  # already an interface (or the boundary) of the domain
-            pieces += _split_at_interfaces(part, dom)
+        for clipped in _clip(labels, dom, disc, h, 1e-9 * diam):
+            for part in _split_at_corners(clipped, dom, tol):
+                if _on_curves(dom, part, 10 * tol):
+                    continue  # already an interface (or the boundary) of the domain
+                split = _split_at_interfaces(part, dom)
+                pieces += split
+                pairs += [disc.regions] * len(split)
     if not pieces:
         return model
     ends = np.vstack([np.vstack([p[0], p[-1]]) for p in pieces])
@@ -540,7 +654,8 @@ def embed_discontinuities(model, *, tol: float | None = None, cells: int = GRID_
             paths.append(Path(tuple(c.translated(offset) for c in fit_curves(part, tol, name)),
                               name))
         except GeometryError as exc:
-            raise MeshingError(f"{model.name}: could not fit discontinuity {k}: {exc}") from None
+            raise MaterialError(f"{_jump_name(model, pairs[k])}: could not fit discontinuity "
+                                f"{k}: {exc}") from None
     cut_tol = 1e-7 * diam
     cuts = ends + offset
     outer = _split_chain(domain.outer, cuts, cut_tol)
@@ -548,12 +663,26 @@ def embed_discontinuities(model, *, tol: float | None = None, cells: int = GRID_
     inter = tuple(_split_chain(pt, cuts, cut_tol) for pt in domain.interfaces)
     try:
         new = make_domain(outer, holes, inter + tuple(paths), domain.points,
-                          where=f"{model.name}: embedding {len(paths)} discontinuity curves")
-    except GeometryError as exc:
-        raise MeshingError(str(exc)) from None
+                          where=f"embedding {len(paths)} discontinuity curves")
+    except GeometryError as exc:  # name the jump of the curve the message is about
+        # the material's jumps come closer to each other or to the domain's curves than
+        # any mesh can separate: a property of the model (exit code 2), not a failure
+        hit = re.search(rf"{DISCONTINUITY}\[(\d+)\]", str(exc))
+        k = int(hit.group(1)) if hit and int(hit.group(1)) < len(pairs) else 0
+        raise MaterialError(f"{_jump_name(model, pairs[k])}: {exc}") from None
     log.info("%s: %d discontinuity curves embedded (%d arcs and segments)", model.name,
              len(paths), sum(len(p.curves) for p in paths))
     return replace(model, domain=new)
+
+
+def _jump_name(model, pair) -> str:
+    """What an error about the jump between subregions ``pair`` starts with: the field's
+    own description (a formula field names its formula key and condition), else the model's
+    name."""
+    describe = getattr(model.material, "describe_jump", None)
+    if callable(describe) and min(pair) >= 0:
+        return describe(*pair)
+    return model.name
 
 
 def embedded_count(domain) -> int | None:

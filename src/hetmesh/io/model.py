@@ -482,7 +482,7 @@ def _analytic(ctx: _Ctx, table: dict, domain, parameters: dict) -> MaterialField
         raise ModelFileError(f"{ctx.pre}missing key 'material.composition.{missing[-1]}' "
                              f"(give formulas for all {len(cons)} constituents, or all but "
                              f"one: it is then 1 - the sum of the others)")
-    return AnalyticField(formulas, cons, parameters, where=ctx.where)
+    return AnalyticField(formulas, cons, parameters, where=ctx.where, length=domain.diameter)
 
 
 #: Parsers of the ``[material]`` table by its ``type`` key:

@@ -1,24 +1,53 @@
 """Material fields given by formulas (:class:`AnalyticField`) or Python callables
 (:class:`CallableField`).
 
-Both evaluate whole ``(N, 2)`` arrays at once and accept (and ignore) the ``region`` keyword
-of piecewise fields. ``shifted(offset)`` returns the same field evaluated at
-``points + offset``: the mesher works in local coordinates near the origin and shifts the
-field back to the model's coordinates (which may be far from the origin, e.g. at 1e9).
+Both evaluate whole ``(N, 2)`` arrays at once. ``shifted(offset)`` returns the same field
+evaluated at ``points + offset``: the mesher works in local coordinates near the origin and
+shifts the field back to the model's coordinates (which may be far from the origin, e.g. at
+1e9).
+
+Gradients are finite wherever the composition is. Where the exact derivative of a formula
+is undefined (the tip of a cone ``sqrt(x**2 + y**2)``) or infinite (``sqrt(x)`` at
+``x = 0``), a finite difference over :data:`SINGULAR_STEP` of the field's length scale takes
+its place: central, or one-sided where the composition is not finite on one side. A
+callable's central difference falls back to one-sided differences the same way.
+
+A formula field whose formulas contain jumps (``where``, ``a if c else b``, ``sign``) is
+*piecewise*: like a feature tree it offers ``region(points)``, ``n_regions``,
+``region_names`` and ``composition(points, region=r)`` / ``gradient(points, region=r)``, the
+smooth field of subregion ``r`` continued past its boundary, so that
+:mod:`hetmesh.discontinuity` can find the jumps and embed them in the mesh. A smooth field
+has no ``region`` (``n_regions`` is 1) and ignores the ``region`` keyword.
 """
 
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence as _SequenceABC
 from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from ..errors import MaterialError
-from ..expr import compile_expr
+from ..expr import compile_expr, split_conditions
 from .field import as_points
 
-__all__ = ["AnalyticField", "CallableField", "check_constituents"]
+__all__ = ["AnalyticField", "CallableField", "check_constituents", "SINGULAR_STEP",
+           "MAX_CONDITIONS", "difference_step"]
+
+#: Where the exact derivative is not finite, the finite difference spans this fraction of
+#: the field's length scale (the domain's diameter; without one, ``max(1, |x|, |y|)``): the
+#: mean slope near a kink or an infinite slope (``sqrt(x)`` at ``x = 0`` has none), coarse
+#: enough not to ask for needlessly small elements there; the delta-driven refinement
+#: resolves what it underestimates.
+SINGULAR_STEP = 1e-2
+#: The most jump conditions (comparisons of ``where`` and ``sign``) a formula field may have:
+#: its subregion ids are their truth values read as bits.
+MAX_CONDITIONS = 24
+_PROBE_ROUNDS = 26  # continuation probes at radii 4**k x the smallest step, k < this
+_DIRECTIONS = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0],
+                        [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]) / \
+    np.array([1.0, 1.0, 1.0, 1.0, *[np.sqrt(2.0)] * 4])[:, None]
 
 
 def _prefix(where: str) -> str:
@@ -55,6 +84,55 @@ def _offset(offset) -> np.ndarray:
     return o
 
 
+def difference_step(local: np.ndarray, glob: np.ndarray, relative: float = 1e-6,
+                    length: float | None = None) -> np.ndarray:
+    """Finite-difference steps ``(N,)``: ``relative * length``, or without a length
+    ``relative * max(1, |x|, |y|)`` in the coordinates the field is called with
+    (``local``); never below 16 units in the last place of the evaluated (global)
+    coordinates ``glob``, so that large offsets cost no accuracy."""
+    if not len(local):
+        return np.zeros(0)
+    h = (np.full(len(local), relative * length) if length is not None else
+         relative * np.maximum(1.0, np.abs(local).max(axis=1)))
+    return np.maximum(h, 16.0 * np.spacing(np.abs(glob).max(axis=1)))
+
+
+def _difference(values, local: np.ndarray, offset: np.ndarray, h: np.ndarray,
+                center: np.ndarray | None = None) -> np.ndarray:
+    """Gradient ``(N, k, 2)`` of ``values(global points (K, 2)) -> (K, k)`` by differences
+    of step ``h`` around ``local + offset``: central where both neighbours are finite, else
+    one-sided from the centre (its value ``center``, evaluated if not given), else 0.
+
+    ``values`` is called with the four neighbour blocks stacked (x + h, x - h, y + h, y - h,
+    ``N`` points each, in the order of ``local``); quotients divide by the steps actually
+    represented in floating point.
+    """
+    x, y = local[:, 0], local[:, 1]
+    xp, xm = (x + h) + offset[0], (x - h) + offset[0]
+    yp, ym = (y + h) + offset[1], (y - h) + offset[1]
+    gx, gy = x + offset[0], y + offset[1]
+    both = values(np.column_stack([np.concatenate([xp, xm, gx, gx]),
+                                   np.concatenate([gy, gy, yp, ym])]))
+    fxp, fxm, fyp, fym = np.split(both, 4)
+    out = np.empty((len(local), both.shape[1], 2))
+    with np.errstate(all="ignore"):
+        out[:, :, 0] = (fxp - fxm) / (xp - xm)[:, None]
+        out[:, :, 1] = (fyp - fym) / (yp - ym)[:, None]
+        rows = np.flatnonzero(~np.isfinite(out).all(axis=(1, 2)))
+        if len(rows):
+            f0 = center[rows] if center is not None else \
+                values(np.column_stack([gx[rows], gy[rows]]))
+            for a, (fp, fm, cp, cm, c0) in enumerate(((fxp, fxm, xp, xm, gx),
+                                                      (fyp, fym, yp, ym, gy))):
+                fp, fm, cp, cm, c0 = fp[rows], fm[rows], cp[rows], cm[rows], c0[rows]
+                fwd = (fp - f0) / (cp - c0)[:, None]
+                bwd = (f0 - fm) / (c0 - cm)[:, None]
+                d = out[rows, :, a]
+                out[rows, :, a] = np.where(np.isfinite(d), d, np.where(
+                    np.isfinite(fwd), fwd, np.where(np.isfinite(bwd), bwd, 0.0)))
+    return out
+
+
 class _Shiftable:
     """Shared ``offset`` handling: fields evaluate at ``points + offset``."""
 
@@ -85,8 +163,21 @@ class AnalyticField(_Shiftable):
     """Compositions given by formulas in ``x``, ``y`` and named parameters.
 
     Formulas are compiled by :func:`hetmesh.expr.compile_expr` (never ``eval``); gradients
-    are exact, from the symbolic derivatives of the same trees. One constituent may be left
-    out: it is completed as ``1 - sum(others)`` and its gradient as minus the sum of theirs.
+    are exact, from the symbolic derivatives of the same trees, and finite: where the exact
+    derivative is undefined or infinite (a kink, the root of ``sqrt(x)``), a finite
+    difference over :data:`SINGULAR_STEP` x ``length`` replaces it (central, or one-sided
+    where the composition is not finite on one side). One constituent may be left out: it
+    is completed as ``1 - sum(others)`` and its gradient as minus the sum of theirs.
+
+    Formulas with jumps (``where(c, a, b)``, ``a if c else b``, ``sign(u)``) make the field
+    piecewise (``n_regions > 1``): its subregions are the patterns of truth values of the
+    jump conditions over all formulas (see :func:`hetmesh.expr.split_conditions`), the id of
+    a subregion those values read as bits (condition ``i`` true adds ``2**i``). Then
+    ``composition(points, region=r)`` evaluates every formula with its conditions fixed to
+    subregion ``r``'s values (the smooth branch, continued past its boundary; where that
+    continuation is undefined, e.g. ``sqrt`` of a negative number just past the jump, its
+    value at the nearest point found where it is defined), and ``composition(points)`` is
+    that of each point's own subregion (so ``sign(u)`` is 1 at ``u = 0``).
 
     Parameters
     ----------
@@ -99,11 +190,16 @@ class AnalyticField(_Shiftable):
     where : str
         Prefix of error messages (the model file name); the key path
         ``material.composition.<name>`` is appended.
+    length : float, optional
+        The model's length scale (its domain's diameter), for the finite differences; by
+        default the magnitude of the coordinates, ``max(1, |x|, |y|)``.
 
     Attributes
     ----------
     derived : str or None
         The constituent completed as 1 - the others, if any.
+    conditions : tuple of str
+        The jump conditions, in subregion-bit order (empty for a smooth field).
 
     Examples
     --------
@@ -112,14 +208,25 @@ class AnalyticField(_Shiftable):
     [[0.75, 0.25]]
     >>> f.gradient([[0.0, 15.0]])[0, 1].tolist()       # Eq. (11): -2 (b - y) / b^2
     [0.0, -0.03333333333333333]
+    >>> s = AnalyticField({"metal": "where(x < 0.5, 0.2, 0.8)"}, ["ceramic", "metal"])
+    >>> s.n_regions, s.region([[0.25, 0.0], [0.75, 0.0]]).tolist(), list(s.region_names)
+    (2, [1, 0], ['not x < 0.5', 'x < 0.5'])
+    >>> float(s.composition([[0.75, 0.0]], region=1)[0, 1])  # the left branch, continued
+    0.2
     """
 
     def __init__(self, formulas: Mapping[str, str], constituents: Sequence[str],
-                 parameters: Mapping[str, float] | None = None, where: str = ""):
+                 parameters: Mapping[str, float] | None = None, where: str = "", *,
+                 length: float | None = None):
         pre = _prefix(where)
         self.constituents = check_constituents(constituents, where)
         self.parameters = dict(parameters or {})
         self.where = where
+        if length is not None and (isinstance(length, bool) or not np.isfinite(length)
+                                   or length <= 0):
+            raise MaterialError(f"{pre}AnalyticField: length must be a positive number, "
+                                f"got {length!r}")
+        self.length = None if length is None else float(length)
         m = len(self.constituents)
         unknown = [k for k in formulas if k not in self.constituents]
         if unknown:
@@ -147,38 +254,213 @@ class AnalyticField(_Shiftable):
                              where=f"{pre}material.composition.{c}")
             self._exprs.append(e)
             self._grads.append((e.diff("x"), e.diff("y")))
+        self._setup_conditions(pre)
+
+    def _setup_conditions(self, pre: str) -> None:
+        """The jump conditions of all formulas and the formulas with them as inputs."""
+        conds, fixed = split_conditions(self._exprs)
+        keys = list(self.formulas)
+        owner = {}
+        for c, e in zip(keys, self._exprs):  # the first formula holding each condition
+            for cond in split_conditions([e])[0]:
+                owner.setdefault(cond.text, c)
+        if len(conds) > MAX_CONDITIONS:
+            key = owner.get(conds[MAX_CONDITIONS].text, keys[0])
+            raise MaterialError(f"{pre}material.composition.{key}: the formulas have "
+                                f"{len(conds)} jump conditions (comparisons in where() or "
+                                f"'if', and sign()), more than {MAX_CONDITIONS}")
+        self._conds = conds
+        self._cond_keys = [owner.get(c.text, keys[0]) for c in conds]
+        self._cond_names = tuple(f"_c{i}" for i in range(len(conds)))
+        self._fixed = fixed if conds else []
+        self._fixed_grads = [(e.diff("x"), e.diff("y")) for e in self._fixed]
 
     def __repr__(self) -> str:
         body = ", ".join(f"{c}={t!r}" for c, t in self.formulas.items())
         return f"AnalyticField({body}; constituents={list(self.constituents)})"
 
+    # ------------------------------------------------------------------ subregions
+    @property
+    def conditions(self) -> tuple[str, ...]:
+        """The jump conditions' texts; condition ``i`` is bit ``2**i`` of a subregion id."""
+        return tuple(c.text for c in self._conds)
+
+    @property
+    def n_regions(self) -> int:
+        """``2**k`` for ``k`` jump conditions (1 for a smooth field); not every id need
+        occur in a domain."""
+        return 1 << len(self._conds)
+
+    @property
+    def region_names(self) -> Sequence[str]:
+        """Names of the subregions by id: the conditions that hold and, with ``not``,
+        those that do not, joined by ``and`` (computed on access)."""
+        return _RegionNames(self.conditions)
+
+    @property
+    def region(self):
+        """``region(points) -> (N,) int``: the subregion id of each point, bit ``i`` set
+        where condition ``i`` holds. Only a piecewise field has it (for a smooth one the
+        attribute does not exist, as for any field without subregions)."""
+        if not self._conds:
+            raise AttributeError("a formula field without jumps has no subregions")
+        return self._region
+
+    def _region(self, points) -> np.ndarray:
+        p = self._global(points)
+        return self._bits(p) @ (np.int64(1) << np.arange(len(self._conds), dtype=np.int64))
+
+    def describe_jump(self, ra: int, rb: int) -> str:
+        """``"<where>material.composition.<key>: condition '<text>'"`` for the first condition
+        telling subregions ``ra`` and ``rb`` apart (the first condition if none does): the
+        formula key and condition an error about that jump names."""
+        if not self._conds:
+            return f"{_prefix(self.where)}material.composition"
+        diff = int(ra) ^ int(rb)
+        i = next((i for i in range(len(self._conds)) if diff >> i & 1), 0)
+        return (f"{_prefix(self.where)}material.composition.{self._cond_keys[i]}: "
+                f"condition {self._conds[i].text!r}")
+
+    def _bits(self, p: np.ndarray) -> np.ndarray:
+        """Truth values ``(N, k)`` of the conditions at global points ``p``."""
+        x, y = p[:, 0], p[:, 1]
+        out = np.empty((len(p), len(self._conds)), dtype=bool)
+        for i, c in enumerate(self._conds):
+            out[:, i] = self._eval(c, x, y) != 0.0
+        return out
+
+    def _region_bits(self, region, n: int) -> np.ndarray:
+        r = np.asarray(region)
+        if r.dtype.kind not in "iu" and not (r.dtype.kind == "f" and np.all(r == np.round(r))):
+            raise MaterialError(f"{self!r}: region must be integer ids, got {r.dtype}")
+        r = r.astype(np.int64)
+        r = np.broadcast_to(r, (n,)) if r.ndim == 0 else r
+        if r.shape != (n,) or (n and (r.min() < 0 or r.max() >= self.n_regions)):
+            raise MaterialError(f"{self!r}: region must be {n} ids in [0, {self.n_regions}), "
+                                f"got shape {r.shape}")
+        return (r[:, None] >> np.arange(len(self._conds), dtype=np.int64)) & 1 == 1
+
+    # ------------------------------------------------------------------ evaluation
     @staticmethod
-    def _eval(e, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        v = np.asarray(e(x=x, y=y), dtype=float)
+    def _eval(e, x: np.ndarray, y: np.ndarray, **conds) -> np.ndarray:
+        v = np.asarray(e(x=x, y=y, **conds), dtype=float)
         return np.broadcast_to(v, x.shape)
 
-    def composition(self, points, region=None) -> np.ndarray:
-        """Volume fractions ``(N, m)`` at ``points`` ``(N, 2)``; ``region`` is ignored."""
-        p = self._global(points)
+    def _values(self, p: np.ndarray, bits: np.ndarray | None) -> np.ndarray:
+        """The given constituents' formulas ``(N, g)`` at global points ``p``, with the
+        conditions fixed to ``bits`` ``(N, k)`` (piecewise fields) or as written (smooth
+        ones)."""
         x, y = p[:, 0], p[:, 1]
+        if not self._conds:
+            return np.column_stack([self._eval(e, x, y) for e in self._exprs])
+        conds = dict(zip(self._cond_names, bits.T))
+        return np.column_stack([self._eval(e, x, y, **conds) for e in self._fixed])
+
+    def _continued(self, p: np.ndarray, bits: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``v`` with its non-finite rows (a branch undefined just past its boundary) taken
+        at the nearest probe point where the branch is finite: 8 directions at radii growing
+        by 4 from a few units in the last place."""
+        bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
+        if not len(bad):
+            return v
+        v = v.copy()
+        base = np.maximum(16.0 * np.spacing(np.abs(p[bad]).max(axis=1)), 1e-15)
+        for k in range(_PROBE_ROUNDS):
+            q = (p[bad][:, None, :] + (base * 4.0 ** k)[:, None, None] * _DIRECTIONS)
+            w = self._values(q.reshape(-1, 2), np.repeat(bits[bad], len(_DIRECTIONS), axis=0))
+            w = w.reshape(len(bad), len(_DIRECTIONS), -1)
+            ok = np.isfinite(w).all(axis=2)
+            hit = ok.any(axis=1)
+            v[bad[hit]] = w[hit, ok[hit].argmax(axis=1)]
+            bad, base = bad[~hit], base[~hit]
+            if not len(bad):
+                break
+        return v
+
+    def composition(self, points, region=None) -> np.ndarray:
+        """Volume fractions ``(N, m)`` at ``points`` ``(N, 2)``.
+
+        ``region`` (ids ``(N,)`` or one id) selects, for a piecewise field, the subregion
+        whose smooth field is evaluated; a smooth field ignores it.
+        """
+        p = self._global(points)
         out = np.empty((len(p), len(self.constituents)))
-        for j, e in zip(self._given, self._exprs):
-            out[:, j] = self._eval(e, x, y)
+        if self._conds:
+            own = region is None
+            bits = self._bits(p) if own else self._region_bits(region, len(p))
+            v = self._values(p, bits)
+            out[:, self._given] = v if own else self._continued(p, bits, v)
+        else:
+            x, y = p[:, 0], p[:, 1]
+            for j, e in zip(self._given, self._exprs):
+                out[:, j] = self._eval(e, x, y)
         if self._derived_col is not None:
             out[:, self._derived_col] = 1.0 - out[:, self._given].sum(axis=1)
         return out
 
     def gradient(self, points, region=None) -> np.ndarray:
-        """Exact gradients ``(N, m, 2)`` at ``points`` ``(N, 2)``; ``region`` is ignored."""
-        p = self._global(points)
+        """Gradients ``(N, m, 2)`` at ``points`` ``(N, 2)``: exact, or finite differences
+        where the exact ones are not finite.
+
+        ``region`` as for :meth:`composition`; the differences are taken in the point's
+        subregion (or the given one), never across a jump.
+        """
+        local = as_points(points, "AnalyticField")
+        p = self._global(local)
         x, y = p[:, 0], p[:, 1]
         out = np.empty((len(p), len(self.constituents), 2))
-        for j, (dx, dy) in zip(self._given, self._grads):
-            out[:, j, 0] = self._eval(dx, x, y)
-            out[:, j, 1] = self._eval(dy, x, y)
+        bits = None
+        if self._conds:
+            bits = self._bits(p) if region is None else self._region_bits(region, len(p))
+            conds = dict(zip(self._cond_names, bits.T))
+            for j, (dx, dy) in zip(self._given, self._fixed_grads):
+                out[:, j, 0] = self._eval(dx, x, y, **conds)
+                out[:, j, 1] = self._eval(dy, x, y, **conds)
+        else:
+            for j, (dx, dy) in zip(self._given, self._grads):
+                out[:, j, 0] = self._eval(dx, x, y)
+                out[:, j, 1] = self._eval(dy, x, y)
+        given = out[:, self._given]
+        bad = ~np.isfinite(given)
+        if bad.any():
+            rows = np.flatnonzero(bad.any(axis=(1, 2)))
+            b = bits[rows] if bits is not None else None
+            center = self._values(p[rows], b)
+            if b is not None and region is not None:
+                center = self._continued(p[rows], b, center)
+            fd = _difference(lambda q: self._values(q, None if b is None else np.tile(b, (
+                len(q) // len(rows), 1))), local[rows], self._offset_xy,
+                difference_step(local[rows], p[rows], SINGULAR_STEP, self.length),
+                center=center)
+            sub = given[rows]
+            sub[bad[rows]] = fd[bad[rows]]
+            given[rows] = sub
+            out[:, self._given] = given
         if self._derived_col is not None:
             out[:, self._derived_col] = 0.0 - out[:, self._given].sum(axis=1)
         return out
+
+
+class _RegionNames(_SequenceABC):
+    """Subregion names of a piecewise formula field, made on access (there are ``2**k``)."""
+
+    def __init__(self, conditions: tuple[str, ...]):
+        self._conds = conditions
+
+    def __len__(self) -> int:
+        return 1 << len(self._conds)
+
+    def __getitem__(self, r):
+        if isinstance(r, slice):
+            return [self[i] for i in range(*r.indices(len(self)))]
+        r = int(r)
+        if r < 0:
+            r += len(self)
+        if not 0 <= r < len(self):
+            raise IndexError(r)
+        if not self._conds:
+            return "all"
+        return " and ".join(c if r >> i & 1 else f"not {c}" for i, c in enumerate(self._conds))
 
 
 class CallableField(_Shiftable):
@@ -195,6 +477,8 @@ class CallableField(_Shiftable):
         ``1e-6 * max(1, |x|, |y|)`` per point, in the coordinates the field is called with
         (the local ones for a :meth:`shifted` field). The difference quotient divides by the
         step actually represented in floating point, so large offsets cost no accuracy.
+        Where ``func`` is not finite on one side of a point (``sqrt(x)`` at ``x = 0``), the
+        one-sided difference on the other side is used.
 
     Examples
     --------
@@ -241,24 +525,18 @@ class CallableField(_Shiftable):
         return self._call(np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]))
 
     def gradient(self, points, region=None) -> np.ndarray:
-        """Central-difference gradients ``(N, m, 2)``; ``region`` is ignored."""
+        """Central-difference gradients ``(N, m, 2)``; one-sided where the function is not
+        finite on one side (e.g. ``sqrt(x)`` at ``x = 0``); ``region`` is ignored."""
         local = as_points(points, "CallableField")
         n = len(local)
-        if self.step is not None:
-            h = np.full(n, self.step)
-        else:
-            h = 1e-6 * np.maximum(1.0, np.abs(local).max(axis=1)) if n else np.zeros(0)
         glob = self._global(local)
-        # Never below the spacing of the evaluated (global) coordinates.
-        h = np.maximum(h, 16.0 * np.spacing(np.abs(glob).max(axis=1))) if n else h
-        o = self._offset_xy
-        x, y = local[:, 0], local[:, 1]
-        xp, xm = (x + h) + o[0], (x - h) + o[0]
-        yp, ym = (y + h) + o[1], (y - h) + o[1]
-        gx, gy = glob[:, 0], glob[:, 1]
-        both = self._call(np.concatenate([xp, xm, gx, gx]), np.concatenate([gy, gy, yp, ym]))
-        fxp, fxm, fyp, fym = np.split(both, 4)
-        out = np.empty((n, len(self.constituents), 2))
-        out[:, :, 0] = (fxp - fxm) / (xp - xm)[:, None]
-        out[:, :, 1] = (fyp - fym) / (yp - ym)[:, None]
-        return out
+        h = difference_step(local, glob)
+        if self.step is not None and n:
+            # never below the spacing of the evaluated (global) coordinates
+            h = np.maximum(np.full(n, self.step), 16.0 * np.spacing(np.abs(glob).max(axis=1)))
+
+        def values(q):  # a side outside the function's domain is expected: no warnings
+            with np.errstate(all="ignore"):
+                return self._call(np.ascontiguousarray(q[:, 0]), np.ascontiguousarray(q[:, 1]))
+
+        return _difference(values, local, self._offset_xy, h)

@@ -17,12 +17,17 @@ import numpy as np
 
 from ..errors import MaterialError
 
-__all__ = ["MaterialField", "check_field", "sample_domain", "as_points", "TOLERANCE"]
+__all__ = ["MaterialField", "check_field", "sample_domain", "as_points", "TOLERANCE", "JUMP",
+           "JUMP_REACH"]
 
 logger = logging.getLogger(__name__)
 
 #: Tolerance of :func:`check_field` on the range [0, 1] and on the row sums.
 TOLERANCE = 1e-9
+#: :func:`check_field` reports a jump where a fraction spreads by more than this within
+#: ``JUMP_REACH`` x the domain's diameter of a point on one of its curves.
+JUMP = 0.5
+JUMP_REACH = 1e-9
 
 
 @runtime_checkable
@@ -84,12 +89,19 @@ def sample_domain(domain, n: int = 200) -> np.ndarray:
     ``n + 1`` equally spaced points (by arc length) on every curve of the domain (outer
     boundary, holes, interfaces), plus its corners and named points.
     """
+    grid, curves = _sample_parts(domain, n)
+    return np.concatenate([grid, curves], axis=0)
+
+
+def _sample_parts(domain, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sample_domain` in two parts: the grid points, the curve and named points."""
     x0, y0, x1, y1 = (float(v) for v in domain.bounds)
     xs = np.linspace(x0, x1, n)
     ys = np.linspace(y0, y1, n)
     gx, gy = np.meshgrid(xs, ys)
     grid = np.column_stack([gx.ravel(), gy.ravel()])
-    parts = [grid[np.asarray(domain.contains(grid), dtype=bool)]]
+    grid = grid[np.asarray(domain.contains(grid), dtype=bool)]
+    parts = [np.zeros((0, 2))]
     t = np.linspace(0.0, 1.0, n + 1)
     for info in domain.curves:
         curve = getattr(info, "curve", info)
@@ -100,7 +112,7 @@ def sample_domain(domain, n: int = 200) -> np.ndarray:
     named = getattr(domain, "points", None) or {}
     if named:
         parts.append(np.asarray(list(named.values()), dtype=float).reshape(-1, 2))
-    return np.concatenate(parts, axis=0)
+    return grid, np.concatenate(parts, axis=0)
 
 
 def _prefix(where: str) -> str:
@@ -112,12 +124,22 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
 
     Evaluates the field on :func:`sample_domain` (``n`` x ``n`` grid plus curve points) and
     raises :class:`~hetmesh.errors.MaterialError` if a value is not finite, lies outside
-    [0, 1] (tolerance 1e-9), a row does not sum to 1 (tolerance 1e-9), a gradient is NaN, or
-    the arrays have the wrong shape. The message names the constituent, the value and a
-    coordinate where it happens (the worst one), e.g.
+    [0, 1] (tolerance 1e-9), a row does not sum to 1 (tolerance 1e-9), a gradient is not
+    finite, or the arrays have the wrong shape. The message names the constituent, the value
+    and a coordinate where it happens (the worst one), e.g.
     ``m.toml: material.composition.metal: value 1.44 at (0, -6) is outside [0, 1]``.
 
-    Infinite gradients (e.g. of ``sqrt(y)`` at ``y = 0``) are allowed: the density caps them.
+    A fraction whose values spread by more than :data:`JUMP` within ``JUMP_REACH`` x the
+    diameter of a point on a curve of the domain (``x**1e308`` at ``x = 1``) is reported as
+    a jump: a jump the mesh can follow must be written as a condition (``where``, ``sign``),
+    which makes the field piecewise (see :mod:`hetmesh.discontinuity`).
+
+    Kinks and infinite slopes are not errors: the built-in fields
+    (:class:`~hetmesh.material.AnalyticField`, :class:`~hetmesh.material.CallableField`, the
+    feature trees) return finite gradients everywhere their composition is finite (finite
+    differences where the exact derivative is undefined, as at the tip of
+    ``sqrt(x**2 + y**2)`` or at ``x = 0`` for ``sqrt(x)``). The gradient check guards other
+    fields, whose gradients the mesher needs finite.
 
     Parameters
     ----------
@@ -142,7 +164,8 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
     pre = _prefix(where)
     names = tuple(field.constituents)
     m = len(names)
-    pts = sample_domain(domain, n)
+    grid, on_curves = _sample_parts(domain, n)
+    pts = np.concatenate([grid, on_curves], axis=0)
     scale = float(np.abs(pts).max()) if len(pts) else 1.0
     with np.errstate(all="ignore"):
         comp = np.asarray(field.composition(pts), dtype=float)
@@ -179,9 +202,59 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
                             f"not 1, at {_at(pts[i], scale)} ({parts})")
     for j in order:
         g = grad[:, j, :]
-        bad = np.isnan(g).any(axis=1)
+        bad = ~np.isfinite(g).all(axis=1)
         if bad.any():
             i = int(np.argmax(bad))
-            raise MaterialError(f"{pre}material.composition.{names[j]}: gradient is undefined "
-                                f"(nan) at {_at(pts[i], scale)}")
+            what = "undefined (nan)" if np.isnan(g[i]).any() else "infinite"
+            raise MaterialError(f"{pre}material.composition.{names[j]}: gradient is {what} "
+                                f"at {_at(pts[i], scale)} (the field must return finite "
+                                f"gradients where its composition is finite)")
+    _check_curve_jumps(field, domain, on_curves, comp[len(grid):], names, order, pre, scale)
     logger.debug("%schecked %d constituents at %d points", pre, m, len(pts))
+
+
+def _check_curve_jumps(field, domain, p, c, names, order, pre, scale) -> None:
+    """A fraction jumping at a point of the domain's curves without a condition saying so.
+
+    ``x**1e308`` on the unit square is 1 at ``x = 1`` and 0 a hair inside: no mesh can
+    resolve that. Each sample ``p`` on a curve (and each corner and named point; values
+    ``c``) is compared with the points ``JUMP_REACH`` x diameter away from it along the axes
+    that lie inside the domain or on its boundary, evaluated in the sample's own subregion
+    for a piecewise field (whose jumps are embedded in the mesh, so they are fine).
+    """
+    k = len(p)
+    if k == 0 or not hasattr(domain, "diameter"):
+        return
+    eps = np.maximum(JUMP_REACH * float(domain.diameter),
+                     16.0 * np.spacing(np.abs(p).max(axis=1)))
+    steps = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+    q = (p[:, None, :] + eps[:, None, None] * steps).reshape(-1, 2)
+    inside = np.asarray(domain.contains(q), dtype=bool)
+    if hasattr(domain, "distance_to_boundary") and (~inside).any():  # or along the boundary
+        out = np.flatnonzero(~inside)
+        near = np.asarray(domain.distance_to_boundary(q[out], interfaces=False)) <= \
+            1e-3 * np.repeat(eps, len(steps))[out]
+        inside[out[near]] = True
+    if not inside.any():
+        return
+    src = np.repeat(np.arange(k), len(steps))[inside]
+    q = q[inside]
+    with np.errstate(all="ignore"):
+        if callable(getattr(field, "region", None)) and getattr(field, "n_regions", 1) > 1:
+            own = np.asarray(field.region(p), dtype=np.int64)
+            cq = np.asarray(field.composition(q, region=own[src]), dtype=float)
+        else:
+            cq = np.asarray(field.composition(q), dtype=float)
+    # the spread of each fraction over a sample and its neighbours (a jump may pass
+    # between two neighbours, the sample on it taking a value in between)
+    cq = np.where(np.isfinite(cq), cq, c[src])
+    lo, hi = c.copy(), c.copy()
+    np.minimum.at(lo, src, cq)
+    np.maximum.at(hi, src, cq)
+    for j in order:
+        i = int(np.argmax(hi[:, j] - lo[:, j]))
+        if hi[i, j] - lo[i, j] > JUMP:
+            raise MaterialError(
+                f"{pre}material.composition.{names[j]}: value jumps from {_fmt(lo[i, j])} to "
+                f"{_fmt(hi[i, j])} within {_fmt(eps[i])} of {_at(p[i], scale)}; a jump must be "
+                f"written as a condition (where, if/else, sign) so that the mesh can follow it")
