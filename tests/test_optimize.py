@@ -134,10 +134,10 @@ def test_dense_sampling_is_respected():
 
 
 @pytest.mark.parametrize("name, threshold, kw", [
-    ("power_plate", 0.05, {}),
+    ("power_plate", 0.05, {"method": "layers"}),
     ("power_plate", 0.1, {"method": "cvt"}),
-    ("hft_ring", 0.1, {}),
-    ("plate_with_holes", 0.1, {"sampling": "dense"}),
+    ("hft_ring", 0.1, {"method": "layers"}),
+    ("plate_with_holes", 0.1, {"sampling": "dense", "method": "layers"}),
 ])
 def test_invariants_with_and_without_the_pass(name, threshold, kw):
     model = hetmesh.load_model(hetmesh.example_path(name))

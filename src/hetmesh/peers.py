@@ -504,6 +504,9 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
         s = s * factor if s_pass is None else s / factor
         if attempt(s):
             s_pass = s
+            if len(trace) >= 2 and trace[-2]["pass"] and \
+                    trace[-2]["elements"] == trace[-1]["elements"]:
+                break  # coarser scales no longer change the mesh (sizes at h_max everywhere)
         else:
             s_fail = s
     if s_pass is None:
