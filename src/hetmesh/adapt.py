@@ -38,7 +38,7 @@ from .frame import local_field, local_frame
 from .sizecap import variation_cap
 from .geometry import build_pslg
 from .layers import place_layers
-from .mesh import Mesh, any_corner, edge_keys
+from .mesh import Mesh, edge_keys
 from .optimize import optimize as optimize_mesh
 from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
                       check_options)
@@ -299,7 +299,7 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
 def _rings(tris: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
     out = mask.copy()
     for _ in range(k):
-        hit = any_corner(out, tris)
+        hit = out[tris].any(axis=1)
         out[tris[hit].ravel()] = True
     return out
 
