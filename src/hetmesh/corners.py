@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .mesh import any_corner
 from .metrics import side_lengths, triangle_angles
 from .refine import FIXED, Context, WorkSet
 
@@ -82,7 +83,7 @@ def corner_exempt(ws: WorkSet, tris: np.ndarray, ang_deg: float,
     if sharp is not None and len(sharp):
         out |= _seditious(ws, tris, sharp)
     fixed = ws.vcurve == FIXED
-    touch = np.flatnonzero(fixed[tris].any(axis=1))
+    touch = np.flatnonzero(any_corner(fixed, tris))
     if touch.size == 0:
         return out
     tt = tris[touch]

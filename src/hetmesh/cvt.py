@@ -18,7 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .metrics import circumcircles, signed_area2
+from .mesh import any_corner
+from .metrics import circumcircles, corner_columns, triangle_areas2
+from .parallel import block_concat
 
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 
@@ -38,38 +40,57 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     Obtuse triangles have their circumcenter outside; it is clamped to the triangle's
     centroid side by taking the circumcenter of non-obtuse triangles and the midpoint of the
     longest edge for obtuse ones, which keeps every sub-triangle positive.
+
+    Coordinates are handled as separate x and y columns, and a few triangles among many
+    points (a local smoothing) sum their cells over the points they use only; the numbers
+    are those of the row-wise computation over all points.
     """
     t = triangles
-    a, b, c = points[t[:, 0]], points[t[:, 1]], points[t[:, 2]]
-    o, _ = circumcircles(points, t)
-    # obtuse: clamp the circumcenter to the midpoint of the longest edge
-    la, lb, lc = ((b - c) ** 2).sum(1), ((c - a) ** 2).sum(1), ((a - b) ** 2).sum(1)
-    mab, mbc, mca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
-    oa = la > lb + lc
-    ob = lb > lc + la
-    oc = lc > la + lb
-    o = np.where(oa[:, None], mbc, o)
-    o = np.where(ob[:, None], mca, o)
-    o = np.where(oc[:, None], mab, o)
-    # density at the triangle centroid, one evaluation per triangle
-    rt = np.ones(len(t)) if rho is None else rho((a + b + c) / 3.0)
     n = len(points)
-    mass = np.zeros(n)
-    mom = np.zeros((n, 2))
-    corners = ((a, mab, mca, t[:, 0]), (b, mbc, mab, t[:, 1]), (c, mca, mbc, t[:, 2]))
+    (ax, ay), (bx, by), (cx, cy) = corner_columns(points, t)
+    o, _ = circumcircles(points, t)
+    ox, oy = o[:, 0], o[:, 1]
+    # obtuse: clamp the circumcenter to the midpoint of the longest edge
+    la = (bx - cx) ** 2 + (by - cy) ** 2
+    lb = (cx - ax) ** 2 + (cy - ay) ** 2
+    lc = (ax - bx) ** 2 + (ay - by) ** 2
+    mab = (0.5 * (ax + bx), 0.5 * (ay + by))
+    mbc = (0.5 * (bx + cx), 0.5 * (by + cy))
+    mca = (0.5 * (cx + ax), 0.5 * (cy + ay))
+    for obtuse, m in ((la > lb + lc, mbc), (lb > lc + la, mca), (lc > la + lb, mab)):
+        ox = np.where(obtuse, m[0], ox)
+        oy = np.where(obtuse, m[1], oy)
+    # density at the triangle centroid, one evaluation per triangle
+    rt = np.ones(len(t)) if rho is None else rho(
+        np.column_stack([(ax + bx + cx) / 3.0, (ay + by + cy) / 3.0]))
+    # the cells' sums over the points the triangles use (all points for a global step)
+    if 3 * len(t) < n:
+        used, inv = np.unique(t, return_inverse=True)
+        ids = inv.reshape(t.shape)
+    else:
+        used, ids = None, t
+    k = n if used is None else len(used)
+    mass = np.zeros(k)
+    mx = np.zeros(k)
+    my = np.zeros(k)
+    corners = (((ax, ay), mab, mca, ids[:, 0]), ((bx, by), mbc, mab, ids[:, 1]),
+               ((cx, cy), mca, mbc, ids[:, 2]))
     for x, m1, m2, idx in corners:
-        for p, q in ((x, m1), (m2, x)):
+        for (px, py), (qx, qy) in ((x, m1), (m2, x)):
             # sub-triangle (p, q, o) with p/q = vertex and an edge midpoint
-            ar = 0.5 * np.abs((q[:, 0] - p[:, 0]) * (o[:, 1] - p[:, 1])
-                              - (q[:, 1] - p[:, 1]) * (o[:, 0] - p[:, 0]))
-            cen = (p + q + o) / 3.0
+            ar = 0.5 * np.abs((qx - px) * (oy - py) - (qy - py) * (ox - px))
             w = ar * rt
-            mass += np.bincount(idx, w, minlength=n)
-            mom[:, 0] += np.bincount(idx, w * cen[:, 0], minlength=n)
-            mom[:, 1] += np.bincount(idx, w * cen[:, 1], minlength=n)
+            mass += np.bincount(idx, w, minlength=k)
+            mx += np.bincount(idx, w * ((px + qx + ox) / 3.0), minlength=k)
+            my += np.bincount(idx, w * ((py + qy + oy) / 3.0), minlength=k)
+    if used is not None:
+        full = np.zeros((3, n))
+        full[:, used] = (mass, mx, my)
+        mass, mx, my = full
     ok = mass > 0
     cent = points.copy()
-    cent[ok] = mom[ok] / mass[ok, None]
+    cent[ok, 0] = mx[ok] / mass[ok]
+    cent[ok, 1] = my[ok] / mass[ok]
     return cent, mass
 
 
@@ -81,42 +102,74 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
     triangle keeps at least ``min_area_ratio`` of a positive area scale; points whose step
     cannot be made safe stay. Moving points are tested together afterwards and any pair of
     neighbours that fold a shared triangle are both held back.
+
+    Only the corners of moving points are tested, and after the first try only those of the
+    points whose step was just halved (the others keep their step, and their verdict); every
+    area is computed as for the whole mesh, so the result does not depend on that.
     """
-    new = points.copy()
+    p = points
+    moving = np.asarray(moving, bool)
     idx = np.flatnonzero(moving)
     if idx.size == 0:
-        return new
-    step = np.zeros(len(points))
-    step[idx] = 1.0
+        return p.copy()
     t = triangles
-    p = points
-    area0 = signed_area2(p[t[:, 0]], p[t[:, 1]], p[t[:, 2]])
+    step = np.zeros(len(p))
+    step[idx] = 1.0
+    live = moving
+    bad = np.zeros(len(p), bool)
     for _ in range(halvings + 1):
-        cand = p + step[:, None] * (targets - p)
-        bad = np.zeros(len(p), bool)
-        for k in range(3):
-            v = t[:, k]
-            q = [p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]]
-            q[k] = cand[v]
-            ar = signed_area2(*q)
-            fail = ar < min_area_ratio * area0
-            bad[v[fail]] = True
+        bad = _folds_alone(p, t, targets, step, live, min_area_ratio)
         bad &= step > 0
         if not bad.any():
             break
         step[bad] *= 0.5
+        live = bad
     else:
         step[bad] = 0.0
     new = p + step[:, None] * (targets - p)
     # joint check: adjacent movers may fold a triangle together
+    tri = t[any_corner(moving, t)]
+    lim = min_area_ratio * 0.5 * triangle_areas2(p, tri)
     for _ in range(4):
-        ar = signed_area2(new[t[:, 0]], new[t[:, 1]], new[t[:, 2]])
-        fail = ar < min_area_ratio * 0.5 * area0
+        fail = triangle_areas2(new, tri) < lim
         if not fail.any():
             break
-        hold = np.unique(t[fail].ravel())
+        hold = np.unique(tri[fail].ravel())
         new[hold] = p[hold]
     return new
+
+
+def _folds_alone(p, t, targets, step, live, ratio) -> np.ndarray:
+    """The ``live`` points (mask) that would fold an incident triangle below ``ratio`` of
+    its area if each alone moved by its ``step`` towards its target (the others held)."""
+    x = np.ascontiguousarray(p[:, 0])
+    y = np.ascontiguousarray(p[:, 1])
+    # every point's tried position (the same numbers per point as per corner)
+    qx = x + step * (targets[:, 0] - x)
+    qy = y + step * (targets[:, 1] - y)
+
+    def block(s):
+        tt = t[s]
+        lv = [live[tt[:, k]] for k in range(3)]
+        rows = np.flatnonzero(lv[0] | lv[1] | lv[2])
+        c = [tt[rows, k] for k in range(3)]
+        ax, ay, bx, by, cx, cy = x[c[0]], y[c[0]], x[c[1]], y[c[1]], x[c[2]], y[c[2]]
+        lim = ratio * ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+        out = []
+        for k in range(3):
+            px, py = qx[c[k]], qy[c[k]]
+            if k == 0:
+                ar = (bx - px) * (cy - py) - (by - py) * (cx - px)
+            elif k == 1:
+                ar = (px - ax) * (cy - ay) - (py - ay) * (cx - ax)
+            else:
+                ar = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+            out.append(c[k][lv[k][rows] & (ar < lim)])
+        return np.concatenate(out)
+
+    bad = np.zeros(len(p), bool)
+    bad[block_concat(block, len(t))] = True
+    return bad
 
 
 def slide_on_curves(targets: np.ndarray, vertex_curve: np.ndarray, vertex_t: np.ndarray,

@@ -36,8 +36,10 @@ class LocalFrame:
     scale: float
 
     def to_user(self, points: np.ndarray) -> np.ndarray:
-        """User coordinates of local ``points`` ``(N, 2)``."""
-        return np.asarray(points, float) * self.scale + self.offset
+        """User coordinates of local ``points`` ``(N, 2)`` (a new array)."""
+        out = np.multiply(points, self.scale, dtype=float)
+        out += self.offset
+        return out
 
     def to_local(self, points: np.ndarray) -> np.ndarray:
         """Local coordinates of user ``points`` ``(N, 2)``."""

@@ -1016,22 +1016,23 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
     limited to the vertex's star. Returns the new triangles.
     """
     lv_all = np.unique(ws.level[np.isfinite(ws.level)])
-
-    def lvi(v):  # index of a level among all the levels carried (intermediate levels)
-        return np.searchsorted(lv_all, np.nan_to_num(v, nan=np.inf))
+    # index of every node's level among all the levels carried (intermediate levels)
+    lvi = np.searchsorted(lv_all, np.nan_to_num(ws.level, nan=np.inf))
 
     def facing(tris):
         """(apex, a, b) index arrays of the row-to-row triangles, and the movable apexes."""
-        L = ws.level[tris]
         parts = []
         for k in range(3):
             a, b = (k + 1) % 3, (k + 2) % 3
-            la, lb, lc = L[:, a], L[:, b], L[:, k]
+            # a row edge (a, b: one level) and an apex on another level
+            r = np.flatnonzero(ws.level[tris[:, a]] == ws.level[tris[:, b]])
+            ta, tc = tris[r, a], tris[r, k]
+            la, lc = ws.level[ta], ws.level[tc]
             gap = np.abs(lc - la)
-            ok = (np.isfinite(la) & np.isfinite(lc) & (la == lb)
+            ok = (np.isfinite(la) & np.isfinite(lc)
                   & ((np.abs(gap - dprime) < 1e-6 * dprime)
-                     | ((gap < dprime) & (np.abs(lvi(lc) - lvi(la)) == 1))))
-            parts.append(tris[ok][:, [k, a, b]])
+                     | ((gap < dprime) & (np.abs(lvi[tc] - lvi[ta]) == 1))))
+            parts.append(tris[r[ok]][:, [k, a, b]])
         fac = np.concatenate(parts)
         # row ends next to the boundary keep their place: moving them squeezes boundary triangles
         near_bnd = np.zeros(ws.n, bool)

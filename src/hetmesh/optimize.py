@@ -52,7 +52,7 @@ import logging
 import numpy as np
 
 from .discontinuity import element_subregions, has_subregions
-from .mesh import edge_keys
+from .mesh import any_corner, edge_keys, edge_order
 from .metrics import element_delta, signed_area2
 from .refine import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
@@ -195,9 +195,10 @@ class _Star:
 
 
 def _sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: _Eval, active, *, min_angle_deg,
-           steps, grad_steps, salt, wake=0.0) -> np.ndarray:
+           steps, grad_steps, salt, wake=0.0, shifted=None) -> np.ndarray:
     """One Gauss-Seidel sweep of the ``active`` nodes over independent sets; returns the
-    mask of the nodes moved with a star mean quality gain above ``wake``."""
+    mask of the nodes moved with a star mean quality gain above ``wake``. ``shifted``, a
+    mask if given, gets every node moved set."""
     P = ws.P
     n = len(P)
     cmax = np.cos(np.radians(min_angle_deg))
@@ -205,7 +206,8 @@ def _sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: _Eval, active, *, min
     lev = (ws.vcurve == FREE) & np.isfinite(ws.level)
     flat = tris.ravel()
     ent = np.flatnonzero(active[flat])
-    order = ent[np.argsort(flat[ent], kind="stable")]
+    # by node, then by entry (a stable sort by node, from one unique int64 key)
+    order = ent[np.argsort(flat[ent].astype(np.int64) * len(flat) + ent)]
     owner_sorted = flat[order]
     e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
     e = e[active[e[:, 0]] & active[e[:, 1]]]
@@ -276,6 +278,8 @@ def _sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: _Eval, active, *, min
             comp[g] = best_c[go]
             # a node that gained little does not wake its neighbours for the next sweep
             moved[g] = gain[best_k[go], np.flatnonzero(go)] > wake
+            if shifted is not None:
+                shifted[g] = True
     ws.P = P
     return moved
 
@@ -364,17 +368,19 @@ def _half_edges(tris):
     ea = np.concatenate([tris[:, 0], tris[:, 1], tris[:, 2]])
     eb = np.concatenate([tris[:, 1], tris[:, 2], tris[:, 0]])
     keys = edge_keys(ea, eb)
-    order = np.argsort(keys, kind="stable")
+    order = edge_order(keys)
     return order, keys[order]
 
 
 def _flip_round(ws: WorkSet, tris, comp, reg, ev: _Eval, *, min_angle_deg, ckeys,
-                q_active, half=None) -> int:
+                q_active, half=None, qt=None) -> np.ndarray:
     """Flip the interior non-constraint edges that raise the pair's minimum quality (of
-    pairs with a triangle below ``q_active``); ``half`` = :func:`_half_edges` if known."""
+    pairs with a triangle below ``q_active``); ``half`` = :func:`_half_edges` and ``qt``
+    the triangles' qualities, if known. Returns the ids of the triangles changed."""
     P = ws.P
     m = len(tris)
-    qt, _ = _qa(P[tris])
+    if qt is None:
+        qt, _ = _qa(P[tris])
     order, ks = _half_edges(tris) if half is None else half
     pair = np.flatnonzero(ks[1:] == ks[:-1])
     h1, h2 = order[pair], order[pair + 1]  # the two half-edges of each interior edge
@@ -407,13 +413,13 @@ def _flip_round(ws: WorkSet, tris, comp, reg, ev: _Eval, *, min_angle_deg, ckeys
         ok &= (cn <= cmax) | (cn <= cold)
     idx = np.flatnonzero(ok)
     if idx.size == 0:
-        return 0
+        return np.zeros(0, np.int64)
     r = None if reg is None else reg[t1[idx]]
     dl1 = ev.delta(Xn1[idx], comp[n1[idx]], r)
     dl2 = ev.delta(Xn2[idx], comp[n2[idx]], r)
     idx = idx[(dl1 < ev.thr) & (dl2 < ev.thr)]
     if idx.size == 0:
-        return 0
+        return np.zeros(0, np.int64)
     # one flip per triangle: each triangle keeps its best candidate edge
     gain = qnew[idx] - qold[idx]
     pri = np.lexsort((_hash(idx), gain))  # ascending; rank = position
@@ -426,7 +432,35 @@ def _flip_round(ws: WorkSet, tris, comp, reg, ev: _Eval, *, min_angle_deg, ckeys
     w = idx[win]
     tris[t1[w]] = n1[w]
     tris[t2[w]] = n2[w]
-    return int(len(w))
+    return np.concatenate([t1[w], t2[w]])
+
+
+def _update_half(half, tris, changed):
+    """The sorted half-edges (:func:`_half_edges`) after the triangles ``changed`` got new
+    corners: their old half-edges taken out, their new ones merged in by (key, id), which
+    is the order of the stable sort, without sorting everything again."""
+    if len(changed) == 0:
+        return half
+    order, ks = half
+    m = len(tris)
+    chg = np.zeros(m, bool)
+    chg[changed] = True
+    keep = ~chg[order % m]
+    order, ks = order[keep], ks[keep]
+    t = np.flatnonzero(chg)
+    nid = np.concatenate([t, t + m, t + 2 * m])
+    nk = edge_keys(np.concatenate([tris[t, 0], tris[t, 1], tris[t, 2]]),
+                   np.concatenate([tris[t, 1], tris[t, 2], tris[t, 0]]))
+    o = np.lexsort((nid, nk))
+    nid, nk = nid[o], nk[o]
+    pos = np.searchsorted(ks, nk, side="left")
+    for _ in range(4):  # past the equal keys of smaller id (an edge has two half-edges)
+        p = np.minimum(pos, len(ks) - 1)
+        after = (pos < len(ks)) & (ks[p] == nk) & (order[p] < nid)
+        if not after.any():
+            return np.insert(order, pos, nid), np.insert(ks, pos, nk)
+        pos = pos + after
+    return _half_edges(tris)
 
 
 def _valid(P, tris, ckeys, keys) -> bool:
@@ -441,7 +475,7 @@ def _valid(P, tris, ckeys, keys) -> bool:
 def _grow(tris, mask):
     """``mask`` and the nodes sharing a triangle with it."""
     out = mask.copy()
-    out[tris[mask[tris].any(axis=1)].ravel()] = True
+    out[tris[any_corner(mask, tris)].ravel()] = True
     return out
 
 
@@ -471,22 +505,28 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
     reg = element_subregions(ctx.field, ws.P, tris) if ev.sub else None
     movable = ws.vcurve != FIXED  # row crossings too: they slide on their curve, delta checked
     near = movable
+    # the triangles' qualities and sorted half-edges, kept up to date where flips and
+    # moves change them (the same numbers as computing them again)
+    q, _ = _qa(ws.P[tris])
     for it in range(sweeps):
         nf = 0
         for _ in range(flips):
-            k = _flip_round(ws, tris, comp, reg, ev, min_angle_deg=min_angle_deg, ckeys=ckeys,
-                            q_active=q_active, half=half)
-            half = None
-            nf += k
-            if k == 0:
+            w = _flip_round(ws, tris, comp, reg, ev, min_angle_deg=min_angle_deg, ckeys=ckeys,
+                            q_active=q_active, half=half, qt=q)
+            half = _update_half(half, tris, w)
+            q[w] = _qa(ws.P[tris[w]])[0]
+            nf += len(w) // 2
+            if len(w) == 0:
                 break
         # nodes whose star has a triangle below q_active, near last sweep's changes
-        q, _ = _qa(ws.P[tris])
         low = np.zeros(ws.n, bool)
         low[tris[q < q_active].ravel()] = True
         active = low & near
+        shifted = np.zeros(ws.n, bool)
         moved = _sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=min_angle_deg,
-                       steps=steps, grad_steps=grad_steps, salt=it, wake=wake)
+                       steps=steps, grad_steps=grad_steps, salt=it, wake=wake, shifted=shifted)
+        touched = np.flatnonzero(any_corner(shifted, tris))
+        q[touched] = _qa(ws.P[tris[touched]])[0]
         nm = int(moved.sum())
         log.info("optimize sweep %d: %d flips, %d of %d active nodes moved", it, nf, nm,
                  int(active.sum()))

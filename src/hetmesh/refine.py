@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from . import cvt
 from . import density as dens
+from .mesh import any_corner
 from .triangulate import constrained_delaunay
 
 __all__ = ["WorkSet", "Context", "triangulate", "split_constraint_edges", "add_free_points",
@@ -98,6 +99,9 @@ class WorkSet:
     level: np.ndarray  # (N,) composition level carried (nan otherwise)
     E: np.ndarray  # (K, 2) constraint edges
     ecurve: np.ndarray  # (K,) curve of every constraint edge
+    #: the last triangulation and copies of the points and edges it was made of
+    #: (:func:`triangulate`)
+    cdt: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def n(self) -> int:
@@ -202,9 +206,22 @@ def chord_violators(ws: WorkSet, ctx: Context, t_new: np.ndarray, moving: np.nda
 
 
 def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
+    """The constrained Delaunay triangulation of the work set's points and constraint edges,
+    inside the domain (read-only).
+
+    The last one is kept on the work set beside copies of the points and edges it was made
+    of, and returned again while they are unchanged (the placement's last triangulation is
+    the repair loop's first): a comparison instead of a rebuild."""
+    c = ws.cdt
+    if (c is not None and c[0] is ctx and np.array_equal(c[1], ws.P)
+            and np.array_equal(c[2], ws.E)):
+        return c[3]
     with ctx.timed("cdt"):
         bmask = ctx.boundary_curve[ws.ecurve]
-        return constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
+        tris = constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
+    tris.flags.writeable = False
+    ws.cdt = (ctx, ws.P.copy(), ws.E.copy(), tris)
+    return tris
 
 
 def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray,
@@ -259,19 +276,61 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     out = np.zeros(len(cand), bool)
     if len(cand) == 0:
         return out
-    d, _ = cKDTree(ws.P).query(cand)
+    d = nearest_distance(ws.P, cand, float(np.max(min_dist)))
     keep = np.flatnonzero(d > min_dist)
     cand, md = cand[keep], clash_dist[keep]
     if len(cand) < 2:
         out[keep] = True
         return out
-    # a candidate yields to an earlier one within either's distance (deterministic)
-    k = min(6, len(cand))
-    d, j = cKDTree(cand).query(cand, k=k)
-    i = np.arange(len(cand))[:, None]
-    clash = (j < i) & (d < np.minimum(md[:, None], md[j]))
-    out[keep[~clash.any(axis=1)]] = True
+    # a candidate yields to an earlier one within either's distance, among its k nearest
+    # (deterministic); only those with another candidate within the largest distance can
+    tree = cKDTree(cand)
+    near = np.flatnonzero(tree.query(cand, k=2, distance_upper_bound=float(md.max()),
+                                     workers=-1)[0][:, 1] < np.inf)
+    clash = np.zeros(len(cand), bool)
+    if len(near):
+        d, j = tree.query(cand[near], k=min(6, len(cand)), workers=-1)
+        clash[near] = ((j < near[:, None]) & (d < np.minimum(md[near, None], md[j]))).any(axis=1)
+    out[keep[~clash]] = True
     return out
+
+
+#: cells per side of the grid :func:`nearest_distance` screens the points with
+SCREEN_CELLS = 2048
+
+
+def nearest_distance(points: np.ndarray, query: np.ndarray, reach: float) -> np.ndarray:
+    """Distance from every ``query`` point to the nearest of ``points``, exact where it is at
+    most ``reach`` (elsewhere it may be any larger value, inf included).
+
+    A few queries among many points (a refinement round's Steiner candidates) do not need
+    a k-d tree over all the points: a grid of at most :data:`SCREEN_CELLS` square cells per
+    side, no smaller than ``reach``, marks the cells next to a query, and only the points in
+    marked cells go into the tree (any point within ``reach`` of a query is among them).
+    """
+    pts = points
+    if len(pts) == 0:
+        return np.full(len(query), np.inf)
+    if len(query) * 64 < len(pts) and np.isfinite(reach) and reach >= 0:
+        lo = query.min(axis=0) - reach
+        hi = query.max(axis=0) + reach
+        cell = max(1.001 * float(reach), float((hi - lo).max()) / SCREEN_CELLS, 1e-300)
+        shape = np.minimum(np.ceil((hi - lo) / cell).astype(np.int64) + 1, SCREEN_CELLS + 2)
+        mark = np.zeros((shape[0] + 2, shape[1] + 2), bool)
+        qc = np.floor((query - lo) / cell).astype(np.int64) + 1
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                mark[np.clip(qc[:, 0] + dx, 0, shape[0] + 1),
+                     np.clip(qc[:, 1] + dy, 0, shape[1] + 1)] = True
+        pc = np.floor((pts - lo) / cell)
+        inb = ((pc >= 0) & (pc < shape)).all(axis=1)
+        sel = np.flatnonzero(inb)
+        sel = sel[mark[pc[sel, 0].astype(np.int64) + 1, pc[sel, 1].astype(np.int64) + 1]]
+        if len(sel) == 0:
+            return np.full(len(query), np.inf)
+        pts = pts[sel]
+    d, _ = cKDTree(pts).query(query, workers=-1)
+    return d
 
 
 def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: int = 3,
@@ -289,15 +348,20 @@ def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: in
     for _ in range(iters):
         f = ctx.f(p)
         gr = ctx.grad_f(p)
-        g2 = (gr ** 2).sum(1)
+        gx, gy = gr[:, 0], gr[:, 1]
+        g2 = gx * gx + gy * gy
         ok = g2 > 1e-30
-        step = np.zeros_like(p)
-        step[ok] = ((f[ok] - level[ok]) / g2[ok])[:, None] * gr[ok]
-        ln = np.hypot(step[:, 0], step[:, 1])
-        big = ln > cap
-        if big.any():
-            step[big] *= (cap / ln[big])[:, None]
-        p = p - step
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            c = (f - level) / g2
+            sx = np.where(ok, c * gx, 0.0)
+            sy = np.where(ok, c * gy, 0.0)
+            ln = np.hypot(sx, sy)
+            big = ln > cap
+            if big.any():
+                r = cap / ln
+                sx = np.where(big, sx * r, sx)
+                sy = np.where(big, sy * r, sy)
+        p = np.column_stack([p[:, 0] - sx, p[:, 1] - sy])
     if tol is None:
         return p
     good = np.abs(ctx.f(p) - level) <= tol
@@ -341,7 +405,7 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
 def _lloyd_step(ws: WorkSet, ctx: Context, tris: np.ndarray, active: np.ndarray | None) -> None:
     """One conforming Lloyd move of the work set on the connectivity ``tris`` (see smooth)."""
     # only the triangles around moving vertices matter (all of them without `active`)
-    sub = tris if active is None else tris[active[tris].any(axis=1)]
+    sub = tris if active is None else tris[any_corner(active, tris)]
     cent, mass = cvt.cell_centroids(ws.P, sub, ctx.rho)
     movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
     if active is not None:
