@@ -39,7 +39,7 @@ EXAMPLES = ROOT / "examples"
 # (model, delta_0) -> the paper's (adaptive Ne, uniform Ne): Table 3 (ring), Table 5.
 PAPER = {(name, t): (CASES[name].adaptive[t].n_elements, CASES[name].uniform[t].n_elements)
          for name in ("hft_ring", "hft_complex", "fgm_plate") for t in CASES[name].thresholds}
-# the element-ratio targets: no worse than the paper's ratio at these points
+# the element-ratio targets: no worse than the paper's ratio at these points
 RATIO_TARGET = {("hft_ring", 0.05): 0.26, ("hft_complex", 0.1): 0.15, ("fgm_plate", 0.1): 0.08}
 
 

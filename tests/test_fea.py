@@ -1,4 +1,4 @@
-"""Thermo-mechanical FEA (issue 4, paper Sec. 4.4): closed forms, patch test, mixing rules,
+"""Thermo-mechanical FEA (paper Sec. 4.4): closed forms, patch test, mixing rules,
 the [fea] table's errors, the CLI, the fgm_plate case study on a coarse mesh and the case-4
 probe study (hetmesh.fea.study; the quick and full runs are slow tests)."""
 
@@ -627,9 +627,9 @@ def test_study_needs_probes_and_an_fea_table():
 
 
 @pytest.mark.slow
-def test_quick_study_meets_the_issue_target():
+def test_quick_study_meets_the_target():
     """The quick study (~10 s): both families reach 0.5 % at P1..P6 and adaptive meshes need
-    at least 40 % fewer elements (issue 4's target; the paper's 32 %)."""
+    at least 40 % fewer elements (the target; the paper's 32 %)."""
     model = hetmesh.load_model(hetmesh.example_path("fgm_plate"))
     s = fea.study(model, quick=True)
     assert s.quick and all("error" not in m for m in s.meshes)
@@ -638,7 +638,7 @@ def test_quick_study_meets_the_issue_target():
 
 
 @pytest.mark.slow
-def test_full_study_meets_the_issue_target():
+def test_full_study_meets_the_target():
     """The full study (~40 s): a finer reference whose own error (against twice its edge) is
     well below 0.5 %, and the 40 % target at P1..P6."""
     model = hetmesh.load_model(hetmesh.example_path("fgm_plate"))

@@ -449,7 +449,7 @@ def test_error_misc():
 
 
 # ------------------------------------------------------------------ bad input via the CLI
-# Issue 3: each a one-line error naming the feature, exit code 2, nothing written.
+# Bad feature trees: each a one-line error naming the feature, exit code 2, nothing written.
 
 def _edit(text: str, old: str, new: str) -> str:
     assert text.count(old) == 1, old

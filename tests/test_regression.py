@@ -1,4 +1,4 @@
-"""Regression numbers with explicit tolerances (the issue's targets live in benchmarks/)."""
+"""Regression numbers with explicit tolerances (the targets live in benchmarks/)."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def test_unit_square_close_to_the_limit(threshold):
     assert s.q_avg >= 0.975
 
 
-def test_n_iso_matches_the_issue():
+def test_n_iso_matches_the_reference_counts():
     model = hetmesh.load_model(hetmesh.example_path("unit_square"))
     for thr, ref in [(0.05, 1232), (0.03, 3421), (0.01, 30792)]:
         assert n_iso(model.material, model.domain, thr) == pytest.approx(ref, rel=2e-3)

@@ -1,4 +1,4 @@
-"""hetmesh reproduce (issue 5): the report, its tables and figures, the peers, the blade model."""
+"""hetmesh reproduce: the report, its tables and figures, the peers, the blade model."""
 
 from __future__ import annotations
 

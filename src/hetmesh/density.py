@@ -59,7 +59,7 @@ def n_iso(field, domain, threshold: float, n: int = 400) -> float:
     """N_iso = (4/sqrt(3)) * integral(|grad f|^2 dA) / delta_0^2.
 
     The number of equilateral elements of side delta_0 / |grad f| that tile the domain: the
-    reference count of the issue's closeness-to-the-limit target.
+    reference count of hetmesh's closeness-to-the-limit benchmark.
     """
     g = gradient_norm(field, background_points(domain, n))
     return 4.0 / np.sqrt(3.0) * integrate(g ** 2, domain) / threshold ** 2

@@ -33,7 +33,7 @@ __all__ = ["study", "ProbeStudy", "StudyPlan", "PLANS", "TOLERANCE", "elements_n
 
 log = logging.getLogger(__name__)
 
-#: the issue's probe accuracy: every probe within 0.5 % of the reference
+#: the study's probe accuracy: every probe within 0.5 % of the reference
 TOLERANCE = 0.005
 
 Progress = Callable[[str, Optional[float]], None]

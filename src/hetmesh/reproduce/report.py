@@ -22,7 +22,7 @@ NA = "n/a"
 PEER_LABELS = {"gmsh": "Gmsh", "triangle": "Triangle"}
 STAT_COLUMNS = (("Np", "n_points", 0), ("Ne", "n_elements", 0), ("q_min", "q_min", 4),
                 ("q_avg", "q_avg", 4), ("δ_min", "delta_min", 4), ("δ_avg", "delta_avg", 4))
-#: the issue's peer targets (reported, not asserted)
+#: hetmesh's peer targets (reported, not asserted)
 FEWER_AT, FEWER_BY, Q_SLACK = 0.05, 0.35, 0.03
 
 
@@ -183,7 +183,7 @@ def _case_sections(report) -> list[str]:
 
 
 def peer_verdicts(run) -> dict | None:
-    """The issue's peer targets at one threshold: best peer, element ratio, verdicts."""
+    """hetmesh's peer targets at one threshold: best peer, element ratio, verdicts."""
     ok = {p: pr for p, pr in run.peers.items() if pr.stats is not None}
     if run.adaptive is None or not ok:
         return None
@@ -278,7 +278,7 @@ def _peer_summary(verdicts) -> list[str]:
     q = sum(v["quality"] for v in vs)
     met = fewer == len(vs) and all(v["fewer_35"] for v in at35) and q == len(vs)
     return [
-        "The issue's target (reported, not asserted): hetmesh needs fewer elements than the "
+        "hetmesh's target (reported, not asserted): hetmesh needs fewer elements than the "
         "best peer at every threshold, at least 35 % fewer at δ0 ≤ 0.05, with q_avg at least "
         "the peer's minus 0.03.",
         "",
@@ -435,7 +435,7 @@ def _fea_section(report) -> list[str]:
         out += ["Elements each family needs to bring every probe within 0.5 % of the "
                 "reference for good (the error crossing 0.5 % between two meshes of the "
                 "family, interpolated in log-log), and the reduction 1 - adaptive/uniform "
-                "(the issue's target: at least 0.40; the paper: 633 against 931, 0.32, for "
+                "(hetmesh's target: at least 0.40; the paper: 633 against 931, 0.32, for "
                 "P1..P6):", ""]
         out += markdown_table(["probes", "uniform", "adaptive", "reduction",
                                "reduction paper", "≥ 40 % fewer"], need_rows) + [""]
