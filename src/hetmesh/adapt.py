@@ -45,7 +45,7 @@ from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACI
                       check_options)
 from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
                       quality_and_angle, side_lengths, statistics, triangle_angles)
-from .refine import (FIXED, Context, WorkSet, add_free_points, workset_from_pslg,
+from .refine import (Context, WorkSet, add_free_points, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
 from .refine import edge_params
@@ -200,10 +200,6 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             min(min_quality, 0.5) if rnd < angle_rounds else 0.0)
         afloor = min_angle_deg if rnd < angle_rounds else 0.0
         badq = ((ang < afloor) | (q < qfloor)) & ~viol
-        if rnd < angle_rounds and qfloor < min_quality:
-            # a triangle spanning a whole obtuse input corner keeps the full floor: splitting
-            # the edge opposite the corner (_insert_refinement_points) always fixes it
-            badq |= (q < min_quality) & _obtuse_at_corner(ws, tris) & ~viol
         if badq.any():
             badq &= ~corner_exempt(ws, tris, min_angle_deg, sharp)
         history.append({"round": rnd, "elements": int(len(tris)), "points": int(ws.n),
@@ -282,22 +278,6 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         badq = badq.copy()
         badq[np.flatnonzero(badq)[enc_own]] = False
     if badq.any():
-        # a triangle whose obtuse angle sits at an input corner (a fixed vertex) spans the
-        # corner's whole angle, and no off-centre inserts the edge that halves it: the edge
-        # opposite the corner (free: constraint edges were split above) is split instead
-        at = np.flatnonzero(badq)[_obtuse_at_corner(ws, tris[badq])]
-        if len(at):
-            tb = tris[at]
-            k = triangle_angles(ws.P, tb).argmax(axis=1)
-            i = np.arange(len(tb))
-            a, b = tb[i, (k + 1) % 3], tb[i, (k + 2) % 3]
-            elen = np.hypot(*(ws.P[a] - ws.P[b]).T)
-            cand.append(0.5 * (ws.P[a] + ws.P[b]))
-            cand_min.append(0.05 * elen)
-            cand_clash.append(0.3 * elen)
-            badq = badq.copy()
-            badq[at] = False
-    if badq.any():
         cc, r = _off_centers(ws.P, tris[badq], max(afloor, 20.0) + 2.0)
         enc = _encroached(ws, cc, r)
         split_c.append(enc[enc >= 0])
@@ -315,16 +295,6 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         keep = thin_candidates_mask(ws, pts, np.concatenate(cand_min), np.concatenate(cand_clash))
         add_free_points(ws, pts[keep])
     return new_c
-
-
-def _obtuse_at_corner(ws: WorkSet, tris: np.ndarray) -> np.ndarray:
-    """Triangles whose largest angle is obtuse and sits at an input corner (fixed vertex)."""
-    if len(tris) == 0:
-        return np.zeros(0, bool)
-    ang = triangle_angles(ws.P, tris)
-    k = ang.argmax(axis=1)
-    i = np.arange(len(tris))
-    return (ang[i, k] > 90.0) & (ws.vcurve[tris[i, k]] == FIXED)
 
 
 def _rings(tris: np.ndarray, mask: np.ndarray, k: int) -> np.ndarray:
