@@ -14,6 +14,8 @@ Tables
   3. Speed: power_plate at 0.03 end to end in-process; then (not with --quick) a ~1,000,000
      element run on unit_square against Gmsh making about as many elements, each in a fresh
      subprocess (clean peak memory).
+  4. (only with --only 4) ~10,000,000 elements on unit_square: wall, peak memory and the
+     cost per element against the ~1M run (minutes).
 
 Timings are medians of several runs; ratios are taken against a peer measured in the same
 run. Nothing here fails: targets are reported as PASS/FAIL columns. See benchmarks/README.md.
@@ -62,7 +64,16 @@ PLATE_THRESHOLDS = (0.1, 0.08, 0.05, 0.03)
 PAPER = {0.1: (454, 1218), 0.08: (564, 1298), 0.05: (1353, 5075), 0.03: (3815, 11534)}
 SQUARE_THRESHOLDS = (0.05, 0.03, 0.01)
 N_ISO_EXPECTED = {0.05: 1232, 0.03: 3421, 0.01: 30792}
-BIG_THRESHOLD = 0.00155
+#: unit_square at this delta_0 makes about 990,000 elements with the default row spacing
+#: (0.85 x delta_0; 0.00155 did at 0.985): Ne ~ 1/delta_0^2 at a fixed spacing
+BIG_THRESHOLD = 0.0018
+#: about 9.9 million elements: BIG_THRESHOLD / sqrt(10)
+HUGE_THRESHOLD = 0.000569
+#: targets: 1M-element wall <= this x Gmsh's; 10M elements under this peak memory (MB), at
+#: most this x the 1M run's cost per element
+TARGET_VS_GMSH = 0.5
+TARGET_HUGE_MB = 6 * 1024
+TARGET_PER_ELEMENT = 1.3
 
 # Gmsh peer settings (reported in the output).
 GMSH_ALGORITHM = 6              # Frontal-Delaunay
@@ -501,13 +512,15 @@ def worker_main(argv: list[str]) -> int:
     p.add_argument("--method", default="layers")
     p.add_argument("--s", type=float, default=1.0)
     p.add_argument("--field", default="matheval")
+    p.add_argument("--max-elements", type=int, default=None)
     a = p.parse_args(argv)
     base_rss, _ = peak_rss_mb()
     model = hetmesh.load_model(UNIT_SQUARE)
     r0 = resource.getrusage(resource.RUSAGE_SELF)
     t = time.perf_counter()
     if a.kind == "hetmesh":
-        res = hetmesh.generate(model, a.threshold, method=a.method)
+        kw = {} if a.max_elements is None else {"max_elements": a.max_elements}
+        res = hetmesh.generate(model, a.threshold, method=a.method, **kw)
         wall = time.perf_counter() - t
         stats = res.stats.as_dict()
         timings = dict(res.timings)
@@ -597,6 +610,7 @@ def speed_big(repeats: int) -> dict:
         out["ratio_wall"] = hw / gw
         out["ratio_cpu"] = hc / gc
         out["ratio_wall_per_element"] = (hw / hn) / (gw / gn)
+        out["target_wall_per_element"] = out["ratio_wall_per_element"] <= TARGET_VS_GMSH
         notes += [f"Gmsh {gm_ver}: Mesh.Algorithm=6, NumThreads={GMSH_THREADS}, Terminal=0, "
                   f"MathEval background field F = min({GMSH_H_CAP}, s·δ0/max(2(1-y), √δ0)) "
                   "(not the Python callback), MeshSizeFromPoints/Curvature/ExtendFromBoundary=0;",
@@ -604,12 +618,67 @@ def speed_big(repeats: int) -> dict:
                   "element calibration run, not timed); Gmsh wall = build+generate(2)+read back; "
                   "its δmax is w.r.t. the same δ0 for information only.",
                   f"ratio hetmesh/gmsh: wall {out['ratio_wall']:.2f}x, cpu {out['ratio_cpu']:.2f}x, "
-                  f"wall per element {out['ratio_wall_per_element']:.2f}x"]
+                  f"wall per element {out['ratio_wall_per_element']:.2f}x "
+                  f"(target <= {TARGET_VS_GMSH}x: {pf(out['target_wall_per_element'])})"]
     else:
         rows.append(["gmsh FD", gm_error or "not installed (pip install gmsh)"])
     print_table(f"Table 3b. ~1,000,000 elements: unit_square (median of {repeats} run(s))",
                 ["mesher", "Ne", "Np", "wall s", "cpu s", "µs/elem", "peak RSS MB", "δmax",
                  "q_min", "q_avg", "phases (s)", "settings"], rows, notes=notes)
+    return out
+
+
+def speed_huge(big: dict | None, repeats: int) -> dict:
+    """Table 4: about 10 million elements (hetmesh only) against the ~1M run of table 3b
+    (made here first if table 3b did not run): wall, peak memory, cost per element."""
+    out = {}
+    one = (big or {}).get("hetmesh")
+    rows = []
+    try:
+        if not isinstance(one, list):
+            print(f"\n[10M run] hetmesh unit_square δ0={BIG_THRESHOLD} first, the per-element "
+                  f"reference (subprocess, {repeats} run(s)) ...", flush=True)
+            one = [run_worker(["hetmesh", "--threshold", str(BIG_THRESHOLD)])
+                   for _ in range(repeats)]
+        print(f"\n[10M run] hetmesh unit_square δ0={HUGE_THRESHOLD} (subprocess, {repeats} "
+              "run(s), minutes) ...", flush=True)
+        huge = [run_worker(["hetmesh", "--threshold", str(HUGE_THRESHOLD),
+                            "--max-elements", "50000000"]) for _ in range(repeats)]
+    except Exception as e:
+        out["error"] = err_text(e)
+        print_table("Table 4. ~10,000,000 elements: unit_square", ["case", "result"],
+                    [["hetmesh layers", err_text(e)]])
+        return out
+    out["one"], out["huge"] = one, huge
+
+    def row(name, runs):
+        st = runs[-1]["stats"]
+        wall = median([r["wall"] for r in runs])
+        cpu = median([r["cpu"] for r in runs])
+        rss = max(r["maxrss_mb"] for r in runs)
+        ph = {k: median([r["timings"][k] for r in runs]) for k in runs[0]["timings"]}
+        phs = " ".join(f"{k} {v:.1f}" for k, v in ph.items() if k != "total")
+        per = 1e6 * wall / st["n_elements"]
+        rows.append([name, fmt(st["n_elements"]), fmt(st["n_points"]), fmt(wall, ".1f"),
+                     fmt(cpu, ".1f"), fmt(per, ".1f"), fmt(rss, ",.0f"),
+                     fmt(st["delta_max"], ".6f"), fmt(st["q_min"]), fmt(st["q_avg"]), phs])
+        return per, rss
+
+    per1, _ = row(f"δ0={BIG_THRESHOLD}", one)
+    per10, rss10 = row(f"δ0={HUGE_THRESHOLD}", huge)
+    out["ratio_per_element"] = per10 / per1
+    out["peak_mb"] = rss10
+    out["target_peak"] = rss10 < TARGET_HUGE_MB
+    out["target_per_element"] = out["ratio_per_element"] <= TARGET_PER_ELEMENT
+    print_table(f"Table 4. ~10,000,000 elements: unit_square (median of {repeats} run(s))",
+                ["case", "Ne", "Np", "wall s", "cpu s", "µs/elem", "peak RSS MB", "δmax",
+                 "q_min", "q_avg", "phases (s)"], rows,
+                notes=[f"cost per element, 10M / 1M: {out['ratio_per_element']:.2f}x (target <= "
+                       f"{TARGET_PER_ELEMENT}x: {pf(out['target_per_element'])}); peak RSS "
+                       f"{rss10:,.0f} MB (target < {TARGET_HUGE_MB:,} MB: "
+                       f"{pf(out['target_peak'])})",
+                       "each run in a fresh subprocess (as table 3b); element budget 50,000,000 "
+                       "for the 10M run."])
     return out
 
 
@@ -636,8 +705,9 @@ def main(argv=None) -> int:
     p.add_argument("--mem-limit-gb", type=float, default=12.0,
                    help="address-space cap (RLIMIT_AS) so a runaway case raises MemoryError "
                         "instead of meeting the OOM killer (default 12; 0 = none)")
-    p.add_argument("--only", choices=("1", "2", "3"), action="append",
-                   help="run only these tables (repeatable)")
+    p.add_argument("--only", choices=("1", "2", "3", "4"), action="append",
+                   help="run only these tables (repeatable); table 4 (~10M elements, "
+                        "minutes) runs only when asked for")
     a = p.parse_args(argv)
     global CASE_TIMEOUT, BIG_TIMEOUT
     CASE_TIMEOUT, BIG_TIMEOUT = a.case_timeout, a.big_timeout
@@ -664,6 +734,8 @@ def main(argv=None) -> int:
         results["table3_speed"] = speed_plate(speed_runs)
         if not (a.quick or a.skip_big):
             results["table3_big"] = speed_big(a.big_repeats)
+    if "4" in only:
+        results["table4_huge"] = speed_huge(results.get("table3_big"), a.big_repeats)
     env["loadavg_end"] = os.getloadavg()
     results["total_seconds"] = time.perf_counter() - t_all
     print(f"\ntotal benchmark time {results['total_seconds']:.0f} s; load average at end "

@@ -41,6 +41,7 @@ from .geometry import build_pslg
 from .layers import place_layers
 from .mesh import Mesh, any_corner, edge_keys
 from .optimize import optimize as optimize_mesh
+from .parallel import block_concat
 from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
                       check_options)
 from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
@@ -156,17 +157,33 @@ def _lookup(sorted_keys, order, keys):
     return np.where(hit, order[pos], -1)
 
 
-def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=None):
-    """Compositions at the nodes and delta(T); ``known`` holds those of the first nodes, unmoved.
+def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=None,
+             at=None):
+    """Compositions at the nodes and delta(T); ``known`` holds those of the first nodes,
+    evaluated where they were then (``at``, their positions then; without it they have not
+    moved): only new and moved nodes are evaluated again.
 
     With a feature-tree field every element is evaluated in its own subregion (Sec. 3.3).
     """
-    if known is not None and len(known) <= ws.n:
-        comp = np.vstack([known, ctx.field.composition(ws.P[len(known):])])
+    n0 = len(known) if known is not None and len(known) <= ws.n else 0
+    if n0:
+        comp = np.empty((ws.n,) + known.shape[1:])
+        comp[:n0] = known
+        redo = np.arange(n0, ws.n)
+        if at is not None:
+            same = at[:n0] == ws.P[:n0]
+            redo = np.concatenate([np.flatnonzero(~(same[:, 0] & same[:, 1])), redo])
+        if len(redo):
+            comp[redo] = _composition(ctx, ws.P[redo])
     else:
-        comp = ctx.field.composition(ws.P)
+        comp = _composition(ctx, ws.P)
     regions = element_subregions(ctx.field, ws.P, tris) if has_subregions(ctx.field) else None
     return comp, element_delta(ctx.field, ws.P, tris, sampling, comp, regions=regions)
+
+
+def _composition(ctx: Context, pts: np.ndarray) -> np.ndarray:
+    """The field's compositions at ``pts``, by blocks of points (pointwise)."""
+    return block_concat(lambda s: ctx.field.composition(pts[s]), len(pts), serial=True)
 
 
 def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: float,
@@ -186,14 +203,15 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     (every split halves an edge with a composition jump >= delta_0 of a continuous field)."""
     thr = ctx.threshold
     tris = None
-    known = None  # compositions of nodes that have not moved since they were evaluated
+    # compositions of the nodes, and where the nodes were when they were evaluated
+    known = known_at = None
     sharp = sharp_corners(ws, ctx)
     for rnd in range(max_rounds):
         if tris is None:
             tris = triangulate(ws, ctx)
         with ctx.timed("evaluate"):
-            comp, delta = evaluate(ctx, ws, tris, sampling, known)
-            known = comp
+            comp, delta = evaluate(ctx, ws, tris, sampling, known, known_at)
+            known, known_at = comp, ws.P.copy()
             viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
             q, ang = quality_and_angle(ws.P, tris)
         qfloor = min_quality if rnd < quality_rounds else (
@@ -228,7 +246,6 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             tris = triangulate(ws, ctx)
             active = _rings(tris, new, 2)
             tris = smooth(ws, ctx, tris, iters=2, active=active, retriangulate_every=2)
-            known = None
         else:
             tris = None
     raise MeshingError(f"refinement did not converge in {max_rounds} rounds")

@@ -18,9 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import any_corner
-from .metrics import circumcircles, corner_columns, triangle_areas2
-from .parallel import block_concat
+from .metrics import circumcenters, triangle_areas2
+from .parallel import block_map, blocks
 
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 
@@ -41,30 +40,42 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     centroid side by taking the circumcenter of non-obtuse triangles and the midpoint of the
     longest edge for obtuse ones, which keeps every sub-triangle positive.
 
-    Coordinates are handled as separate x and y columns, and a few triangles among many
-    points (a local smoothing) sum their cells over the points they use only; the numbers
-    are those of the row-wise computation over all points.
+    The per-triangle work is done by blocks of triangles (in threads), from x and y
+    columns, into whole arrays that each sum takes in triangle order; a few triangles among
+    many points (a local smoothing) sum their cells over the points they use only. The
+    numbers are those of the row-wise computation over all points.
     """
     t = triangles
     n = len(points)
-    (ax, ay), (bx, by), (cx, cy) = corner_columns(points, t)
-    o, _ = circumcircles(points, t)
-    ox, oy = o[:, 0], o[:, 1]
-    # obtuse: clamp the circumcenter to the midpoint of the longest edge
-    la = (bx - cx) ** 2 + (by - cy) ** 2
-    lb = (cx - ax) ** 2 + (cy - ay) ** 2
-    lc = (ax - bx) ** 2 + (ay - by) ** 2
-    mab = (0.5 * (ax + bx), 0.5 * (ay + by))
-    mbc = (0.5 * (bx + cx), 0.5 * (by + cy))
-    mca = (0.5 * (cx + ax), 0.5 * (cy + ay))
-    for obtuse, m in ((la > lb + lc, mbc), (lb > lc + la, mca), (lc > la + lb, mab)):
-        ox = np.where(obtuse, m[0], ox)
-        oy = np.where(obtuse, m[1], oy)
+    m = len(t)
+    x, y = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    # per triangle: the (clamped) circumcentre and the centroid, by blocks into full arrays
+    ox, oy, cen = np.empty(m), np.empty(m), np.empty((m, 2))
+
+    def centres(s):
+        tt = t[s]
+        ax, ay, bx, by, cx, cy = (x[tt[:, 0]], y[tt[:, 0]], x[tt[:, 1]], y[tt[:, 1]],
+                                  x[tt[:, 2]], y[tt[:, 2]])
+        qx, qy, _ = circumcenters(ax, ay, bx, by, cx, cy)
+        # obtuse: clamp the circumcenter to the midpoint of the longest edge
+        la = (bx - cx) ** 2 + (by - cy) ** 2
+        lb = (cx - ax) ** 2 + (cy - ay) ** 2
+        lc = (ax - bx) ** 2 + (ay - by) ** 2
+        for obtuse, (u, v) in ((la > lb + lc, (1, 2)), (lb > lc + la, (2, 0)),
+                               (lc > la + lb, (0, 1))):
+            px, py = (ax, bx, cx), (ay, by, cy)
+            qx = np.where(obtuse, 0.5 * (px[u] + px[v]), qx)
+            qy = np.where(obtuse, 0.5 * (py[u] + py[v]), qy)
+        ox[s], oy[s] = qx, qy
+        cen[s, 0] = (ax + bx + cx) / 3.0
+        cen[s, 1] = (ay + by + cy) / 3.0
+
+    block_map(centres, m)
     # density at the triangle centroid, one evaluation per triangle
-    rt = np.ones(len(t)) if rho is None else rho(
-        np.column_stack([(ax + bx + cx) / 3.0, (ay + by + cy) / 3.0]))
+    rt = np.ones(m) if rho is None else rho(cen)
+    del cen
     # the cells' sums over the points the triangles use (all points for a global step)
-    if 3 * len(t) < n:
+    if 3 * m < n:
         used, inv = np.unique(t, return_inverse=True)
         ids = inv.reshape(t.shape)
     else:
@@ -73,16 +84,30 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     mass = np.zeros(k)
     mx = np.zeros(k)
     my = np.zeros(k)
-    corners = (((ax, ay), mab, mca, ids[:, 0]), ((bx, by), mbc, mab, ids[:, 1]),
-               ((cx, cy), mca, mbc, ids[:, 2]))
-    for x, m1, m2, idx in corners:
-        for (px, py), (qx, qy) in ((x, m1), (m2, x)):
-            # sub-triangle (p, q, o) with p/q = vertex and an edge midpoint
-            ar = 0.5 * np.abs((qx - px) * (oy - py) - (qy - py) * (ox - px))
-            w = ar * rt
+    w, wx, wy = np.empty(m), np.empty(m), np.empty(m)
+    # sub-triangles (p, q, o) of corner c: p/q the corner and the midpoint of an edge at it
+    for c, (u, v) in ((0, (1, 2)), (1, (2, 0)), (2, (0, 1))):
+        for first in (True, False):
+
+            def sub(s):
+                tt = t[s]
+                cx_, cy_ = x[tt[:, c]], y[tt[:, c]]
+                # the midpoints of the edges (c, c+1) and (c-1, c), summed in that order
+                m1x, m1y = 0.5 * (cx_ + x[tt[:, u]]), 0.5 * (cy_ + y[tt[:, u]])
+                m2x, m2y = 0.5 * (x[tt[:, v]] + cx_), 0.5 * (y[tt[:, v]] + cy_)
+                px, py, qx, qy = (cx_, cy_, m1x, m1y) if first else (m2x, m2y, cx_, cy_)
+                o_x, o_y = ox[s], oy[s]
+                ar = 0.5 * np.abs((qx - px) * (o_y - py) - (qy - py) * (o_x - px))
+                ws = ar * rt[s]
+                w[s] = ws
+                wx[s] = ws * ((px + qx + o_x) / 3.0)
+                wy[s] = ws * ((py + qy + o_y) / 3.0)
+
+            block_map(sub, m)
+            idx = ids[:, c]
             mass += np.bincount(idx, w, minlength=k)
-            mx += np.bincount(idx, w * ((px + qx + ox) / 3.0), minlength=k)
-            my += np.bincount(idx, w * ((py + qy + oy) / 3.0), minlength=k)
+            mx += np.bincount(idx, wx, minlength=k)
+            my += np.bincount(idx, wy, minlength=k)
     if used is not None:
         full = np.zeros((3, n))
         full[:, used] = (mass, mx, my)
@@ -105,7 +130,9 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
 
     Only the corners of moving points are tested, and after the first try only those of the
     points whose step was just halved (the others keep their step, and their verdict); every
-    area is computed as for the whole mesh, so the result does not depend on that.
+    area is computed as for the whole mesh, so the result does not depend on that. The
+    triangles are taken by blocks (in threads), and the points that do not move are copied
+    (``targets`` there are not read).
     """
     p = points
     moving = np.asarray(moving, bool)
@@ -117,8 +144,11 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
     step[idx] = 1.0
     live = moving
     bad = np.zeros(len(p), bool)
+    parts = None
     for _ in range(halvings + 1):
-        bad = _folds_alone(p, t, targets, step, live, min_area_ratio)
+        bad, found = _folds_alone(p, t, targets, step, live, min_area_ratio)
+        if parts is None:  # the first try looks at every triangle with a moving corner
+            parts = found
         bad &= step > 0
         if not bad.any():
             break
@@ -126,50 +156,59 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
         live = bad
     else:
         step[bad] = 0.0
-    new = p + step[:, None] * (targets - p)
+    new = p.copy()
+    for b in blocks(len(idx)):
+        i = idx[b]
+        new[i] = p[i] + step[i, None] * (targets[i] - p[i])
     # joint check: adjacent movers may fold a triangle together
-    tri = t[any_corner(moving, t)]
-    lim = min_area_ratio * 0.5 * triangle_areas2(p, tri)
+    parts = [(t[rows], min_area_ratio * 0.5 * a0) for rows, a0 in parts]
     for _ in range(4):
-        fail = triangle_areas2(new, tri) < lim
-        if not fail.any():
+        fail = block_map(lambda b: [tb[triangle_areas2(new, tb) < lim]
+                                    for tb, lim in parts[b]], len(parts), 1)
+        fail = [f for group in fail for f in group if len(f)]
+        if not fail:
             break
-        hold = np.unique(tri[fail].ravel())
+        hold = np.unique(np.concatenate(fail).ravel())
         new[hold] = p[hold]
     return new
 
 
-def _folds_alone(p, t, targets, step, live, ratio) -> np.ndarray:
+def _folds_alone(p, t, targets, step, live, ratio):
     """The ``live`` points (mask) that would fold an incident triangle below ``ratio`` of
-    its area if each alone moved by its ``step`` towards its target (the others held)."""
-    x = np.ascontiguousarray(p[:, 0])
-    y = np.ascontiguousarray(p[:, 1])
-    # every point's tried position (the same numbers per point as per corner)
-    qx = x + step * (targets[:, 0] - x)
-    qy = y + step * (targets[:, 1] - y)
+    its area if each alone moved by its ``step`` towards its target (the others held); and,
+    per block of ``t``, the triangles with a live corner (ids, in order) and twice their
+    signed areas."""
 
     def block(s):
         tt = t[s]
         lv = [live[tt[:, k]] for k in range(3)]
         rows = np.flatnonzero(lv[0] | lv[1] | lv[2])
         c = [tt[rows, k] for k in range(3)]
-        ax, ay, bx, by, cx, cy = x[c[0]], y[c[0]], x[c[1]], y[c[1]], x[c[2]], y[c[2]]
-        lim = ratio * ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+        ax, ay, bx, by, cx, cy = (p[c[0], 0], p[c[0], 1], p[c[1], 0], p[c[1], 1],
+                                  p[c[2], 0], p[c[2], 1])
+        a0 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        lim = ratio * a0
         out = []
         for k in range(3):
-            px, py = qx[c[k]], qy[c[k]]
+            v = c[k]
+            # the corner alone at its tried position (the same numbers as for all points)
+            vx, vy, sv = p[v, 0], p[v, 1], step[v]
+            px = vx + sv * (targets[v, 0] - vx)
+            py = vy + sv * (targets[v, 1] - vy)
             if k == 0:
                 ar = (bx - px) * (cy - py) - (by - py) * (cx - px)
             elif k == 1:
                 ar = (px - ax) * (cy - ay) - (py - ay) * (cx - ax)
             else:
                 ar = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-            out.append(c[k][lv[k][rows] & (ar < lim)])
-        return np.concatenate(out)
+            out.append(v[lv[k][rows] & (ar < lim)])
+        return np.concatenate(out), rows + s.start, a0
 
+    found = block_map(block, len(t))
     bad = np.zeros(len(p), bool)
-    bad[block_concat(block, len(t))] = True
-    return bad
+    for f, _, _ in found:
+        bad[f] = True
+    return bad, [(rows, a0) for _, rows, a0 in found]
 
 
 def slide_on_curves(targets: np.ndarray, vertex_curve: np.ndarray, vertex_t: np.ndarray,

@@ -29,10 +29,11 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .geometry import pslg_from_parameters
-from .mesh import edge_keys
-from .metrics import circumcircles, signed_area2
+from .mesh import any_corner, edge_keys
+from .metrics import circumcircles, corner_columns, signed_area2
 from . import cvt
 from .density import background_points, estimate_elements
+from .parallel import BLOCK, block_concat, block_map, blocks
 from .refine import (FREE, Context, WorkSet, add_free_points, edge_params, project_to_level,
                      row_tangent,
                      slide_along_rows, smooth, thin_candidates_mask, triangulate,
@@ -60,7 +61,12 @@ def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float) -> np.ndarray:
 def _row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None = None
                  ) -> np.ndarray:
     """:func:`_row_step` at ``pts`` (``grad``: grad f there, if known), for the gradient
-    capped by the context (:meth:`Context.cap_at`)."""
+    capped by the context (:meth:`Context.cap_at`); pointwise, so by blocks of points."""
+    if len(pts) > BLOCK:
+        dp = np.broadcast_to(dprime, (len(pts),))
+        return block_concat(lambda s: _row_step_at(ctx, pts[s], dp[s],
+                                                   None if grad is None else grad[s]),
+                            len(pts), serial=True)
     gr = ctx.grad_f(pts) if grad is None else grad
     gn = np.minimum(np.nan_to_num(np.linalg.norm(gr, axis=1), nan=np.inf), ctx.cap_at(pts))
     return _row_step(ctx, gn, dprime)
@@ -983,7 +989,7 @@ def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
     for _ in range(rounds):
         tris = triangulate(ws, ctx)
         cc, R = circumcircles(ws.P, tris)
-        cen = ws.P[tris].mean(axis=1)
+        cen = _centroids(ws.P, tris)
         hloc = _row_step_at(ctx, cen, dprime)
         big = R > 0.75 * hloc
         if not big.any():
@@ -1000,6 +1006,27 @@ def _fill(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
             return tris
         add_free_points(ws, cand)
     return triangulate(ws, ctx)
+
+
+def _centroids(P: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Triangle centroids ``(M, 2)``, ``P[tris].mean(axis=1)``: the same numbers,
+    ``((a + b) + c) / 3`` per coordinate, from coordinate columns."""
+    (ax, ay), (bx, by), (cx, cy) = corner_columns(P, tris)
+    return np.column_stack([(ax + bx + cx) / 3, (ay + by + cy) / 3])
+
+
+def _midpoints(P: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The midpoints of the segments ``(P[a], P[b])``, as x and y columns (``0.5 * (P[a] +
+    P[b])``, the same numbers), by blocks."""
+    mx, my = np.empty(len(a)), np.empty(len(a))
+
+    def block(s):
+        ia, ib = a[s], b[s]
+        mx[s] = 0.5 * (P[ia, 0] + P[ib, 0])
+        my[s] = 0.5 * (P[ia, 1] + P[ib, 1])
+
+    block_map(block, len(a))
+    return mx, my
 
 
 def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: int = 6,
@@ -1036,7 +1063,7 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
         fac = np.concatenate(parts)
         # row ends next to the boundary keep their place: moving them squeezes boundary triangles
         near_bnd = np.zeros(ws.n, bool)
-        near_bnd[tris[(ws.vcurve[tris] != FREE).any(axis=1)].ravel()] = True
+        near_bnd[tris[any_corner(ws.vcurve != FREE, tris)].ravel()] = True
         cnt = np.bincount(fac[:, 0], minlength=ws.n)
         mov = np.isfinite(ws.level) & ~ws.pinned & (cnt > 0) & ~near_bnd
         return fac, cnt, mov
@@ -1046,12 +1073,16 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
         if not mov.any():
             break
         with ctx.timed("stagger"):
-            mid = 0.5 * (ws.P[fac[:, 1]] + ws.P[fac[:, 2]])
-            tx = np.bincount(fac[:, 0], mid[:, 0], minlength=ws.n)[mov]
-            ty = np.bincount(fac[:, 0], mid[:, 1], minlength=ws.n)[mov]
+            mx, my = _midpoints(ws.P, fac[:, 1], fac[:, 2])
+            im = np.flatnonzero(mov)
+            tx = np.bincount(fac[:, 0], mx, minlength=ws.n)[im]
+            ty = np.bincount(fac[:, 0], my, minlength=ws.n)[im]
             target = ws.P.copy()
-            target[mov] = slide_along_rows(ctx, ws.P[mov], np.column_stack([tx, ty]) / cnt[mov, None],
-                                           ws.level[mov], relax=relax, iters=2)
+            for b in blocks(len(im)):  # by blocks of row nodes: no arrays over all of them
+                i = im[b]
+                target[i] = slide_along_rows(ctx, ws.P[i],
+                                             np.column_stack([tx[b], ty[b]]) / cnt[i, None],
+                                             ws.level[i], relax=relax, iters=2)
             ws.P = cvt.limit_to_star(ws.P, tris, target, mov, halvings=2)
         if (it + 1) % 4 == 0 or it == iters - 1:  # between rebuilds the star limit keeps it valid
             tris = triangulate(ws, ctx)

@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from .errors import MeshDataError
 from .metrics import triangle_areas2
 
-__all__ = ["Mesh", "edge_keys", "edge_order", "any_corner", "component_labels"]
+__all__ = ["Mesh", "edge_keys", "edge_order", "any_corner", "points_near", "component_labels"]
 
 
 def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -38,6 +38,34 @@ def any_corner(mask: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Triangles ``(M,)`` with a corner in the point ``mask``: ``mask[triangles].any(axis=1)``
     by two elementwise ors (a reduction over the short axis costs several times more)."""
     return mask[triangles[:, 0]] | mask[triangles[:, 1]] | mask[triangles[:, 2]]
+
+
+#: cells per side of the grid of :func:`points_near`
+SCREEN_CELLS = 2048
+
+
+def points_near(points: np.ndarray, query: np.ndarray, reach: float) -> np.ndarray:
+    """Ids of a subset of ``points`` that holds every point within ``reach`` of a query.
+
+    A grid of at most :data:`SCREEN_CELLS` square cells per side over the queries' box, its
+    cells no smaller than ``reach``, marks the cells next to each query; the points in
+    marked cells are returned (a few queries among many points: one pass over the points
+    instead of a k-d tree of all of them).
+    """
+    lo = query.min(axis=0) - reach
+    hi = query.max(axis=0) + reach
+    cell = max(1.001 * float(reach), float((hi - lo).max()) / SCREEN_CELLS, 1e-300)
+    shape = np.minimum(np.ceil((hi - lo) / cell).astype(np.int64) + 1, SCREEN_CELLS + 2)
+    mark = np.zeros((shape[0] + 2, shape[1] + 2), bool)
+    qc = np.floor((query - lo) / cell).astype(np.int64) + 1
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            mark[np.clip(qc[:, 0] + dx, 0, shape[0] + 1),
+                 np.clip(qc[:, 1] + dy, 0, shape[1] + 1)] = True
+    pc = np.floor((points - lo) / cell)
+    inb = (pc[:, 0] >= 0) & (pc[:, 0] < shape[0]) & (pc[:, 1] >= 0) & (pc[:, 1] < shape[1])
+    sel = np.flatnonzero(inb)
+    return sel[mark[pc[sel, 0].astype(np.int64) + 1, pc[sel, 1].astype(np.int64) + 1]]
 
 
 def edge_order(keys: np.ndarray) -> np.ndarray:
@@ -262,7 +290,7 @@ class Mesh:
         used = np.zeros(len(p), bool)
         used[t.ravel()] = True
         pu = p[used]
-        finite = np.isfinite(pu).all(axis=1)
+        finite = np.isfinite(pu[:, 0]) & np.isfinite(pu[:, 1])
         extent = np.ptp(pu[finite], axis=0).max() if finite.any() else 0.0
         scale = max(float(extent), 1e-300)
         a = self.areas

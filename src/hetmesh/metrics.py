@@ -26,6 +26,7 @@ __all__ = [
     "statistics",
     "side_lengths",
     "circumcircles",
+    "circumcenters",
     "corner_columns",
 ]
 
@@ -62,17 +63,23 @@ def circumcircles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray
 
     def block(s):
         t = triangles[s]
-        ax, ay, bx, by, cx, cy = (x[t[:, 0]], y[t[:, 0]], x[t[:, 1]], y[t[:, 1]],
+        ox, oy, r = circumcenters(x[t[:, 0]], y[t[:, 0]], x[t[:, 1]], y[t[:, 1]],
                                   x[t[:, 2]], y[t[:, 2]])
-        bax, bay, cax, cay = bx - ax, by - ay, cx - ax, cy - ay
-        d = 2.0 * (bax * cay - bay * cax)
-        d = np.where(np.abs(d) < 1e-300, 1e-300, d)
-        bl, cl = bax ** 2 + bay ** 2, cax ** 2 + cay ** 2
-        ux = (cay * bl - bay * cl) / d
-        uy = (bax * cl - cax * bl) / d
-        return np.column_stack([ax + ux, ay + uy]), np.hypot(ux, uy)
+        return np.column_stack([ox, oy]), r
 
     return block_concat(block, len(triangles))
+
+
+def circumcenters(ax, ay, bx, by, cx, cy):
+    """Circumcentres ``(ox, oy)`` and circumradii of the triangles with corners ``(ax, ay)``,
+    ``(bx, by)``, ``(cx, cy)`` (arrays)."""
+    bax, bay, cax, cay = bx - ax, by - ay, cx - ax, cy - ay
+    d = 2.0 * (bax * cay - bay * cax)
+    d = np.where(np.abs(d) < 1e-300, 1e-300, d)
+    bl, cl = bax ** 2 + bay ** 2, cax ** 2 + cay ** 2
+    ux = (cay * bl - bay * cl) / d
+    uy = (bax * cl - cax * bl) / d
+    return ax + ux, ay + uy, np.hypot(ux, uy)
 
 
 def _quality(s: np.ndarray) -> np.ndarray:

@@ -53,7 +53,8 @@ import numpy as np
 
 from .discontinuity import element_subregions, has_subregions
 from .mesh import any_corner, edge_keys, edge_order
-from .metrics import element_delta, signed_area2
+from .metrics import element_delta, signed_area2, triangle_areas2
+from .parallel import block_concat
 from .refine import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
 __all__ = ["optimize", "independent_sets"]
@@ -77,7 +78,8 @@ class _Eval:
         self.sub = has_subregions(ctx.field)
 
     def comp(self, pts):
-        return self.field.composition(pts)
+        """Compositions at ``pts`` (pointwise: by blocks of points)."""
+        return block_concat(lambda s: self.field.composition(pts[s]), len(pts), serial=True)
 
     def delta(self, X: np.ndarray, C: np.ndarray, reg) -> np.ndarray:
         """delta of triangles with corners ``X (n, 3, 2)`` and corner compositions
@@ -112,6 +114,11 @@ def _qa(X: np.ndarray):
         s2 = np.minimum(np.minimum(a2, b2), c2)
         cos = np.where(den > 0, (a2 + b2 + c2 - 2.0 * s2) / (2.0 * den / np.sqrt(s2)), 1.0)
     return np.clip(q, 0.0, 1.0), cos
+
+
+def _quality_of(P: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """:func:`_qa`'s quality of every triangle, by blocks (in threads)."""
+    return block_concat(lambda s: _qa(P[tris[s]])[0], len(tris))
 
 
 def _area2(X: np.ndarray) -> np.ndarray:
@@ -295,12 +302,11 @@ class _Constraints:
         self.lv = np.flatnonzero(lev[idx])
         self.modes = ("row", "free") if len(self.lv) else ("free",)
         if len(self.oc):
-            lo, hi = curve_bounds(ws, ctx)
+            ids = idx[self.oc]  # sorted
+            self.lo, self.hi = curve_bounds(ws, ctx, ids)
             # no slide may stretch a chord beyond the chord tolerance: it moves the curve
             # off its chord (the neighbours along the curve do not move in this set)
-            tmin, tmax = chord_window(ws, ctx, lo, hi)
-            self.lo, self.hi = lo[idx[self.oc]], hi[idx[self.oc]]
-            self.tmin, self.tmax = tmin[idx[self.oc]], tmax[idx[self.oc]]
+            self.tmin, self.tmax = chord_window(ws, ctx, self.lo, self.hi, ids)
         if len(self.lv):
             x = ws.P[idx[self.lv]]
             gr = ctx.grad_f(x)
@@ -466,7 +472,7 @@ def _update_half(half, tris, changed):
 def _valid(P, tris, ckeys, keys) -> bool:
     """Every triangle counter-clockwise and every constraint edge a mesh edge (``keys``:
     the sorted half-edge keys)."""
-    if (_area2(P[tris]) <= 0).any():
+    if (triangle_areas2(P, tris) <= 0).any():
         return False
     pos = np.minimum(np.searchsorted(keys, ckeys), len(keys) - 1)
     return bool(np.all(keys[pos] == ckeys))
@@ -507,7 +513,7 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
     near = movable
     # the triangles' qualities and sorted half-edges, kept up to date where flips and
     # moves change them (the same numbers as computing them again)
-    q, _ = _qa(ws.P[tris])
+    q = _quality_of(ws.P, tris)
     for it in range(sweeps):
         nf = 0
         for _ in range(flips):
@@ -536,8 +542,7 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
             break
         near = movable & _grow(tris, moved)
     comp, delta, _ = ev.full(ws.P, tris)
-    X = ws.P[tris]
-    if delta.max() >= ctx.threshold or (_area2(X) <= 0).any():
+    if delta.max() >= ctx.threshold or (triangle_areas2(ws.P, tris) <= 0).any():
         log.warning("optimisation broke a claim (delta_max %.6g, threshold %g); kept the "
                     "repaired mesh", delta.max(), ctx.threshold)
         ws.P, ws.vt = P0, vt0

@@ -71,19 +71,24 @@ def _run(fn, s):
         _inside.active = False
 
 
-def block_map(fn, n: int, size: int = BLOCK) -> list:
+def block_map(fn, n: int, size: int = BLOCK, serial: bool = False) -> list:
     """``[fn(s) for s in blocks(n, size)]``, the blocks spread over threads when there are
-    several (and this is not already a worker thread)."""
+    several (and this is not already a worker thread); with ``serial``, one after the other
+    in the calling thread (for work that is not safe in threads, such as evaluating a
+    material field: blocks still keep the temporaries small)."""
     parts = blocks(n, size)
-    ex = None if len(parts) < 2 or getattr(_inside, "active", False) else _executor()
+    ex = (None if serial or len(parts) < 2 or getattr(_inside, "active", False)
+          else _executor())
     if ex is None:
         return [fn(s) for s in parts]
     return list(ex.map(lambda s: _run(fn, s), parts))
 
 
-def block_concat(fn, n: int, size: int = BLOCK, axis: int = 0):
+def block_concat(fn, n: int, size: int = BLOCK, axis: int = 0, serial: bool = False):
     """:func:`block_map`, the block results (arrays, or tuples of arrays) concatenated."""
-    parts = block_map(fn, n, size)
+    parts = block_map(fn, n, size, serial)
+    if len(parts) == 1:
+        return parts[0]
     if not parts:
         return fn(slice(0, 0))
     if isinstance(parts[0], tuple):

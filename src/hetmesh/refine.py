@@ -19,8 +19,9 @@ from scipy.spatial import cKDTree
 
 from . import cvt
 from . import density as dens
-from .mesh import any_corner
-from .triangulate import constrained_delaunay
+from .mesh import any_corner, points_near
+from .parallel import BLOCK, block_concat
+from .triangulate import constrained_delaunay, patch
 
 __all__ = ["WorkSet", "Context", "triangulate", "split_constraint_edges", "add_free_points",
            "smooth"]
@@ -69,8 +70,21 @@ class Context:
         return self.threshold / self.h_min if self.h_min > 0 else np.inf
 
     def g(self, pts: np.ndarray) -> np.ndarray:
-        """|grad f| (Eq. 5), capped at :attr:`g_cap` (also where it is nan or inf)."""
-        g = dens.gradient_norm(self.field, pts)
+        """|grad f| (Eq. 5), capped at :attr:`g_cap` (also where it is nan or inf).
+
+        The norm is :func:`hetmesh.density.gradient_norm`'s, the same numbers by elementwise
+        passes over the constituents (its reductions over the short axes cost twice the
+        gradient itself on a million points); by blocks of points."""
+        if len(pts) > BLOCK:
+            return block_concat(lambda s: self.g(pts[s]), len(pts), serial=True)
+        gr = self.field.gradient(pts)
+        g = None
+        for j in range(gr.shape[1]):
+            gx, gy = gr[:, j, 0], gr[:, j, 1]
+            gj = np.sqrt(gx * gx + gy * gy)
+            g = gj if g is None else np.maximum(g, gj, out=g)
+        if g is None:
+            g = np.zeros(len(gr))
         return np.minimum(np.nan_to_num(g, nan=np.inf, posinf=np.inf), self.cap_at(pts))
 
     def cap_at(self, pts: np.ndarray) -> np.ndarray:
@@ -80,6 +94,8 @@ class Context:
         return np.minimum(self.variation_cap(pts), self.g_cap)
 
     def rho(self, pts: np.ndarray) -> np.ndarray:
+        if len(pts) > BLOCK:
+            return block_concat(lambda s: self.rho(pts[s]), len(pts), serial=True)
         return dens.density(self.g(pts), self.h_max, self.threshold)  # Eq. (9)
 
     # the scalar composition whose level curves carry node rows (two constituents)
@@ -146,40 +162,53 @@ def edge_params(ws: WorkSet, ctx: Context) -> np.ndarray:
     return out
 
 
-def curve_bounds(ws: WorkSet, ctx: Context) -> tuple[np.ndarray, np.ndarray]:
-    """For every curve vertex, the parameters of its neighbours along the curve."""
+def curve_bounds(ws: WorkSet, ctx: Context, ids: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """For every curve vertex (or the vertices ``ids``, sorted), the parameters of its
+    neighbours along the curve."""
     et = edge_params(ws, ctx)
-    lo = np.full(ws.n, -np.inf)
-    hi = np.full(ws.n, np.inf)
+    k = ws.n if ids is None else len(ids)
+    lo = np.full(k, -np.inf)
+    hi = np.full(k, np.inf)
     for j in (0, 1):
         v, tv, to = ws.E[:, j], et[:, j], et[:, 1 - j]
         own = ws.vcurve[v] == ws.ecurve
+        if ids is not None:  # the edges at the vertices asked for, by their place in ids
+            pos = np.minimum(np.searchsorted(ids, v), max(k - 1, 0))
+            own &= (ids[pos] == v) if k else np.zeros(len(v), bool)
+            v = pos
         up = own & (to > tv)
         np.minimum.at(hi, v[up], to[up])
         dn = own & (to < tv)
         np.maximum.at(lo, v[dn], to[dn])
-    lo = np.where(np.isfinite(lo), lo, ws.vt)
-    hi = np.where(np.isfinite(hi), hi, ws.vt)
+    vt = ws.vt if ids is None else ws.vt[ids]
+    lo = np.where(np.isfinite(lo), lo, vt)
+    hi = np.where(np.isfinite(hi), hi, vt)
     return lo, hi
 
 
-def chord_window(ws: WorkSet, ctx: Context, lo: np.ndarray, hi: np.ndarray):
+def chord_window(ws: WorkSet, ctx: Context, lo: np.ndarray, hi: np.ndarray,
+                 ids: np.ndarray | None = None):
     """The parameters a curve vertex may slide to without a chord to its neighbours (at
     ``lo`` and ``hi``, :func:`curve_bounds`) exceeding the chord tolerance ``ctx.chord_tol``
-    (sagitta, exact for arcs): ``(t_min, t_max)``. Where the window is empty (a chord
-    already too long on both sides) the vertex keeps its parameter. Unbounded for
-    segments and without a tolerance."""
-    t_min, t_max = np.full(ws.n, -np.inf), np.full(ws.n, np.inf)
-    on = ws.vcurve >= 0
+    (sagitta, exact for arcs): ``(t_min, t_max)``, for every vertex or the vertices ``ids``
+    (``lo``, ``hi`` then theirs). Where the window is empty (a chord already too long on
+    both sides) the vertex keeps its parameter. Unbounded for segments and without a
+    tolerance."""
+    k = ws.n if ids is None else len(ids)
+    t_min, t_max = np.full(k, -np.inf), np.full(k, np.inf)
+    vc = ws.vcurve if ids is None else ws.vcurve[ids]
+    on = vc >= 0
     if ctx.chord_tol is None or not on.any():
         return t_min, t_max
     batch = ctx.domain.curve_batch
     step_t = batch.max_step(ctx.chord_tol) / np.array([c.length for c in ctx.curves])
-    st = step_t[np.where(on, ws.vcurve, 0)]
+    st = step_t[np.where(on, vc, 0)]
     t_min = np.where(on, hi - st, -np.inf)
     t_max = np.where(on, lo + st, np.inf)
     empty = t_min > t_max
-    t_min[empty] = t_max[empty] = ws.vt[empty]
+    vt = ws.vt if ids is None else ws.vt[ids]
+    t_min[empty] = t_max[empty] = vt[empty]
     return t_min, t_max
 
 
@@ -205,20 +234,37 @@ def chord_violators(ws: WorkSet, ctx: Context, t_new: np.ndarray, moving: np.nda
     return bad
 
 
+#: work sets of at least this many points update their triangulation locally where little
+#: changed (:func:`hetmesh.triangulate.patch`); smaller ones are always rebuilt
+PATCH_MIN_POINTS = 1 << 17
+
+
 def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
     """The constrained Delaunay triangulation of the work set's points and constraint edges,
     inside the domain (read-only).
 
     The last one is kept on the work set beside copies of the points and edges it was made
-    of, and returned again while they are unchanged (the placement's last triangulation is
-    the repair loop's first): a comparison instead of a rebuild."""
+    of. While they are unchanged it is returned again (the placement's last triangulation
+    is the repair loop's first): a comparison instead of a rebuild. On a work set of at
+    least :data:`PATCH_MIN_POINTS` points where a few points moved or were added and a few
+    constraint edges were split (a refinement round in a million-element mesh), it is
+    updated in a window around the changes (:func:`hetmesh.triangulate.patch`): the same
+    triangles (up to the choice among cocircular points) in another order, for a
+    twentieth of the cost. Below that size the full rebuild is cheap, and keeps the
+    triangle order, so the meshes, of the versions before local updates.
+    """
     c = ws.cdt
     if (c is not None and c[0] is ctx and np.array_equal(c[1], ws.P)
             and np.array_equal(c[2], ws.E)):
         return c[3]
     with ctx.timed("cdt"):
         bmask = ctx.boundary_curve[ws.ecurve]
-        tris = constrained_delaunay(ws.P, ws.E, inside=ctx.inside, boundary_edges=ws.E[bmask])
+        tris = None
+        if c is not None and c[0] is ctx and ws.n >= PATCH_MIN_POINTS:
+            tris = patch(ws.P, ws.E, bmask, c[1], c[2], c[3])
+        if tris is None:
+            tris = constrained_delaunay(ws.P, ws.E, inside=ctx.inside,
+                                        boundary_edges=ws.E[bmask])
     tris.flags.writeable = False
     ws.cdt = (ctx, ws.P.copy(), ws.E.copy(), tris)
     return tris
@@ -285,8 +331,11 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     # a candidate yields to an earlier one within either's distance, among its k nearest
     # (deterministic); only those with another candidate within the largest distance can
     tree = cKDTree(cand)
-    near = np.flatnonzero(tree.query(cand, k=2, distance_upper_bound=float(md.max()),
-                                     workers=-1)[0][:, 1] < np.inf)
+    if np.isfinite(md).all():
+        near = np.flatnonzero(tree.query_ball_point(cand, r=md, return_length=True,
+                                                    workers=-1) > 1)
+    else:
+        near = np.arange(len(cand))
     clash = np.zeros(len(cand), bool)
     if len(near):
         d, j = tree.query(cand[near], k=min(6, len(cand)), workers=-1)
@@ -295,41 +344,24 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     return out
 
 
-#: cells per side of the grid :func:`nearest_distance` screens the points with
-SCREEN_CELLS = 2048
-
-
 def nearest_distance(points: np.ndarray, query: np.ndarray, reach: float) -> np.ndarray:
     """Distance from every ``query`` point to the nearest of ``points``, exact where it is at
     most ``reach`` (elsewhere it may be any larger value, inf included).
 
     A few queries among many points (a refinement round's Steiner candidates) do not need
-    a k-d tree over all the points: a grid of at most :data:`SCREEN_CELLS` square cells per
-    side, no smaller than ``reach``, marks the cells next to a query, and only the points in
-    marked cells go into the tree (any point within ``reach`` of a query is among them).
+    a k-d tree over all the points: only the points near the queries go into it
+    (:func:`hetmesh.mesh.points_near`); the tree's search stops a hair beyond ``reach``.
     """
     pts = points
     if len(pts) == 0:
         return np.full(len(query), np.inf)
     if len(query) * 64 < len(pts) and np.isfinite(reach) and reach >= 0:
-        lo = query.min(axis=0) - reach
-        hi = query.max(axis=0) + reach
-        cell = max(1.001 * float(reach), float((hi - lo).max()) / SCREEN_CELLS, 1e-300)
-        shape = np.minimum(np.ceil((hi - lo) / cell).astype(np.int64) + 1, SCREEN_CELLS + 2)
-        mark = np.zeros((shape[0] + 2, shape[1] + 2), bool)
-        qc = np.floor((query - lo) / cell).astype(np.int64) + 1
-        for dx in (-1, 0, 1):
-            for dy in (-1, 0, 1):
-                mark[np.clip(qc[:, 0] + dx, 0, shape[0] + 1),
-                     np.clip(qc[:, 1] + dy, 0, shape[1] + 1)] = True
-        pc = np.floor((pts - lo) / cell)
-        inb = ((pc >= 0) & (pc < shape)).all(axis=1)
-        sel = np.flatnonzero(inb)
-        sel = sel[mark[pc[sel, 0].astype(np.int64) + 1, pc[sel, 1].astype(np.int64) + 1]]
-        if len(sel) == 0:
+        pts = pts[points_near(pts, query, reach)]
+        if len(pts) == 0:
             return np.full(len(query), np.inf)
-        pts = pts[sel]
-    d, _ = cKDTree(pts).query(query, workers=-1)
+    # a bound a hair above ``reach`` prunes the search for far points (inf there)
+    bound = max(float(reach), 0.0) * (1.0 + 1e-9) + 1e-300 if np.isfinite(reach) else np.inf
+    d, _ = cKDTree(pts).query(query, distance_upper_bound=bound, workers=-1)
     return d
 
 
@@ -342,7 +374,14 @@ def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: in
     arbitrarily far (1e13 domain widths were seen). With ``tol``, also returns whether each
     point ended on its level, |f - level| <= ``tol``, and inside the domain: callers drop
     (or do not move) the points that did not.
+
+    Pointwise, so done by blocks of points (the material field's temporaries stay small).
     """
+    if len(pts) > BLOCK:
+        tl = np.broadcast_to(tol, level.shape) if tol is not None else None
+        return block_concat(lambda s: project_to_level(
+            ctx, pts[s], level[s], iters, None if tl is None else tl[s]), len(pts),
+            serial=True)
     p = pts.copy()
     cap = ctx.h_max
     for _ in range(iters):
@@ -378,7 +417,11 @@ def row_tangent(gr: np.ndarray) -> np.ndarray:
 def slide_along_rows(ctx: Context, x: np.ndarray, target: np.ndarray, level: np.ndarray,
                      relax: float = 1.0, iters: int = 3) -> np.ndarray:
     """Move row nodes ``x`` towards ``target`` along their row only: the tangential part of
-    the move (times ``relax``), then Newton back onto the level curve f = ``level``."""
+    the move (times ``relax``), then Newton back onto the level curve f = ``level``
+    (pointwise: by blocks of points)."""
+    if len(x) > BLOCK:
+        return block_concat(lambda s: slide_along_rows(ctx, x[s], target[s], level[s], relax,
+                                                       iters), len(x), serial=True)
     tng = row_tangent(ctx.grad_f(x))
     step = relax * ((target - x) * tng).sum(1, keepdims=True) * tng
     return project_to_level(ctx, x + step, level, iters=iters)
@@ -403,41 +446,65 @@ def smooth(ws: WorkSet, ctx: Context, tris: np.ndarray, iters: int = 3,
 
 
 def _lloyd_step(ws: WorkSet, ctx: Context, tris: np.ndarray, active: np.ndarray | None) -> None:
-    """One conforming Lloyd move of the work set on the connectivity ``tris`` (see smooth)."""
-    # only the triangles around moving vertices matter (all of them without `active`)
-    sub = tris if active is None else tris[any_corner(active, tris)]
-    cent, mass = cvt.cell_centroids(ws.P, sub, ctx.rho)
-    movable = ~ws.pinned & (ws.vcurve != FIXED) & (mass > 0)
+    """One conforming Lloyd move of the work set on the connectivity ``tris`` (see smooth).
+
+    With ``active``, only the triangles around the active vertices and their points are
+    looked at, in arrays of their own (the same moves as over the whole mesh: nothing else
+    enters them), so a local smoothing in a mesh of millions costs in proportion to it."""
+    if active is None:
+        sub, U = tris, None
+        P, pinned, vcurve, level, vt = ws.P, ws.pinned, ws.vcurve, ws.level, ws.vt
+    else:
+        sub = tris[any_corner(active, tris)]
+        U, loc = np.unique(sub, return_inverse=True)  # the points these triangles use
+        sub = loc.reshape(sub.shape)
+        P, pinned, vcurve, level, vt = ws.P[U], ws.pinned[U], ws.vcurve[U], ws.level[U], ws.vt[U]
+    cent, mass = cvt.cell_centroids(P, sub, ctx.rho)
+    movable = ~pinned & (vcurve != FIXED) & (mass > 0)
     if active is not None:
-        movable &= active
+        movable &= active[U]
     target = cent
-    lev = np.isfinite(ws.level) & movable & (ws.vcurve == FREE)
+    lev = np.isfinite(level) & movable & (vcurve == FREE)
     if lev.any():
         target = target.copy()
-        target[lev] = slide_along_rows(ctx, ws.P[lev], cent[lev], ws.level[lev])
-    oncurve = movable & (ws.vcurve >= 0)
+        target[lev] = slide_along_rows(ctx, P[lev], cent[lev], level[lev])
+    oncurve = movable & (vcurve >= 0)
     if oncurve.any():
-        lo, hi = curve_bounds(ws, ctx)
-        slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, ws.vcurve, -1), ws.vt,
+        lo, hi = curve_bounds(ws, ctx, U)
+        slid, tnew = cvt.slide_on_curves(target, np.where(oncurve, vcurve, -1), vt,
                                          ctx.curves, lo, hi)
-        t_min, t_max = chord_window(ws, ctx, lo, hi)
+        t_min, t_max = chord_window(ws, ctx, lo, hi, U)
         clip = oncurve & ((tnew < t_min) | (tnew > t_max))
         if clip.any():  # a chord would exceed the tolerance: slide only as far as allowed
             tnew = np.where(clip, np.clip(tnew, t_min, t_max), tnew)
-            for c in np.unique(ws.vcurve[clip]):
-                s = np.flatnonzero(clip & (ws.vcurve == c))
+            for c in np.unique(vcurve[clip]):
+                s = np.flatnonzero(clip & (vcurve == c))
                 slid[s] = ctx.curves[c].point(tnew[s])
         target = np.where(oncurve[:, None], slid, target)
-    moved = cvt.limit_to_star(ws.P, sub, target, movable)
+    moved = cvt.limit_to_star(P, sub, target, movable)
     if oncurve.any():
         # keep the parameter of curve nodes consistent with where they ended up
-        ok = oncurve & np.all(moved == target, axis=1)
-        vt_old = ws.vt
-        ws.vt = np.where(ok, tnew, ws.vt)
+        ok = oncurve & (moved[:, 0] == target[:, 0]) & (moved[:, 1] == target[:, 1])
+        vt_new = np.where(ok, tnew, vt)
         back = oncurve & ~ok
-        moved[back] = ws.P[back]
-        stretch = chord_violators(ws, ctx, ws.vt, ok & (ws.vt != vt_old))
+        moved[back] = P[back]
+        vt_old = ws.vt
+        slid_t = ok & (vt_new != vt)
+        if U is None:
+            ws.vt, moving = vt_new, slid_t
+        else:
+            ws.vt = vt_old.copy()
+            ws.vt[U] = vt_new
+            moving = np.zeros(ws.n, bool)
+            moving[U] = slid_t
+        stretch = chord_violators(ws, ctx, ws.vt, moving)
         if stretch.any():
             ws.vt = np.where(stretch, vt_old, ws.vt)
-            moved[stretch] = ws.P[stretch]
-    ws.P = moved
+            st = stretch if U is None else stretch[U]
+            moved[st] = P[st]
+    if U is None:
+        ws.P = moved
+    else:
+        out = ws.P.copy()
+        out[U] = moved
+        ws.P = out

@@ -21,12 +21,13 @@ import numpy as np
 import pythoncdt as cdt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, shortest_path
+from scipy.spatial import cKDTree
 
 from .errors import MeshingError
-from .mesh import any_corner, component_labels, edge_keys
+from .mesh import any_corner, component_labels, edge_keys, points_near
 from .metrics import triangle_areas2
 
-__all__ = ["constrained_delaunay"]
+__all__ = ["constrained_delaunay", "patch"]
 
 log = logging.getLogger(__name__)
 
@@ -82,7 +83,7 @@ def constrained_delaunay(points: np.ndarray, edges: np.ndarray, inside=None,
             t.erase_outer_triangles_and_holes()
             return np.ascontiguousarray(t.triangles_array()["vertices"].astype(np.int32))
     else:
-        keep = (v >= SUPER).all(axis=1)
+        keep = (v[:, 0] >= SUPER) & (v[:, 1] >= SUPER) & (v[:, 2] >= SUPER)
     # the kernel returns counter-clockwise triangles (checked in tests/test_triangulate.py)
     tris = (v[keep] - SUPER).astype(np.int32)
     if inside is None or parity or len(tris) == 0:
@@ -162,7 +163,51 @@ def _odd_depth(v: np.ndarray, nbr: np.ndarray, edges: np.ndarray, n: int) -> np.
 
 
 def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
-    """Flood the triangle adjacency graph without crossing boundary edges; keep the inside pieces."""
+    """Flood the triangle adjacency graph without crossing boundary edges; keep the inside
+    pieces (mask over ``tris``; ``nbr`` the neighbour across side k, -1 for none).
+
+    Every piece is classified by ``inside`` at the centroid of its largest triangle (the
+    first of equal ones). Boundary nodes sit on their curves up to rounding, so a straight
+    boundary can bulge outwards by 1e-16 and the kernel then fills the bulge with slivers
+    of zero area, whose centroids lie on the boundary and test inside or outside by chance;
+    a piece of (numerically) zero area is such a bulge and never inside.
+
+    As for the depth flood (:func:`_odd_depth`), only the triangles touching a boundary
+    vertex are flooded, the others taken as one region; the result stands if every
+    boundary edge then has exactly one kept side (none outside the hull), else the whole
+    graph is flooded (:func:`_all_components`).
+    """
+    area = 0.5 * np.abs(triangle_areas2(pts, tris))
+    keep = _band_components(pts, tris, nbr, boundary_edges, inside, area)
+    if keep is None:
+        keep = _all_components(pts, tris, nbr, boundary_edges, inside, area)
+    return keep
+
+
+def _cut_keys(boundary_edges) -> np.ndarray:
+    return np.unique(edge_keys(boundary_edges[:, 0], boundary_edges[:, 1]))
+
+
+def _classify(pts, tris, label, n, area, inside) -> np.ndarray:
+    """Whether each of the ``n`` pieces (``label`` per triangle) is inside: ``inside`` at
+    the centroid of its largest triangle (the first of equal ones), and a piece of
+    positive area."""
+    total = np.bincount(label, area, minlength=n)
+    big = np.full(n, -np.inf)
+    np.maximum.at(big, label, area)
+    top = np.flatnonzero(area == big[label])
+    first = np.full(n, len(tris), np.int64)
+    np.minimum.at(first, label[top], top)
+    if (first == len(tris)).any():  # nan areas: sort (nan last), as before
+        order = np.lexsort((-area, label))
+        first = order[np.searchsorted(label[order], np.arange(n))]
+    comp_inside = np.asarray(inside(pts[tris[first]].mean(axis=1)), dtype=bool)
+    comp_inside &= total > 1e-12 * area.sum()
+    return comp_inside
+
+
+def _all_components(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray:
+    """:func:`_inside_components` over the whole adjacency graph."""
     m = len(tris)
     # the kernel's neighbour k lies across the edge (v_k, v_k+1)
     src = np.repeat(np.arange(m), 3)
@@ -171,20 +216,237 @@ def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     ok = (dst >= 0) & (dst < m)
     src, k, dst = src[ok], k[ok], dst[ok]
     keys = edge_keys(tris[src, k], tris[src, (k + 1) % 3])
-    bkeys = np.unique(edge_keys(boundary_edges[:, 0], boundary_edges[:, 1]))
+    bkeys = _cut_keys(boundary_edges)
     pos = np.minimum(np.searchsorted(bkeys, keys), len(bkeys) - 1)
     cut = bkeys[pos] == keys if len(bkeys) else np.zeros(len(keys), bool)
     label = component_labels(m, src[~cut], dst[~cut])
-    # one representative triangle per piece: its largest. Boundary nodes sit on their curves
-    # up to rounding, so a straight boundary can bulge outwards by 1e-16 and the kernel then
-    # fills the bulge with slivers of zero area, whose centroids lie on the boundary and
-    # test inside or outside by chance; a piece of (numerically) zero area is such a bulge
-    # and never inside
-    area = 0.5 * np.abs(triangle_areas2(pts, tris))
-    n = int(label.max()) + 1
-    total = np.bincount(label, area, minlength=n)
-    order = np.lexsort((-area, label))
-    first = order[np.searchsorted(label[order], np.arange(n))]
-    comp_inside = np.asarray(inside(pts[tris[first]].mean(axis=1)), dtype=bool)
-    comp_inside &= total > 1e-12 * area.sum()
+    return _classify(pts, tris, label, int(label.max()) + 1, area, inside)[label]
+
+
+def _band_components(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray | None:
+    """:func:`_inside_components` flooding only the triangles that touch a boundary vertex
+    (the others one region R, joined to the band through their shared sides); None if some
+    boundary edge does not then have exactly one kept side."""
+    m = len(tris)
+    onb = np.zeros(len(pts), bool)
+    onb[boundary_edges.ravel()] = True
+    band = np.flatnonzero(any_corner(onb, tris))
+    nb_ = len(band)
+    if nb_ == 0 or nb_ == m:
+        return None
+    pos = np.full(m, nb_, np.int64)  # triangles off the band are R
+    pos[band] = np.arange(nb_)
+    bt = tris[band].astype(np.int64)
+    bn = nbr[band].astype(np.int64)
+    bkeys = _cut_keys(boundary_edges)
+    src, dst, cut, side = [], [], [], []
+    for k in range(3):
+        has = bn[:, k] >= 0
+        kk = edge_keys(bt[:, k], bt[:, (k + 1) % 3])
+        p = np.minimum(np.searchsorted(bkeys, kk), max(len(bkeys) - 1, 0))
+        c = (bkeys[p] == kk) if len(bkeys) else np.zeros(nb_, bool)
+        src.append(np.flatnonzero(has))
+        dst.append(pos[bn[has, k]])
+        cut.append(c[has])
+        side.append(np.flatnonzero(c & ~has))  # boundary edges on the hull
+    src, dst, cut = np.concatenate(src), np.concatenate(dst), np.concatenate(cut)
+    hull = np.concatenate(side)
+    free = ~cut
+    g = coo_matrix((np.ones(int(free.sum())), (src[free], dst[free])), shape=(nb_ + 1, nb_ + 1))
+    npc, piece = connected_components(g, directed=False)
+    label = np.full(m, piece[nb_], np.int64)
+    label[band] = piece[:nb_]
+    comp_inside = _classify(pts, tris, label, npc, area, inside)
+    kept = comp_inside[piece]
+    # every boundary edge: one kept side (the inside), the other dropped or outside the hull
+    if (kept[src[cut]] == kept[dst[cut]]).any() or not kept[hull].all():
+        return None
     return comp_inside[label]
+
+
+# --------------------------------------------------------------------------- local updates
+#: at most this share of the points changed (moved, added, ends of changed constraint
+#: edges) for :func:`patch` to rebuild a window instead of the whole triangulation
+PATCH_SHARE = 1e-2
+#: rings of triangles around the changes in the first window; grown by one per retry
+PATCH_RINGS = 2
+PATCH_TRIES = 4
+
+
+def patch(points: np.ndarray, edges: np.ndarray, boundary: np.ndarray, prev_points: np.ndarray,
+          prev_edges: np.ndarray, prev_tris: np.ndarray) -> np.ndarray | None:
+    """The constrained Delaunay triangulation of ``points`` and ``edges`` by updating
+    ``prev_tris``, that of ``prev_points`` and ``prev_edges``, in a window around what
+    changed; None where a full rebuild is the way (too much changed, or the window does not
+    close up).
+
+    ``points`` extends ``prev_points`` (the first rows may have moved), ``edges`` extends
+    ``prev_edges`` (rows may have been replaced, as when an edge is split); ``boundary``
+    marks the current edges that bound the domain (outer loop and holes). Every point must
+    lie inside the domain or on its boundary.
+
+    The window R is the triangles touching a moved point, an end of a removed or added
+    constraint edge, or the nearest old point of a new one (a Delaunay neighbour of it once
+    inserted), grown by :data:`PATCH_RINGS` rings. Its points and the new ones are
+    triangulated by the kernel with R's outline as constraints (a domain edge that was
+    split replaced by its pieces) plus the constraint edges inside, and the triangles
+    inside the outline (odd depth) replace R's. Accepted when the new triangles' outline is
+    exactly R's, they use every window point, and every outline edge that is not a
+    constraint is locally Delaunay with the triangle outside (then the whole triangulation
+    is: edges away from R did not change); else R grows by a ring and the window is redone.
+
+    The triangle set is the kernel's full rebuild's (up to the choice among cocircular
+    points); the order differs (R's triangles out, the window's appended).
+    """
+    n0, n = len(prev_points), len(points)
+    k0 = len(prev_edges)
+    if n < n0 or len(edges) < k0 or len(prev_tris) == 0:
+        return None
+    same = prev_points == points[:n0]
+    moved = np.flatnonzero(~(same[:, 0] & same[:, 1]))
+    new = np.arange(n0, n)
+    cur = edges[:k0]
+    erow = np.flatnonzero((prev_edges[:, 0] != cur[:, 0]) | (prev_edges[:, 1] != cur[:, 1]))
+    removed = prev_edges[erow]
+    arow = np.r_[erow, np.arange(k0, len(edges))]
+    added = edges[arow]
+    touched = np.zeros(n, bool)
+    touched[moved] = True
+    touched[removed.ravel()] = True
+    touched[added.ravel()] = True
+    touched[new] = False
+    if len(new):
+        near = _nearest_index(prev_points, points[new])
+        if near is None:
+            return None
+        touched[near] = True
+    if int(touched.sum()) + len(new) > max(64.0, PATCH_SHARE * n):
+        return None
+    if not touched.any():
+        return prev_tris if not len(new) else None
+    inr = any_corner(touched, prev_tris)
+    for _ in range(PATCH_RINGS):
+        inr = _grow(prev_tris, inr, n0)
+    ekeys = edge_keys(edges[:, 0], edges[:, 1])
+    rkeys = edge_keys(removed[:, 0], removed[:, 1])
+    akeys = edge_keys(added[:, 0], added[:, 1])
+    for _ in range(PATCH_TRIES):
+        out = _window(points, prev_tris, inr, new, ekeys, rkeys, akeys, boundary[arow])
+        if out is not None:
+            return out
+        inr = _grow(prev_tris, inr, n0)
+    return None
+
+
+def _grow(tris: np.ndarray, inr: np.ndarray, n: int) -> np.ndarray:
+    """The triangles ``inr`` (mask) and those sharing a corner with them (``n`` points)."""
+    v = np.zeros(n, bool)
+    v[tris[inr].ravel()] = True
+    return any_corner(v, tris)
+
+
+def _nearest_index(points: np.ndarray, query: np.ndarray) -> np.ndarray | None:
+    """The nearest of ``points`` to every query (ids), from a few screened points: the
+    screening reach starts at a 256th of the points' extent and doubles until every query
+    has a point within it."""
+    ext = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    reach = ext / 256.0
+    for _ in range(12):
+        if not reach > 0:
+            return None
+        sel = points_near(points, query, reach)
+        if len(sel):
+            d, j = cKDTree(points[sel]).query(query)
+            if (d <= reach).all():
+                return sel[j]
+        reach *= 2.0
+    return None
+
+
+def _window(points, tris, inr, new, ekeys, rkeys, akeys, aboundary) -> np.ndarray | None:
+    """One try of :func:`patch` with the window ``inr`` (mask over ``tris``)."""
+    rt = tris[inr].astype(np.int64)
+    wv = np.unique(np.concatenate([rt.ravel(), new]))
+    # R's edges: inner ones twice, its outline once
+    ha = rt[:, [0, 1, 2]].ravel()
+    hb = rt[:, [1, 2, 0]].ravel()
+    hk = edge_keys(ha, hb)
+    uk, cnt = np.unique(hk, return_counts=True)
+    outline = uk[cnt == 1]
+    # the outline after the changes: removed domain edges out, their pieces in
+    loop = np.union1d(np.setdiff1d(outline, rkeys), akeys[aboundary])
+    # constraints: the outline and the current constraint edges among R's edges or added
+    inner = ekeys[np.isin(ekeys, uk) | np.isin(ekeys, akeys)]
+    cons = np.union1d(loop, inner)
+    lo, hi = cons >> 32, cons & 0xFFFFFFFF
+    if not (np.isin(lo, wv).all() and np.isin(hi, wv).all()):
+        return None
+    loc = lambda g: np.searchsorted(wv, g)  # noqa: E731
+    e = np.column_stack([loc(lo), loc(hi)]).astype(np.uintc)
+    le = np.column_stack([loc(loop >> 32), loc(loop & 0xFFFFFFFF)])
+    pts = np.ascontiguousarray(points[wv], dtype=np.float64)
+    t = cdt.Triangulation(cdt.VertexInsertionOrder.AUTO,
+                          cdt.IntersectingConstraintEdges.NOT_ALLOWED, 0.0)
+    try:
+        t.insert_vertices(pts)
+        t.insert_edges(e)
+    except Exception:  # crossing constraints: the window does not fit the changes
+        return None
+    if t.vertices_count() != len(pts) + SUPER:
+        return None
+    raw = t.triangles_array()
+    keep = _odd_depth(raw["vertices"], raw["neighbors"], le, len(pts))
+    if keep is None:
+        return None
+    wt = raw["vertices"][keep].astype(np.int64) - SUPER
+    if len(np.unique(wt)) != len(wv):  # a window point left out
+        return None
+    g = wv[wt]
+    gk = edge_keys(g[:, [0, 1, 2]].ravel(), g[:, [1, 2, 0]].ravel())
+    guk, gcnt = np.unique(gk, return_counts=True)
+    if not np.array_equal(guk[gcnt == 1], loop) or (gcnt > 2).any():
+        return None
+    if not _outline_delaunay(points, tris, inr, g, loop, ekeys):
+        return None
+    return np.concatenate([tris[~inr], g.astype(tris.dtype)])
+
+
+def _outline_delaunay(points, tris, inr, g, loop, ekeys) -> bool:
+    """Whether every outline edge of the window that is not a constraint is locally
+    Delaunay: the corner of the outside triangle across it is not strictly inside the
+    circumcircle of the window triangle on it (up to rounding)."""
+    free = np.setdiff1d(loop, ekeys)
+    if len(free) == 0:
+        return True
+    # the window triangle on each free outline edge, and its opposite corner
+    wa, wb, wc = (g[:, [0, 1, 2]].ravel(), g[:, [1, 2, 0]].ravel(), g[:, [2, 0, 1]].ravel())
+    wk = edge_keys(wa, wb)
+    iw = np.flatnonzero(np.isin(wk, free))
+    # the outside triangles touching the outline
+    v = np.zeros(len(points), bool)
+    v[(free >> 32)] = True
+    v[(free & 0xFFFFFFFF)] = True
+    ot = tris[any_corner(v, tris) & ~inr].astype(np.int64)
+    oa, ob, oc = (ot[:, [0, 1, 2]].ravel(), ot[:, [1, 2, 0]].ravel(), ot[:, [2, 0, 1]].ravel())
+    ok_ = edge_keys(oa, ob)
+    io = np.flatnonzero(np.isin(ok_, free))
+    if len(io) != len(free) or len(iw) != len(free):
+        return False
+    iw = iw[np.argsort(wk[iw])]
+    io = io[np.argsort(ok_[io])]
+    p = points
+    return bool(np.all(_incircle(p[wa[iw]], p[wb[iw]], p[wc[iw]], p[oc[io]]) <= 0))
+
+
+def _incircle(a, b, c, d) -> np.ndarray:
+    """Positive where ``d`` is strictly inside the circumcircle of the counter-clockwise
+    triangles ``(a, b, c)`` beyond rounding; 0 for (near) cocircular points."""
+    adx, ady = a[:, 0] - d[:, 0], a[:, 1] - d[:, 1]
+    bdx, bdy = b[:, 0] - d[:, 0], b[:, 1] - d[:, 1]
+    cdx, cdy = c[:, 0] - d[:, 0], c[:, 1] - d[:, 1]
+    al, bl, cl = adx * adx + ady * ady, bdx * bdx + bdy * bdy, cdx * cdx + cdy * cdy
+    det = (al * (bdx * cdy - cdx * bdy) + bl * (cdx * ady - adx * cdy)
+           + cl * (adx * bdy - bdx * ady))
+    perm = (al * (np.abs(bdx * cdy) + np.abs(cdx * bdy)) + bl * (np.abs(cdx * ady)
+            + np.abs(adx * cdy)) + cl * (np.abs(adx * bdy) + np.abs(bdx * ady)))
+    return np.where(np.abs(det) > 1e-12 * perm, det, 0.0)
