@@ -78,9 +78,10 @@ def test_patch_equals_full_rebuild(seed):
     P2, E2, b2 = _split(P2, E2, b2, n_sq + 10, [0.3 + 0.1 * np.cos(a), 0.3 + 0.1 * np.sin(a)])
     P2, E2, b2 = _split(P2, E2, b2, len(bnd) - 4, 0.5 * (P2[E2[-4 + len(bnd), 0]] + P2[E2[-4 + len(bnd), 1]]))
     full = constrained_delaunay(P2, E2, inside=inside, boundary_edges=E2[b2])
-    out = patch(P2, E2, b2, P, E, T)
-    assert out is not None
-    assert _same(out, full)
+    up = patch(P2, E2, b2, P, E, T)
+    assert up is not None
+    out, kept = up
+    assert np.array_equal(out[:len(kept)], T[kept]) and _same(out, full)
     # every constraint edge is a mesh edge, every triangle counter-clockwise
     keys = edge_keys(np.r_[out[:, 0], out[:, 1], out[:, 2]], np.r_[out[:, 1], out[:, 2], out[:, 0]])
     assert np.isin(edge_keys(E2[:, 0], E2[:, 1]), keys).all()
@@ -95,7 +96,8 @@ def test_patch_declines_large_changes():
     P2 = P.copy()
     P2[n_hole + 12:] += 1e-6  # every interior point moved
     assert patch(P2, E, bnd, P, E, T) is None
-    assert patch(P, E, bnd, P, E, T) is T  # nothing changed
+    same, kept = patch(P, E, bnd, P, E, T)  # nothing changed
+    assert same is T and np.array_equal(kept, np.arange(len(T)))
 
 
 def test_band_flood_matches_full_flood():

@@ -46,7 +46,7 @@ from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACI
                       check_options)
 from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
                       quality_and_angle, side_lengths, statistics, triangle_angles)
-from .refine import (Context, WorkSet, add_free_points, workset_from_pslg,
+from .refine import (Context, WorkSet, add_free_points, lineage, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
 from .refine import edge_params
@@ -158,10 +158,12 @@ def _lookup(sorted_keys, order, keys):
 
 
 def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=None,
-             at=None):
+             at=None, carry=None):
     """Compositions at the nodes and delta(T); ``known`` holds those of the first nodes,
     evaluated where they were then (``at``, their positions then; without it they have not
-    moved): only new and moved nodes are evaluated again.
+    moved): only new and moved nodes are evaluated again. ``carry = (src, delta)``: the
+    elements with ``src >= 0`` are unchanged since an evaluation that gave them
+    ``delta[src]`` (:func:`_carried`); only the others are evaluated.
 
     With a feature-tree field every element is evaluated in its own subregion (Sec. 3.3).
     """
@@ -177,8 +179,47 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
             comp[redo] = _composition(ctx, ws.P[redo])
     else:
         comp = _composition(ctx, ws.P)
-    regions = element_subregions(ctx.field, ws.P, tris) if has_subregions(ctx.field) else None
-    return comp, element_delta(ctx.field, ws.P, tris, sampling, comp, regions=regions)
+
+    def delta_of(rows):
+        t = tris if rows is None else tris[rows]
+        regions = element_subregions(ctx.field, ws.P, t) if has_subregions(ctx.field) else None
+        return (element_delta(ctx.field, ws.P, t, sampling, comp, regions=regions),)
+
+    if carry is None:
+        return comp, delta_of(None)[0]
+    return comp, _carry(carry[0], (carry[1],), delta_of)[0]
+
+
+def _carried(state, lin) -> np.ndarray | None:
+    """For every triangle of the current triangulation (lineage ``lin``,
+    :func:`hetmesh.refine.lineage`), its position in the triangulation ``state`` was
+    evaluated on (``(base, rows, ...)``), or -1 where it is new; None if the two do not
+    descend from one full rebuild."""
+    if state is None or lin is None or lin[0] is not state[0]:
+        return None
+    rows = state[1]
+    pos = np.full(len(lin[0]), -1, np.int64)
+    ok = rows >= 0
+    pos[rows[ok]] = np.flatnonzero(ok)
+    src = np.full(len(lin[1]), -1, np.int64)
+    have = lin[1] >= 0
+    src[have] = pos[lin[1][have]]
+    return src
+
+
+def _carry(src: np.ndarray, previous: tuple, compute) -> tuple:
+    """Per-triangle arrays: ``previous[k][src]`` where ``src >= 0`` (unchanged triangles),
+    ``compute(rows)[k]`` for the other rows."""
+    old = np.flatnonzero(src >= 0)
+    new = np.flatnonzero(src < 0)
+    fresh = compute(new)
+    out = []
+    for a, f in zip(previous, fresh):
+        o = np.empty(len(src), a.dtype)
+        o[old] = a[src[old]]
+        o[new] = f
+        out.append(o)
+    return tuple(out)
 
 
 def _composition(ctx: Context, pts: np.ndarray) -> np.ndarray:
@@ -203,17 +244,26 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     (every split halves an edge with a composition jump >= delta_0 of a continuous field)."""
     thr = ctx.threshold
     tris = None
-    # compositions of the nodes, and where the nodes were when they were evaluated
-    known = known_at = None
+    # compositions of the nodes, and where the nodes were when they were evaluated; the
+    # triangulation last evaluated (lineage) and its delta, quality and angle: local
+    # updates of the triangulation keep most triangles, whose values are carried over
+    known = known_at = state = None
     sharp = sharp_corners(ws, ctx)
     for rnd in range(max_rounds):
         if tris is None:
             tris = triangulate(ws, ctx)
         with ctx.timed("evaluate"):
-            comp, delta = evaluate(ctx, ws, tris, sampling, known, known_at)
+            lin = lineage(ws, tris)
+            src = _carried(state, lin)
+            comp, delta = evaluate(ctx, ws, tris, sampling, known, known_at,
+                                   None if src is None else (src, state[2]))
             known, known_at = comp, ws.P.copy()
             viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
-            q, ang = quality_and_angle(ws.P, tris)
+            if src is None:
+                q, ang = quality_and_angle(ws.P, tris)
+            else:
+                q, ang = _carry(src, state[3:], lambda r: quality_and_angle(ws.P, tris[r]))
+            state = None if lin is None else lin + (delta, q, ang)
         qfloor = min_quality if rnd < quality_rounds else (
             min(min_quality, 0.5) if rnd < angle_rounds else 0.0)
         afloor = min_angle_deg if rnd < angle_rounds else 0.0

@@ -62,10 +62,14 @@ def points_near(points: np.ndarray, query: np.ndarray, reach: float) -> np.ndarr
         for dy in (-1, 0, 1):
             mark[np.clip(qc[:, 0] + dx, 0, shape[0] + 1),
                  np.clip(qc[:, 1] + dy, 0, shape[1] + 1)] = True
-    pc = np.floor((points - lo) / cell)
+    # the grid's box first (four comparisons per point), then the cells of the points in it
+    top = lo + (shape + 1) * cell
+    x, y = points[:, 0], points[:, 1]
+    box = np.flatnonzero((x >= lo[0]) & (x <= top[0]) & (y >= lo[1]) & (y <= top[1]))
+    pc = np.floor((points[box] - lo) / cell)
     inb = (pc[:, 0] >= 0) & (pc[:, 0] < shape[0]) & (pc[:, 1] >= 0) & (pc[:, 1] < shape[1])
     sel = np.flatnonzero(inb)
-    return sel[mark[pc[sel, 0].astype(np.int64) + 1, pc[sel, 1].astype(np.int64) + 1]]
+    return box[sel[mark[pc[sel, 0].astype(np.int64) + 1, pc[sel, 1].astype(np.int64) + 1]]]
 
 
 def edge_order(keys: np.ndarray) -> np.ndarray:

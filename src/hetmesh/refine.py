@@ -23,8 +23,8 @@ from .mesh import any_corner, points_near
 from .parallel import BLOCK, block_concat
 from .triangulate import constrained_delaunay, patch
 
-__all__ = ["WorkSet", "Context", "triangulate", "split_constraint_edges", "add_free_points",
-           "smooth"]
+__all__ = ["WorkSet", "Context", "triangulate", "lineage", "split_constraint_edges",
+           "add_free_points", "smooth"]
 
 FREE, FIXED = -2, -1
 
@@ -259,15 +259,32 @@ def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
         return c[3]
     with ctx.timed("cdt"):
         bmask = ctx.boundary_curve[ws.ecurve]
-        tris = None
+        up = None
         if c is not None and c[0] is ctx and ws.n >= PATCH_MIN_POINTS:
-            tris = patch(ws.P, ws.E, bmask, c[1], c[2], c[3])
-        if tris is None:
+            up = patch(ws.P, ws.E, bmask, c[1], c[2], c[3])
+        if up is None:
             tris = constrained_delaunay(ws.P, ws.E, inside=ctx.inside,
                                         boundary_edges=ws.E[bmask])
+            base, rows = tris, None
+        else:  # rows kept from the last full rebuild (base), -1 for the window's
+            tris, kept = up
+            base, prev = c[4], c[5]
+            rows = np.full(len(tris), -1, np.int64)
+            rows[:len(kept)] = kept if prev is None else prev[kept]
     tris.flags.writeable = False
-    ws.cdt = (ctx, ws.P.copy(), ws.E.copy(), tris)
+    ws.cdt = (ctx, ws.P.copy(), ws.E.copy(), tris, base, rows)
     return tris
+
+
+def lineage(ws: WorkSet, tris: np.ndarray):
+    """``(base, rows)`` for the work set's current triangulation ``tris``: the triangles of
+    the last full rebuild, and for every triangle its row there (-1 for those made by a
+    local update since); a triangle with a row there has not changed (same corners, none of
+    them moved). None if ``tris`` is not the current triangulation."""
+    c = ws.cdt
+    if c is None or c[3] is not tris:
+        return None
+    return c[4], (np.arange(len(tris)) if c[5] is None else c[5])
 
 
 def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray,

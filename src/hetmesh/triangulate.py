@@ -274,11 +274,12 @@ PATCH_TRIES = 4
 
 
 def patch(points: np.ndarray, edges: np.ndarray, boundary: np.ndarray, prev_points: np.ndarray,
-          prev_edges: np.ndarray, prev_tris: np.ndarray) -> np.ndarray | None:
+          prev_edges: np.ndarray, prev_tris: np.ndarray):
     """The constrained Delaunay triangulation of ``points`` and ``edges`` by updating
     ``prev_tris``, that of ``prev_points`` and ``prev_edges``, in a window around what
-    changed; None where a full rebuild is the way (too much changed, or the window does not
-    close up).
+    changed: ``(triangles, kept)``, the triangles being ``prev_tris[kept]`` (unchanged, in
+    order) followed by the window's; None where a full rebuild is the way (too much
+    changed, or the window does not close up).
 
     ``points`` extends ``prev_points`` (the first rows may have moved), ``edges`` extends
     ``prev_edges`` (rows may have been replaced, as when an edge is split); ``boundary``
@@ -323,7 +324,7 @@ def patch(points: np.ndarray, edges: np.ndarray, boundary: np.ndarray, prev_poin
     if int(touched.sum()) + len(new) > max(64.0, PATCH_SHARE * n):
         return None
     if not touched.any():
-        return prev_tris if not len(new) else None
+        return (prev_tris, np.arange(len(prev_tris))) if not len(new) else None
     inr = any_corner(touched, prev_tris)
     for _ in range(PATCH_RINGS):
         inr = _grow(prev_tris, inr, n0)
@@ -408,7 +409,8 @@ def _window(points, tris, inr, new, ekeys, rkeys, akeys, aboundary) -> np.ndarra
         return None
     if not _outline_delaunay(points, tris, inr, g, loop, ekeys):
         return None
-    return np.concatenate([tris[~inr], g.astype(tris.dtype)])
+    kept = np.flatnonzero(~inr)
+    return np.concatenate([tris[kept], g.astype(tris.dtype)]), kept
 
 
 def _outline_delaunay(points, tris, inr, g, loop, ekeys) -> bool:
