@@ -22,6 +22,7 @@ and the element budget bounds the count; a final verification re-checks every cl
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import time
@@ -37,6 +38,7 @@ from .discontinuity import (FIT_TOL, crossing_elements, element_subregions,
 from .errors import BudgetError, MeshDataError, MeshingError, OptionError, VerificationError
 from .frame import local_field, local_frame
 from .sizecap import variation_cap
+from .geosize import GRADE, boundary_size
 from .geometry import build_pslg
 from .layers import place_layers
 from .mesh import Mesh, any_corner, edge_keys
@@ -45,7 +47,7 @@ from .parallel import block_concat
 from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
                       check_options)
 from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
-                      quality_and_angle, side_lengths, statistics, triangle_angles)
+                      quality, quality_and_angle, side_lengths, statistics, triangle_angles)
 from .refine import (Context, WorkSet, add_free_points, lineage, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
@@ -80,7 +82,7 @@ class Result:
 
 
 def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL, *,
-            row_spacing: float = DEFAULT_ROW_SPACING):
+            row_spacing: float = DEFAULT_ROW_SPACING, geo_grade: float | None = GRADE):
     """The refinement context in the model's :class:`~hetmesh.frame.LocalFrame` (moved to
     the origin and scaled to a diameter near 1, so that no tolerance depends on the user's
     units), and that frame. ``max_size`` is in user units, ``chord_tol`` relative to the
@@ -100,19 +102,31 @@ def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL, *,
                   chord_tol=chord_tol * dom.diameter, h_min=H_MIN_RATIO * h_max,
                   row_spacing=row_spacing,
                   variation_cap=variation_cap(fl.composition, dom.bounds, threshold))
+    if geo_grade is not None:
+        pslg = build_pslg(dom, h_max, ctx.chord_tol)
+        ctx.geo_size = boundary_size(pslg.vertices, pslg.edges, h_max, geo_grade)
     return ctx, frame
 
 
 # --------------------------------------------------------------------------- placement
 def size_fn(ctx: Context, factor: float):
     def h(pts):
-        return dens.size_at(ctx.g(pts), ctx.threshold, ctx.h_max, factor)
+        return dens.size_at(ctx.g(pts), ctx.threshold, ctx.h_at(pts), factor)
     return h
 
 
-def place_cvt(ctx: Context, rng, chord_tol: float, progress=None) -> WorkSet:
-    """The paper's MOR start: density-sampled nodes, then global conforming Lloyd (Sec. 3.2.3)."""
-    factor = 1.0 / np.sqrt(0.9)  # start with ~0.9 x the density's point count (DESIGN.md)
+def place_cvt(ctx: Context, rng, chord_tol: float, progress=None, start: float = 0.9
+              ) -> WorkSet:
+    """The paper's MOR start: density-sampled nodes, then global conforming Lloyd (Sec. 3.2.3).
+
+    ``start`` is the node count relative to the density's (equilateral elements of side
+    delta_0 / |grad f|). About 0.9 is best where one composition gradient sets the size: at
+    1.0 some 40 % of the elements violate, below 0.85 the start is already finer than the
+    refinement needs. Where several constituents vary in different directions (three_phase)
+    the density undercounts: 0.9 leaves 59 % violators and the repair's insertions cost
+    shape (q_avg 0.943), 1.3 leaves 19 % and ends with fewer elements (1,447 against 1,491
+    at 0.05) of a better shape (0.955)."""
+    factor = 1.0 / np.sqrt(start)
     h = size_fn(ctx, factor)
     ws = workset_from_pslg(build_pslg(ctx.domain, h, chord_tol))
     pts = _sample_interior(ctx, h, rng)
@@ -249,6 +263,7 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
     # updates of the triangulation keep most triangles, whose values are carried over
     known = known_at = state = None
     sharp = sharp_corners(ws, ctx)
+    polish = None  # (first round, saved work set, saved result) of the final quality rounds
     for rnd in range(max_rounds):
         if tris is None:
             tris = triangulate(ws, ctx)
@@ -266,6 +281,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             state = None if lin is None else lin + (delta, q, ang)
         qfloor = min_quality if rnd < quality_rounds else (
             min(min_quality, 0.5) if rnd < angle_rounds else 0.0)
+        if polish is not None:
+            qfloor = min_quality
         afloor = min_angle_deg if rnd < angle_rounds else 0.0
         badq = ((ang < afloor) | (q < qfloor)) & ~viol
         if badq.any():
@@ -278,7 +295,23 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         if progress:
             progress("refine", None)
         if not viol.any() and not badq.any():
-            return tris, comp, delta
+            if polish is None and qfloor < min_quality and rnd < angle_rounds:
+                low = (q < min_quality) & ~corner_exempt(ws, tris, min_angle_deg, sharp)
+                if low.any():
+                    # converged with the relaxed floor: a few rounds at the full floor,
+                    # kept only if they end well (see POLISH_ROUNDS)
+                    polish = (rnd, _copy_workset(ws), (tris, comp, delta), len(tris))
+                    log.info("round %d: %d triangles below the quality floor %g; polishing",
+                             rnd, int(low.sum()), min_quality)
+                    badq = low
+            if not badq.any():
+                return tris, comp, delta
+        if polish is not None and (rnd - polish[0] >= POLISH_ROUNDS or viol.any()
+                                   or len(tris) > POLISH_GROWTH * polish[3]):
+            log.info("quality polish abandoned in round %d; the mesh of round %d is kept",
+                     rnd, polish[0])
+            _restore_workset(ws, polish[1])
+            return polish[2]
         if len(tris) > max_elements:
             raise BudgetError(f"refinement exceeded the element budget ({len(tris)} > "
                               f"{max_elements} elements); raise --max-elements or the threshold")
@@ -299,6 +332,32 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
         else:
             tris = None
     raise MeshingError(f"refinement did not converge in {max_rounds} rounds")
+
+
+#: after the repair has converged with the relaxed quality floor, at most this many rounds
+#: try the full floor again; they are kept only if they converge without a delta violator
+#: and within ``POLISH_GROWTH`` x the elements (otherwise the converged mesh is kept)
+POLISH_ROUNDS = 6
+POLISH_GROWTH = 1.05
+
+
+def _below_floor(ws: WorkSet, ctx: Context, tris, min_quality: float, min_angle: float) -> int:
+    """How many triangles are below the quality floor away from exempt sharp corners."""
+    q = quality(ws.P, tris)
+    low = q < min_quality
+    if low.any():
+        low &= ~corner_exempt(ws, tris, min_angle, sharp_corners(ws, ctx))
+    return int(low.sum())
+
+
+def _copy_workset(ws: WorkSet) -> WorkSet:
+    return WorkSet(**{f: (getattr(ws, f).copy() if isinstance(getattr(ws, f), np.ndarray)
+                          else getattr(ws, f)) for f in ws.__dataclass_fields__})
+
+
+def _restore_workset(ws: WorkSet, saved: WorkSet) -> None:
+    for f in ws.__dataclass_fields__:
+        setattr(ws, f, getattr(saved, f))
 
 
 def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
@@ -510,7 +569,10 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
 
 # --------------------------------------------------------------------------- the pipeline
 #: node placements of MOR, by ``method`` name
-PLACEMENTS = {"cvt": place_cvt, "layers": place_layers}
+#: the CVT start that :func:`generate`'s ``"auto"`` tries besides the default 0.9
+DENSE_START = 1.3
+PLACEMENTS = {"cvt": place_cvt, "layers": place_layers,
+              "cvt-dense": functools.partial(place_cvt, start=DENSE_START)}
 
 
 #: ``method`` values of :func:`generate`: ``"auto"`` chooses (see :func:`_candidates`)
@@ -530,7 +592,7 @@ def _candidates(method: str, ctx: Context, est: float) -> list[str]:
     share level curves, and the CVT placement may be the better start."""
     if method == "auto":
         many = len(ctx.field.constituents) > 2
-        return ["layers", "cvt"] if est <= COMPARE_BELOW or many else ["layers"]
+        return ["layers", "cvt", "cvt-dense"] if est <= COMPARE_BELOW or many else ["layers"]
     return [method]
 
 
@@ -586,6 +648,25 @@ def _mesh_with(method: str, ctx: Context, frame, threshold: float, chord_tol: fl
         with ctx.timed("optimize"):
             tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta, sampling=sampling,
                                               min_angle_deg=min_angle)
+            low = _below_floor(ws, ctx, tris, min_quality, min_angle)
+            if low:  # the few the smoothing left: repair them, then smooth again
+                saved, kept = _copy_workset(ws), (tris, comp, delta)
+                try:
+                    tris, comp, delta = repair(ws, ctx, min_angle_deg=min_angle,
+                                               min_quality=min_quality, sampling=sampling,
+                                               max_elements=max_elements, history=history,
+                                               smooth_rounds=0)
+                    tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta,
+                                                      sampling=sampling,
+                                                      min_angle_deg=min_angle)
+                    after = _below_floor(ws, ctx, tris, min_quality, min_angle)
+                except MeshingError:
+                    after = low
+                if after >= low or len(tris) > POLISH_GROWTH * len(kept[0]):
+                    _restore_workset(ws, saved)
+                    tris, comp, delta = kept
+                log.info("final quality repair: %d -> %d triangles below the floor%s", low,
+                         after, "" if after < low else " (not kept)")
         timings["optimize"] = time.perf_counter() - t4
     t3 = time.perf_counter()
     mesh, stats = finish(ws, ctx, tris, comp, delta, frame, threshold=threshold,
@@ -613,8 +694,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         every element).
     method : "auto" (default), "layers" (nodes on iso-composition curves) or "cvt" (the
         paper's CVT start). "auto" meshes from the layers placement and, where the model is
-        small (a-priori estimate up to 50,000 elements), from the CVT placement too, and
-        keeps the better mesh (the lower ``Ne exp(-19 q_avg)``: each 0.005 of mean quality
+        small (a-priori estimate up to 50,000 elements), from the CVT placement too (at 0.9
+        and at 1.3 x the density's node count: ``"cvt"`` and ``"cvt-dense"``), and
+        keeps the best mesh (the lower ``Ne exp(-19 q_avg)``: each 0.005 of mean quality
         is worth 10 % of the elements);
         ``Result.options["placements"]`` has both outcomes and ``["method"]`` the one kept.
     seed : random seed (same input and seed, same mesh).

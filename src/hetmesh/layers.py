@@ -49,13 +49,14 @@ STAGGER_ITERS = 8
 LEVEL_TOL = 0.05
 
 
-def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float) -> np.ndarray:
+def _row_step(ctx: Context, gnorm: np.ndarray, dprime: float, h_cap=None) -> np.ndarray:
     """Node spacing along a row, 2 w / sqrt(3) with w = delta' / |grad f|, between h_min and
-    h_max (where |grad f| is infinite, nan or zero too)."""
+    ``h_cap`` (default h_max; where |grad f| is infinite, nan or zero too)."""
+    h_cap = ctx.h_max if h_cap is None else h_cap
     with np.errstate(divide="ignore", invalid="ignore"):
         s = 2.0 * dprime / (np.sqrt(3.0) * gnorm)
     s = np.nan_to_num(s, nan=ctx.h_max, posinf=ctx.h_max)
-    return np.clip(s, ctx.h_min, ctx.h_max)
+    return np.clip(s, ctx.h_min, h_cap)
 
 
 def _row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None = None
@@ -69,7 +70,7 @@ def _row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None 
                             len(pts), serial=True)
     gr = ctx.grad_f(pts) if grad is None else grad
     gn = np.minimum(np.nan_to_num(np.linalg.norm(gr, axis=1), nan=np.inf), ctx.cap_at(pts))
-    return _row_step(ctx, gn, dprime)
+    return _row_step(ctx, gn, dprime, ctx.h_at(pts))
 
 
 def _anchor(ctx: Context) -> float:
@@ -817,7 +818,7 @@ def _place_rows(ctx: Context, pieces: _Pieces, keys, levs, dps, cross, dprime: f
                            for k, t, d, b in zip(cid, tt, sd, isb)])
         gr = ctx.grad_f(seeds)
         tau = row_tangent(gr)
-        s = _row_step(ctx, np.linalg.norm(gr, axis=1), dprime)
+        s = _row_step(ctx, np.linalg.norm(gr, axis=1), dprime, ctx.h_at(seeds))
         inward = np.zeros(len(cid), bool)
         if isb.any():  # boundary: the row starts where its tangent points into the domain
             inward[isb] = ctx.inside(seeds[isb] + 0.05 * s[isb, None] * tau[isb])

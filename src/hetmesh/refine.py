@@ -51,6 +51,9 @@ class Context:
     variation_cap: object = None
     #: step in composition between the rows of the layers placement, over delta_0
     row_spacing: float = 0.985
+    #: the geometric size bound near small boundary features (a
+    #: :class:`~hetmesh.geosize.BoundarySize`), or None
+    geo_size: object = None
     clock: dict = field(default_factory=dict)  # seconds spent per kind of work (phase split)
 
     @contextmanager
@@ -93,10 +96,17 @@ class Context:
             return np.full(len(pts), self.g_cap)
         return np.minimum(self.variation_cap(pts), self.g_cap)
 
+    def h_at(self, pts: np.ndarray):
+        """The largest element size at ``pts``: ``h_max``, or the geometric bound
+        ``min(h_max, h_geo)`` (:mod:`hetmesh.geosize`) where the model has small features."""
+        if self.geo_size is None:
+            return self.h_max
+        return self.geo_size(pts)
+
     def rho(self, pts: np.ndarray) -> np.ndarray:
         if len(pts) > BLOCK:
             return block_concat(lambda s: self.rho(pts[s]), len(pts), serial=True)
-        return dens.density(self.g(pts), self.h_max, self.threshold)  # Eq. (9)
+        return dens.density(self.g(pts), self.h_at(pts), self.threshold)  # Eq. (9)
 
     # the scalar composition whose level curves carry node rows (two constituents)
     def f(self, pts: np.ndarray) -> np.ndarray:
