@@ -275,3 +275,47 @@ def test_inp_one_set_per_name_and_named_points(tmp_path, case, request):
     back = read_mesh(path)
     assert back.named_points == mesh.named_points
     np.testing.assert_array_equal(back.triangles, mesh.triangles)
+
+
+# --------------------------------------------------------------------------- CalculiX
+
+def test_calculix_runs_hetmesh_deck_and_agrees_with_hetmesh_fea(tmp_path, plate):
+    """fgm_plate at delta_0 = 0.1, bins of delta_0 / 4: CalculiX's heat step then its
+    thermoelastic step against ``hetmesh fea`` on the same mesh."""
+    import subprocess
+
+    ccx = need_ccx()
+    fea = pytest.importorskip("hetmesh.fea")
+    from hetmesh.fea.analysis import locate, von_mises
+    from hetmesh.io.deck import read_frd, write_deck
+
+    model, mesh = plate
+    report = write_deck(mesh, model, tmp_path, "calculix", bin_width=0.1 / 4)
+    assert report.analysis and report.bin_width == 0.025 and report.bins >= 10
+    deck = tmp_path / "fgm_plate.inp"
+    text = deck.read_text()
+    assert text.count("*MATERIAL") == report.bins and "*ELEMENT, TYPE=CPE6" in text
+    assert text.index("*HEAT TRANSFER") < text.index("*STATIC")
+    run = subprocess.run([ccx, "-i", "fgm_plate"], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0 and "*ERROR" not in run.stdout, run.stdout[-2000:]
+    frd = read_frd(tmp_path / "fgm_plate.frd")
+    ours = fea.solve(mesh, model)
+    n = mesh.n_points
+
+    def nodal(block):
+        ids, v = frd[block]
+        out = np.full((ids.max() + 1, v.shape[1]), np.nan)
+        out[ids] = v
+        return out[1:n + 1]
+
+    T = nodal("NDTEMP")[:, 0]
+    span = np.ptp(ours.temperature)
+    assert np.abs(T - ours.temperature).max() <= 0.005 * span
+    s = nodal("STRESS")  # xx yy zz xy yz zx
+    vm = von_mises(np.column_stack([s[:, 0], s[:, 1], s[:, 3], s[:, 2]]))
+    for name in ("Q1", "Q2", "Q3", "Q4", "Q5", "Q6"):
+        q = np.array(model.fea.probes[name])
+        e, lam = locate(mesh.points, mesh.triangles, q)
+        theirs = float(lam @ vm[mesh.triangles[e]])
+        assert theirs == pytest.approx(ours.probes[name]["von_mises"], rel=0.02), name

@@ -39,7 +39,7 @@ from .groups import curve_groups
 from .textio import check_ids
 
 __all__ = ["format_reals", "abaqus_name", "element_type", "quadratic_nodes", "write_inp",
-           "write_inp_mesh", "edge_sides", "set_names", "MAX_FIELD"]
+           "write_inp_mesh", "write_materials", "edge_sides", "set_names", "MAX_FIELD"]
 
 log = logging.getLogger(__name__)
 
@@ -150,9 +150,11 @@ def _write_nodes(f: TextIO, points: np.ndarray) -> None:
         f.write("".join(rows[s:s + textio.ROWS_PER_CHUNK]))
 
 
-def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str]) -> None:
+def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str],
+                 mid: np.ndarray | None = None) -> None:
     """Per curve name: internal element sets ``_M<marker>_S<side>`` of its markers, an
-    element-based ``*SURFACE`` and an ``*NSET``."""
+    element-based ``*SURFACE`` and an ``*NSET`` (with the mid-side nodes ``mid`` ``(M, 3)``
+    of its edges for six-node elements)."""
     tri, side = edge_sides(mesh)
     if np.any(tri < 0):
         log.warning("%s: %d constrained edges are no triangle's side; no surface for them",
@@ -171,16 +173,22 @@ def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str]) -> None:
             f.write(f"*SURFACE, TYPE=ELEMENT, NAME={name}\n"
                     + "".join(f"{s}, {s[-2:]}\n" for s in faces))
         sel = np.isin(mesh.edge_markers, group.markers)
+        nodes = mesh.edges[sel].ravel()
+        if mid is not None:
+            ok = sel & (tri >= 0)
+            nodes = np.concatenate([nodes, mid[tri[ok], side[ok]]])
         f.write(f"*NSET, NSET={name}\n")
-        _write_id_list(f, np.unique(mesh.edges[sel]) + 1)
+        _write_id_list(f, np.unique(nodes) + 1)
 
 
 def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", order: int = 1,
-                   heading: str = "") -> None:
-    """The mesh part of a deck: nodes, elements, region sets, curve and point sets."""
+                   heading: str = "", scale: float = 1.0, kind: str | None = None) -> np.ndarray:
+    """The mesh part of a deck: nodes (coordinates times ``scale``), elements (``kind``,
+    default :func:`element_type`) in ``ELSET=EALL``, region sets, curve and point sets.
+    Returns the node coordinates written (mesh nodes, then any mid-side nodes), unscaled."""
     check_ids(mesh, path, "Abaqus")
-    kind = element_type(plane, order)
-    points, cells = mesh.points, mesh.triangles + 1
+    kind = kind or element_type(plane, order)
+    points, cells, mid = mesh.points, mesh.triangles + 1, None
     if order == 2:
         mid_points, mid = quadratic_nodes(mesh)
         points = np.vstack([points, mid_points])
@@ -188,8 +196,8 @@ def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", 
     f.write("*HEADING\n")
     f.write((heading or f"hetmesh mesh: {mesh.n_points} nodes and {mesh.n_elements} {kind} "
                         f"elements") + "\n")
-    _write_nodes(f, points)
-    f.write(f"*ELEMENT, TYPE={kind}\n")
+    _write_nodes(f, points * scale)
+    f.write(f"*ELEMENT, TYPE={kind}, ELSET=EALL\n")
     row = "%d" + ", %d" * cells.shape[1] + "\n"
     textio.write_rows(f, row, np.column_stack([np.arange(1, len(cells) + 1), cells]))
     regions = np.unique(mesh.regions)
@@ -197,9 +205,34 @@ def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", 
         f.write(f"*ELSET, ELSET=REGION_{r}\n")
         _write_id_list(f, np.flatnonzero(mesh.regions == r) + 1)
     curves, pts = set_names(mesh)
-    _write_edges(f, mesh, path, curves)
+    _write_edges(f, mesh, path, curves, mid)
     for name, node in mesh.named_points.items():
         f.write(f"*NSET, NSET={pts[name]}\n{node + 1}\n")
+    return points
+
+
+def write_materials(f: TextIO, bins, *, thickness: float = 1.0,
+                    reference_temperature: float | None = None, heat: bool = True) -> None:
+    """Element sets ``MAT_<i>`` (1-based), one ``*MATERIAL`` (``*ELASTIC``, ``*EXPANSION``,
+    ``*CONDUCTIVITY`` with ``heat``) and one ``*SOLID SECTION`` (thickness) per bin of a
+    :class:`~hetmesh.io.material.MaterialBins`."""
+    p = bins.properties
+    for b in range(bins.count):
+        name = f"MAT_{b + 1}"
+        f.write(f"*ELSET, ELSET={name}\n")
+        _write_id_list(f, np.flatnonzero(bins.index == b) + 1)
+        E, nu, alpha, k = format_reals(np.array([p["youngs_modulus"][b], p["poisson_ratio"][b],
+                                                 p["expansion"][b], p["conductivity"][b]]))
+        comp = ", ".join(f"{c:.6f}" for c in bins.composition[b])
+        f.write(f"** {name}: mean composition ({comp})\n")
+        f.write(f"*MATERIAL, NAME={name}\n*ELASTIC\n{E}, {nu}\n")
+        zero = "" if reference_temperature is None else \
+            f", ZERO={format_reals(np.array([reference_temperature]))[0]}"
+        f.write(f"*EXPANSION{zero}\n{alpha}\n")
+        if heat:
+            f.write(f"*CONDUCTIVITY\n{k}\n")
+        f.write(f"*SOLID SECTION, ELSET={name}, MATERIAL={name}\n"
+                f"{format_reals(np.array([thickness]))[0]}\n")
 
 
 def write_inp(mesh: Mesh, path: Path, fmt=None) -> None:
