@@ -489,6 +489,8 @@ def test_cli_export(tmp_path, bar, capsys):
         assert code == 0
     assert (out / "fenics" / "bar.xdmf").exists() and (out / "fenics" / "bar.h5").exists()
     assert (out / "comsol" / "bar.nas").read_text().count("CTRIA3") == mesh.n_elements
+    nas = meshio.read(out / "comsol" / "bar.nas")
+    np.testing.assert_allclose(nas.points[:, :2], mesh.points, rtol=1e-10, atol=1e-12)
     table = np.loadtxt(out / "comsol" / "bar_composition.txt", comments="%")
     assert table.shape == (mesh.n_points, 4)
     capsys.readouterr()
