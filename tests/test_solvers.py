@@ -319,3 +319,20 @@ def test_calculix_runs_hetmesh_deck_and_agrees_with_hetmesh_fea(tmp_path, plate)
         e, lam = locate(mesh.points, mesh.triangles, q)
         theirs = float(lam @ vm[mesh.triangles[e]])
         assert theirs == pytest.approx(ours.probes[name]["von_mises"], rel=0.02), name
+
+
+def test_gmsh_reads_msh22_one_group_per_name(tmp_path, plate):
+    gmsh = need_module("gmsh")
+    _, mesh = plate
+    path = write_mesh(mesh, tmp_path / "m.msh", file_format="gmsh22")
+    gmsh.initialize(["-noenv"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        names = [gmsh.model.getPhysicalName(d, t) for d, t in gmsh.model.getPhysicalGroups()]
+        assert len(names) == len(set(names))
+        assert {g.name for g in curve_groups(mesh)} | set(mesh.named_points) <= set(names)
+        _, etags, _ = gmsh.model.mesh.getElements(2)
+        assert np.sort(np.concatenate(etags)).tolist() == list(range(1, mesh.n_elements + 1))
+    finally:
+        gmsh.finalize()

@@ -95,6 +95,17 @@ def condition_nodes(mesh: Mesh, model, points: np.ndarray, mid: np.ndarray | Non
     return temps, disps
 
 
+def section_thickness(model) -> float:
+    """The ``*SOLID SECTION`` thickness (m): 1 in plane strain (per unit thickness, as
+    :func:`hetmesh.fea.solve`); in plane stress 1e-3 x the domain's diameter, as CalculiX
+    models plane stress by a slab of that thickness, free on its faces, which is plane
+    stress only when thin."""
+    cfg = model.fea
+    if cfg.plane == "strain":
+        return 1.0
+    return 1e-3 * model.domain.diameter * cfg.length_scale
+
+
 def _write_id_set(f, name: str, ids: np.ndarray) -> None:
     f.write(f"*NSET, NSET={name}\n")
     abaqus._write_id_list(f, np.asarray(ids, np.int64) + 1)
@@ -113,7 +124,8 @@ def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: s
             heading=f"hetmesh {target} deck for model {model.name}: {mesh.n_elements} "
                     f"{kind} elements in SI units (m Pa K W)")
         _write_id_set(f, "NALL", np.arange(len(points)))
-        abaqus.write_materials(f, bins, reference_temperature=cfg.reference_temperature)
+        abaqus.write_materials(f, bins, thickness=section_thickness(model),
+                               reference_temperature=cfg.reference_temperature)
         if not cfg.has_problem:
             return False
         mid = abaqus.quadratic_nodes(mesh)[1] if order == 2 else None
