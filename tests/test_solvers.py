@@ -336,3 +336,30 @@ def test_gmsh_reads_msh22_one_group_per_name(tmp_path, plate):
         assert np.sort(np.concatenate(etags)).tolist() == list(range(1, mesh.n_elements + 1))
     finally:
         gmsh.finalize()
+
+
+def test_read_mesh_of_a_file_gmsh_wrote(tmp_path):
+    """Gmsh lists nodes by entity, not by tag: read_mesh puts them in tag order."""
+    gmsh = need_module("gmsh")
+    path = tmp_path / "disk.msh"
+    gmsh.initialize(["-noenv"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("disk")
+        gmsh.model.occ.addDisk(0, 0, 0, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(2, [1], name="region_0")
+        gmsh.model.addPhysicalGroup(1, [1], name="rim")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.3)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        _, etags, enodes = gmsh.model.mesh.getElements(2)
+    finally:
+        gmsh.finalize()
+    mesh = read_mesh(path)
+    order = np.argsort(tags)
+    np.testing.assert_allclose(mesh.points, coords.reshape(-1, 3)[order, :2], rtol=0, atol=1e-15)
+    t = np.concatenate(enodes).reshape(-1, 3)[np.argsort(np.concatenate(etags))] - 1
+    assert {tuple(sorted(x)) for x in mesh.triangles.tolist()} == {tuple(sorted(x)) for x in t.tolist()}
+    assert mesh.problems() == [] and set(mesh.marker_names.values()) == {"rim"}
