@@ -363,3 +363,61 @@ def test_read_mesh_of_a_file_gmsh_wrote(tmp_path):
     t = np.concatenate(enodes).reshape(-1, 3)[np.argsort(np.concatenate(etags))] - 1
     assert {tuple(sorted(x)) for x in mesh.triangles.tolist()} == {tuple(sorted(x)) for x in t.tolist()}
     assert mesh.problems() == [] and set(mesh.marker_names.values()) == {"rim"}
+
+
+DOLFINX_READ = """
+import sys, json, numpy as np
+from mpi4py import MPI
+from dolfinx.io import XDMFFile
+with XDMFFile(MPI.COMM_WORLD, sys.argv[1], "r") as f:
+    mesh = f.read_mesh(name="mesh")
+    mesh.topology.create_connectivity(1, 2)
+    ct = f.read_meshtags(mesh, name="cell_tags")
+    ft = f.read_meshtags(mesh, name="facet_tags")
+print(json.dumps({"cells": mesh.topology.index_map(2).size_local,
+                  "regions": np.bincount(ct.values).tolist(),
+                  "facets": {int(v): int((ft.values == v).sum()) for v in np.unique(ft.values)}}))
+"""
+
+
+def _python_with_dolfinx() -> str | None:
+    import subprocess
+    import sys
+
+    for exe in (sys.executable, "/usr/bin/python3"):
+        if Path(exe).exists() and subprocess.run([exe, "-c", "import dolfinx"],
+                                                 capture_output=True).returncode == 0:
+            return exe
+    return None
+
+
+def test_dolfinx_reads_mesh_and_tags_if_installed(tmp_path, plate):
+    """dolfinx is not on PyPI as a wheel; Debian's python3-dolfinx (0.5.2) is used where
+    installed."""
+    import json
+    import subprocess
+
+    exe = _python_with_dolfinx()
+    if exe is None:
+        pytest.skip("dolfinx is not installed (Debian: apt-get install python3-dolfinx)")
+    _, mesh = plate
+    path = write_mesh(mesh, tmp_path / "plate.xdmf")
+    run = subprocess.run([exe, "-c", DOLFINX_READ, str(path)], capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    assert got["cells"] == mesh.n_elements
+    assert got["regions"] == np.bincount(mesh.regions).tolist()
+    assert got["facets"] == {str(g.tag): len(_edges_of(mesh, g.name)) for g in curve_groups(mesh)}
+
+
+def test_export_from_vtu_gets_the_names_from_the_model(tmp_path, plate):
+    from hetmesh.io.deck import write_deck
+
+    model, mesh = plate
+    vtu = read_mesh(write_mesh(mesh, tmp_path / "plate.vtu"))
+    assert not vtu.marker_names and not vtu.named_points  # VTU keeps neither
+    write_deck(vtu, model, tmp_path, "calculix")
+    text = (tmp_path / "fgm_plate.inp").read_text()
+    for name in ("NM", "HN", "MA", "A", "H", "discontinuity_0_"):
+        assert text.count(f"*NSET, NSET={name}\n") == 1

@@ -43,7 +43,8 @@ from . import abaqus
 from .atomic import atomic_write
 from .material import MaterialBins, bin_material, element_material, material_config, with_material
 
-__all__ = ["TARGETS", "DeckReport", "write_deck", "condition_nodes", "read_frd"]
+__all__ = ["TARGETS", "DeckReport", "write_deck", "condition_nodes", "read_frd",
+           "name_from_model"]
 
 log = logging.getLogger(__name__)
 
@@ -173,6 +174,40 @@ def _write_comsol(directory: Path, stem: str, mesh: Mesh) -> list[Path]:
     return [nas, table]
 
 
+def name_from_model(mesh: Mesh, model) -> Mesh:
+    """``mesh`` with its curve names and named points taken from ``model`` where the file
+    it was read from lost them (``.vtu``, ``.vtk``, ``.mesh``): marker ``m`` is curve
+    ``m - 1`` of the model as meshed (discontinuities embedded), checked node by node."""
+    import dataclasses
+
+    from ..discontinuity import embed_discontinuities
+    from ..fea.config import ON_BOUNDARY
+
+    tol = ON_BOUNDARY * model.domain.diameter
+    changes = {}
+    if len(mesh.edges) and not mesh.marker_names:
+        curves = embed_discontinuities(model).domain.curves
+        markers = np.unique(mesh.edge_markers)
+        if markers.min() >= 1 and markers.max() <= len(curves):
+            for m in markers.tolist():
+                nodes = np.unique(mesh.edges[mesh.edge_markers == m])
+                c = curves[m - 1].curve
+                p = mesh.points[nodes]
+                if np.hypot(*(c.point(c.project(p)) - p).T).max() > tol:
+                    break
+            else:
+                changes["marker_names"] = {m: curves[m - 1].curve.name or curves[m - 1].owner
+                                           for m in markers.tolist()}
+    if not mesh.named_points and model.domain.points:
+        named = {}
+        for name, xy in model.domain.points.items():
+            d = np.hypot(*(mesh.points - np.asarray(xy, np.float64)).T)
+            if d.min() <= tol:
+                named[name] = int(np.argmin(d))
+        changes["named_points"] = named
+    return dataclasses.replace(mesh, **changes) if changes else mesh
+
+
 def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
                bin_width: float | None = None) -> DeckReport:
     """Write the bundle of ``target`` (:data:`TARGETS`) for ``mesh`` of ``model`` into
@@ -189,6 +224,7 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
     if len(cfg.properties) != len(model.material.constituents):
         raise FEAError(f"the [fea] properties are for {len(cfg.properties)} constituents, the "
                        f"material has {len(model.material.constituents)}")
+    mesh = name_from_model(mesh, model)
     directory = Path(directory)
     try:
         directory.mkdir(parents=True, exist_ok=True)
