@@ -421,3 +421,37 @@ def test_export_from_vtu_gets_the_names_from_the_model(tmp_path, plate):
     text = (tmp_path / "fgm_plate.inp").read_text()
     for name in ("NM", "HN", "MA", "A", "H", "discontinuity_0_"):
         assert text.count(f"*NSET, NSET={name}\n") == 1
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_calculix_curve_conditions_both_orders(tmp_path, order):
+    """A graded strip clamped along a curve: CalculiX's temperatures and displacements on
+    hetmesh's deck against hetmesh fea (linear and quadratic elements)."""
+    import subprocess
+
+    ccx = need_ccx()
+    fea = pytest.importorskip("hetmesh.fea")
+    from hetmesh.io.deck import read_frd, write_deck
+    from test_fea import strip_toml
+
+    path = tmp_path / "strip.toml"
+    path.write_text(strip_toml(fea_extra=f"order = {order}", displacement="""
+[[fea.displacement]]
+curves = ["left"]
+ux = 0
+uy = 0
+"""))
+    model = hetmesh.load_model(path)
+    mesh = hetmesh.generate(model, 0.05).mesh
+    write_deck(mesh, model, tmp_path, "calculix", bin_width=0.0125)
+    run = subprocess.run([ccx, "-i", "strip"], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:]
+    frd = read_frd(tmp_path / "strip.frd")
+    ours = fea.solve(mesh, model)
+    n = mesh.n_points
+    ids, T = frd["NDTEMP"]
+    ids_u, U = frd["DISP"]
+    assert ids.tolist()[:n] == list(range(1, n + 1))
+    assert np.abs(T[:n, 0] - ours.temperature).max() <= 1e-3 * np.ptp(ours.temperature)
+    assert np.abs(U[:n, :2] - ours.displacement).max() <= 1e-3 * np.abs(ours.displacement).max()
