@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import OptionError, OutputError
-from hetmesh.io import export
+from hetmesh.io import textio
 from hetmesh.io.atomic import atomic_path, atomic_write
 from hetmesh.io.export import FILE_FORMATS, FORMATS, read_mesh, region_tag_offset, write_mesh
 from hetmesh.mesh import Mesh
@@ -18,7 +18,7 @@ from hetmesh.mesh import Mesh
 CASES = [
     (".vtu", None, True, True, False),
     (".vtk", None, True, True, False),
-    (".xdmf", None, True, True, False),
+    (".xdmf", None, True, True, True),
     (".msh", None, True, True, True),
     (".msh", "gmsh41", True, True, True),
     (".msh", "gmsh22", True, False, True),
@@ -64,7 +64,8 @@ def test_round_trip(tmp_path, ext, file_format, point_data, cell_data, names):
     mesh = square_mesh()
     path = tmp_path / f"out{ext}"
     assert write_mesh(mesh, path, file_format=file_format) == path
-    assert sorted(os.listdir(tmp_path)) == [path.name]  # no temp or side file (.h5)
+    side = [path.with_suffix(".h5").name] if ext == ".xdmf" else []
+    assert sorted(os.listdir(tmp_path)) == sorted([path.name] + side)  # no temp file
     back = read_mesh(path)
     np.testing.assert_allclose(back.points, mesh.points, rtol=0, atol=1e-12)
     assert by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
@@ -105,23 +106,16 @@ def test_round_trip_sparse_ids(tmp_path, ext, file_format):
     back = read_mesh(write_mesh(mesh, tmp_path / f"m{ext}", file_format=file_format))
     assert by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
     assert edge_set(back) == edge_set(mesh)
-    if ext in (".msh", ".inp"):
-        assert back.marker_names == {7: "left side" if ext == ".msh" else "left_side"}
+    if ext in (".msh", ".inp", ".xdmf"):
+        assert back.marker_names == {7: "left_side" if ext == ".inp" else "left side"}
 
 
 def test_triangles_stay_in_order_where_the_format_allows(tmp_path):
     mesh = square_mesh()
-    for name in ("out.vtu", "out.xdmf", "out.inp"):
+    for name in ("out.vtu", "out.xdmf", "out.inp", "out.msh"):
         back = read_mesh(write_mesh(mesh, tmp_path / name))
         np.testing.assert_array_equal(back.triangles, mesh.triangles)
         np.testing.assert_array_equal(back.regions, mesh.regions)
-
-
-def test_xdmf_is_one_inline_file_with_2d_points(tmp_path):
-    path = write_mesh(square_mesh(), tmp_path / "m.xdmf")
-    text = path.read_text()
-    assert 'Format="XML"' in text and ".h5" not in text
-    assert meshio.read(path).points.shape == (9, 2)
 
 
 def test_vtu_content(tmp_path):
@@ -156,7 +150,8 @@ def test_gmsh_file_loads_in_scikit_fem(tmp_path):
     skfem = pytest.importorskip("skfem")
     path = write_mesh(square_mesh(), tmp_path / "m.msh")
     m = skfem.Mesh.load(str(path))
-    assert {k: len(v) for k, v in m.subdomains.items()} == {"region_0": 4, "region_1": 4}
+    subdomains = {k: len(v) for k, v in m.subdomains.items() if not k.startswith("gmsh:")}
+    assert subdomains == {"region_0": 4, "region_1": 4}
     assert len(m.boundaries["bottom"]) == 2
 
 
@@ -242,7 +237,7 @@ def test_failed_meshio_write_keeps_the_old_file(tmp_path, monkeypatch):
 def test_failed_own_writer_keeps_the_old_file(tmp_path, monkeypatch):
     path = tmp_path / "out.msh"
     path.write_text("old content")
-    real = export._write_rows
+    real = textio.write_rows
     calls = []
 
     def flaky(f, row, a):
@@ -251,7 +246,7 @@ def test_failed_own_writer_keeps_the_old_file(tmp_path, monkeypatch):
             raise MemoryError("out of memory")
         real(f, row, a)
 
-    monkeypatch.setattr(export, "_write_rows", flaky)
+    monkeypatch.setattr(textio, "write_rows", flaky)
     with pytest.raises(MemoryError):
         write_mesh(square_mesh(), path)
     assert path.read_text() == "old content"
@@ -308,3 +303,199 @@ def test_atomic_path_oserror_becomes_output_error(tmp_path):
         with atomic_path(tmp_path / "x.txt"):
             raise OSError(28, "No space left on device")
     assert not os.listdir(tmp_path)
+
+
+# -- groups, named points, element types -------------------------------------------------
+
+def split_mesh() -> Mesh:
+    """The square mesh with the bottom split in two markers of one name, a named corner."""
+    base = square_mesh()
+    return Mesh(base.points, base.triangles, regions=base.regions,
+                edges=[[0, 1], [1, 2], [1, 4], [4, 7]], edge_markers=[1, 3, 2, 2],
+                marker_names={1: "bottom", 3: "bottom", 2: "cut"}, named_points={"A": 0, "C": 8})
+
+
+@pytest.mark.parametrize("ext, file_format", [(".msh", None), (".msh", "gmsh22"), (".inp", None),
+                                              (".xdmf", None)])
+def test_one_group_per_name_and_named_points_read_back(tmp_path, ext, file_format):
+    mesh = split_mesh()
+    back = read_mesh(write_mesh(mesh, tmp_path / f"m{ext}", file_format=file_format))
+    assert edge_set(back) == edge_set(mesh)  # markers kept exactly
+    assert back.marker_names == {1: "bottom", 3: "bottom", 2: "cut"}
+    assert back.named_points == {"A": 0, "C": 8}
+
+
+def test_gmsh_names_each_group_once(tmp_path):
+    m = meshio.read(write_mesh(split_mesh(), tmp_path / "m.msh"))
+    assert {k: v.tolist() for k, v in m.field_data.items()} == {
+        "A": [10001, 0], "C": [10002, 0], "bottom": [1, 1], "cut": [2, 1],
+        "region_0": [1000, 2], "region_1": [1001, 2]}
+
+
+def test_inp_one_nset_per_name(tmp_path):
+    text = write_mesh(split_mesh(), tmp_path / "m.inp").read_text()
+    assert text.count("*NSET, NSET=bottom\n") == 1 and "*NSET, NSET=A\n1\n" in text
+    assert "*SURFACE, TYPE=ELEMENT, NAME=bottom\n_M1_S1, S1\n_M3_S1, S1\n" in text
+
+
+@pytest.mark.parametrize("plane, order, kind", [("strain", 1, "CPE3"), ("stress", 1, "CPS3"),
+                                                ("strain", 2, "CPE6"), ("stress", 2, "CPS6")])
+def test_inp_element_types(tmp_path, plane, order, kind):
+    from hetmesh.io.abaqus import write_inp_mesh
+
+    mesh = split_mesh()
+    path = tmp_path / "m.inp"
+    with open(path, "w") as f:
+        points = write_inp_mesh(f, mesh, path, plane=plane, order=order)
+    text = path.read_text()
+    assert f"*ELEMENT, TYPE={kind}, ELSET=EALL\n" in text
+    m = meshio.read(path)
+    cells = m.cells[0].data
+    assert cells.shape == (8, 3 * order)
+    np.testing.assert_array_equal(cells[:, :3], mesh.triangles)
+    if order == 2:  # mid-side nodes at the midpoints of sides 1-2, 2-3, 3-1
+        p = m.points[:, :2]
+        for k in range(3):
+            np.testing.assert_allclose(p[cells[:, 3 + k]], 0.5 * (p[cells[:, k]] + p[cells[:, (k + 1) % 3]]))
+        assert len(points) == 9 + 16  # 16 edges in the 3 x 3 grid
+        # the bottom's node set holds its mid-side nodes too
+        assert len(m.point_sets["bottom"]) == 5
+    assert back_regions(read_mesh(path), mesh)
+
+
+def back_regions(back, mesh) -> bool:
+    return by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
+
+
+# -- graded material -----------------------------------------------------------------------
+
+FGM_TOML = """
+[model]
+name = "bar"
+units = "mm"
+[domain.outer]
+name = "outer"
+start = [0, 0]
+path = [{ to = [10, 0], name = "bottom" }, { to = [10, 2], name = "right" },
+        { to = [0, 2], name = "top" }, { to = [0, 0], name = "left" }]
+[material]
+constituents = ["ceramic", "metal"]
+[material.composition]
+metal = "x / 10"
+[fea]
+mixing = "mori-tanaka"
+matrix = "metal"
+[fea.properties.ceramic]
+conductivity = 35.0
+youngs_modulus = 393e9
+poisson_ratio = 0.25
+expansion = 7.4e-6
+[fea.properties.metal]
+conductivity = 90.7
+youngs_modulus = 199.5e9
+poisson_ratio = 0.3
+expansion = 15.4e-6
+"""
+
+
+@pytest.fixture(scope="module")
+def bar(tmp_path_factory):
+    import hetmesh
+
+    path = tmp_path_factory.mktemp("bar") / "bar.toml"
+    path.write_text(FGM_TOML)
+    model = hetmesh.load_model(path)
+    return model, hetmesh.generate(model, 0.1).mesh
+
+
+def test_properties_without_boundary_conditions(bar):
+    model, _ = bar
+    assert not model.fea.has_problem and model.fea.mixing == "mori-tanaka"
+
+
+def test_fea_needs_boundary_conditions(bar):
+    from hetmesh.errors import FEAError
+    from hetmesh.fea import solve
+
+    model, mesh = bar
+    with pytest.raises(FEAError, match="no boundary conditions"):
+        solve(mesh, model)
+
+
+def test_element_material_and_bins(bar):
+    from hetmesh.fea.mixing import mix_config
+    from hetmesh.io.material import bin_material, element_material
+
+    model, mesh = bar
+    mat = element_material(mesh, model)
+    centroid_metal = mesh.points[mesh.triangles].mean(axis=1)[:, 0] / 10  # linear field
+    np.testing.assert_allclose(mat.mean[:, 1], centroid_metal, atol=1e-12)
+    np.testing.assert_allclose(mat.delta, np.ptp(mesh.points[mesh.triangles][..., 0], axis=1) / 10,
+                               atol=1e-12)
+    assert mat.delta.max() < 0.1
+    want = mix_config(mat.mean, model.fea, ("ceramic", "metal"))
+    for k, v in want.items():
+        np.testing.assert_allclose(mat.properties[k], v)
+    for width in (0.1, 0.025):
+        bins = bin_material(mat, width, model.fea, ("ceramic", "metal"))
+        for b in range(bins.count):  # no constituent varies by more than the width in a bin
+            members = mat.mean[bins.index == b]
+            assert np.ptp(members, axis=0).max() <= width
+        errs = {k: np.max(np.abs(bins.properties[k][bins.index] - v) / np.abs(v))
+                for k, v in mat.properties.items()}
+        assert bins.errors == pytest.approx(errs) and bins.max_error == max(errs.values())
+    assert bin_material(mat, 0.025, model.fea, ("ceramic", "metal")).max_error < \
+        bin_material(mat, 0.1, model.fea, ("ceramic", "metal")).max_error
+
+
+@pytest.mark.parametrize("ext", [".vtu", ".msh", ".xdmf"])
+def test_cell_data_carries_the_material(tmp_path, bar, ext):
+    from hetmesh.io.material import element_material, with_material
+
+    model, mesh = bar
+    graded = with_material(mesh, element_material(mesh, model))
+    back = read_mesh(write_mesh(graded, tmp_path / f"g{ext}"))
+    for k in ("youngs_modulus", "poisson_ratio", "expansion", "conductivity", "mean_metal"):
+        np.testing.assert_allclose(back.cell_data[k], graded.cell_data[k], rtol=1e-15)
+
+
+def test_material_deck_without_analysis(tmp_path, bar):
+    from hetmesh.io.deck import write_deck
+
+    model, mesh = bar
+    report = write_deck(mesh, model, tmp_path, "calculix", bin_width=0.05)
+    assert not report.analysis and report.bins >= 18
+    text = (tmp_path / "bar.inp").read_text()
+    assert text.count("*MATERIAL, NAME=MAT_") == report.bins
+    assert text.count("*SOLID SECTION, ELSET=MAT_") == report.bins and "*STEP" not in text
+    m = meshio.read(tmp_path / "bar.inp")
+    sizes = [len(m.cell_sets[f"MAT_{b + 1}"][0]) for b in range(report.bins)]
+    assert sum(sizes) == mesh.n_elements
+    # SI units: coordinates in metres
+    assert m.points[:, 0].max() == pytest.approx(0.01)
+
+
+def test_cli_export(tmp_path, bar, capsys):
+    from hetmesh.cli.main import main
+
+    model, mesh = bar
+    src = tmp_path / "bar.toml"
+    src.write_text(FGM_TOML)
+    write_mesh(mesh, tmp_path / "bar.vtu")
+    out = tmp_path / "deck"
+    for target in ("calculix", "abaqus", "fenics", "comsol"):
+        code = main(["export", str(src), "--mesh", str(tmp_path / "bar.vtu"), "--to", target,
+                     "--output", str(out / target), "-q"])
+        assert code == 0
+    assert (out / "fenics" / "bar.xdmf").exists() and (out / "fenics" / "bar.h5").exists()
+    assert (out / "comsol" / "bar.nas").read_text().count("CTRIA3") == mesh.n_elements
+    nas = meshio.read(out / "comsol" / "bar.nas")
+    np.testing.assert_allclose(nas.points[:, :2], mesh.points, rtol=1e-10, atol=1e-12)
+    table = np.loadtxt(out / "comsol" / "bar_composition.txt", comments="%")
+    assert table.shape == (mesh.n_points, 4)
+    capsys.readouterr()
+    assert main(["export", str(src), "--mesh", str(tmp_path / "none.vtu"), "--to", "calculix",
+                 "--output", str(out / "x")]) == 2
+    assert "no such file" in capsys.readouterr().err
+    assert main(["export", str(src), "--mesh", str(tmp_path / "bar.vtu"), "--to", "calculix",
+                 "--output", str(out / "x"), "--bin-width", "2"]) == 2

@@ -560,11 +560,24 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
     interfaces = ws.E[~ctx.boundary_curve[ws.ecurve]]
     mesh = Mesh(points=frame.to_user(P), triangles=tris, regions=local.pieces(interfaces),
                 edges=ws.E, edge_markers=ws.ecurve + 1,
-                marker_names={i + 1: ci.name for i, ci in enumerate(ctx.domain.curves)},
+                marker_names={i + 1: ci.curve.name or ci.owner  # one group per name
+                              for i, ci in enumerate(ctx.domain.curves)},
+                named_points=_named_nodes(P, ctx.domain),
                 point_data={name: comp[:, k] for k, name in enumerate(ctx.field.constituents)},
                 cell_data=cell_data)
     dense = delta_dense(ctx.field, P, tris, regions=cell_data.get("subregion"))
     return mesh, statistics(P, tris, delta, quality=q, angle=ang, dense=dense)
+
+
+def _named_nodes(P: np.ndarray, domain) -> dict[str, int]:
+    """The node at each named point of ``domain`` (fixed vertices; local coordinates)."""
+    out = {}
+    for name, xy in domain.points.items():
+        d = np.hypot(*(P - np.asarray(xy, np.float64)).T)
+        i = int(np.argmin(d))
+        if d[i] <= ON_CURVE_TOL * domain.diameter:
+            out[name] = i
+    return out
 
 
 # --------------------------------------------------------------------------- the pipeline

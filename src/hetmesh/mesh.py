@@ -128,7 +128,10 @@ class Mesh:
     point_data, cell_data : mapping of name to array
         Exported alongside the mesh (composition, delta, quality, ...).
     marker_names : mapping of marker to name
-        Names of the edge markers (curve names), exported where the format allows.
+        Names of the edge markers (curve names), exported where the format allows; markers
+        sharing a name are exported as one group.
+    named_points : mapping of name to node index
+        Named nodes (supports, probes), exported as node sets / physical points.
 
     Examples
     --------
@@ -145,6 +148,7 @@ class Mesh:
     point_data: Mapping[str, np.ndarray] = field(default_factory=dict)
     cell_data: Mapping[str, np.ndarray] = field(default_factory=dict)
     marker_names: Mapping[int, str] = field(default_factory=dict)
+    named_points: Mapping[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         p = np.asarray(self.points, dtype=np.float64)
@@ -192,6 +196,10 @@ class Mesh:
         set_(self, "point_data", pd)
         set_(self, "cell_data", cd)
         set_(self, "marker_names", {int(k): str(v) for k, v in dict(self.marker_names).items()})
+        named = {str(k): int(v) for k, v in dict(self.named_points).items()}
+        if any(not 0 <= v < len(p) for v in named.values()):
+            raise MeshDataError(f"named_points index points outside 0..{len(p) - 1}")
+        set_(self, "named_points", named)
 
     # -- sizes -------------------------------------------------------------
     @property

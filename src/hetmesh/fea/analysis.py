@@ -504,6 +504,9 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     if cfg is None:
         raise FEAError(f"model {model.name!r} has no [fea] table (properties, boundary "
                        f"conditions): see docs/model-format.md")
+    if not cfg.has_problem:
+        raise FEAError(f"model {model.name!r}: the [fea] table has no boundary conditions "
+                       f"(fea.temperature, fea.displacement): see docs/model-format.md")
     field, domain = model.material, model.domain
     if len(cfg.properties) != len(field.constituents):
         raise FEAError(f"the [fea] properties are for {len(cfg.properties)} constituents, the "

@@ -84,6 +84,9 @@ class FEAConfig:
     properties : dict constituent -> Properties
         In the order of the material's constituents.
     temperature, displacement : tuples of the boundary conditions
+        Both empty for a table of material properties alone (``[fea.properties]``, and
+        optionally ``mixing``/``matrix``/``plane``/``reference_temperature``), which
+        :mod:`hetmesh.io.material` uses to carry the graded material into exported files.
     probes : dict name -> (x, y)
         In model coordinates.
     plane : "strain" or "stress"
@@ -111,6 +114,11 @@ class FEAConfig:
     length_scale: float = 1.0
     order: int = 1
     where: str = ""
+
+    @property
+    def has_problem(self) -> bool:
+        """Whether boundary conditions are given (else only the material properties)."""
+        return bool(self.temperature) or bool(self.displacement)
 
     def table(self) -> dict[str, np.ndarray]:
         """Constituent property columns ``{'conductivity': (m,), ...}`` (constituent order)."""
@@ -146,9 +154,14 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
         on an unknown curve or point; a probe outside the domain; no fixed temperature; too
         few displacement constraints to remove the rigid-body modes.
     """
-    t = ctx.table(value, "fea", required=("properties", "temperature", "displacement"),
-                  optional=("plane", "reference_temperature", "mixing", "matrix", "probes",
-                            "order"))
+    t = ctx.table(value, "fea", required=("properties",),
+                  optional=("temperature", "displacement", "plane", "reference_temperature",
+                            "mixing", "matrix", "probes", "order"))
+    if ("temperature" in t) != ("displacement" in t):
+        missing = "displacement" if "temperature" in t else "temperature"
+        raise ModelFileError(f"{ctx.pre}missing key 'fea.{missing}' (the analysis needs both "
+                             f"fixed temperatures and displacement conditions; give neither "
+                             f"for the material properties alone)")
     scale = length_scale(units)
     if scale is None:
         raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
@@ -176,14 +189,18 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
         raise ctx.fail("fea.matrix", "only mixing = \"mori-tanaka\" has a matrix constituent")
     props = _properties(ctx, t["properties"], constituents)
     names = _curve_names(domain)
-    temps = tuple(_temperature(ctx, item, f"fea.temperature[{i}]", names)
-                  for i, item in enumerate(_array(ctx, t["temperature"], "fea.temperature")))
-    if not temps:
-        raise ctx.fail("fea.temperature", "at least one fixed temperature is needed (with "
-                                          "every edge insulated the temperature is undefined)")
-    disps = tuple(_displacement(ctx, item, f"fea.displacement[{i}]", names, domain)
-                  for i, item in enumerate(_array(ctx, t["displacement"], "fea.displacement")))
-    _check_rigid(ctx, disps, domain, names)
+    temps, disps = (), ()
+    if "temperature" in t:
+        temps = tuple(_temperature(ctx, item, f"fea.temperature[{i}]", names)
+                      for i, item in enumerate(_array(ctx, t["temperature"], "fea.temperature")))
+        if not temps:
+            raise ctx.fail("fea.temperature", "at least one fixed temperature is needed (with "
+                                              "every edge insulated the temperature is "
+                                              "undefined)")
+        disps = tuple(_displacement(ctx, item, f"fea.displacement[{i}]", names, domain)
+                      for i, item in enumerate(_array(ctx, t["displacement"],
+                                                      "fea.displacement")))
+        _check_rigid(ctx, disps, domain, names)
     probes = _probes(ctx, t.get("probes", {}), domain)
     return FEAConfig(properties=props, temperature=temps, displacement=disps, probes=probes,
                      plane=plane, reference_temperature=ref, mixing=mixing, matrix=matrix,

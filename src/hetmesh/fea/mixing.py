@@ -29,7 +29,8 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-__all__ = ["MIXING_RULES", "mix", "mix_linear", "mix_mori_tanaka", "lame", "thermal_modulus"]
+__all__ = ["MIXING_RULES", "mix", "mix_linear", "mix_mori_tanaka", "mix_config", "lame",
+           "thermal_modulus"]
 
 
 def mix_linear(c: np.ndarray, table: Mapping[str, np.ndarray], matrix: int | None = None
@@ -80,6 +81,15 @@ def mix(c: np.ndarray, table: Mapping[str, np.ndarray], rule: str = "linear",
         matrix: int = 0) -> dict[str, np.ndarray]:
     """Effective properties by the named rule (``"linear"`` or ``"mori-tanaka"``)."""
     return MIXING_RULES[rule](c, table, matrix)
+
+
+def mix_config(c: np.ndarray, config, constituents) -> dict[str, np.ndarray]:
+    """Effective properties of compositions ``c`` ``(N, m)`` (columns in the order of
+    ``constituents``) by the rule and constituent properties of an ``[fea]`` table
+    (:class:`~hetmesh.fea.config.FEAConfig`; boundary conditions not needed)."""
+    cons = list(constituents)
+    matrix = cons.index(config.matrix) if config.matrix is not None else 0
+    return mix(c, config.table(), config.mixing, matrix)
 
 
 def lame(E: np.ndarray, nu: np.ndarray, plane: str = "strain") -> tuple[np.ndarray, np.ndarray]:
