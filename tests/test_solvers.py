@@ -454,4 +454,6 @@ uy = 0
     ids_u, U = frd["DISP"]
     assert ids.tolist()[:n] == list(range(1, n + 1))
     assert np.abs(T[:n, 0] - ours.temperature).max() <= 1e-3 * np.ptp(ours.temperature)
-    assert np.abs(U[:n, :2] - ours.displacement).max() <= 1e-3 * np.abs(ours.displacement).max()
+    # the deck's material is constant per composition bin (0.0125 wide: properties off by up
+    # to about 1 %), hetmesh fea's per element; displacements follow the stiffness error
+    assert np.abs(U[:n, :2] - ours.displacement).max() <= 5e-3 * np.abs(ours.displacement).max()
