@@ -141,7 +141,7 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
                  args=args, on_result=on_result, on_progress=on_progress)
     else:
         with open_client(workers=workers, scheduler=scheduler) as dask_client:
-            counts.dashboard = dashboard_link(dask_client)
+            counts.dashboard = dashboard_link(dask_client, local=scheduler is None)
             map_runs(run_one, todo, [s["key"] for s in todo], client=dask_client, args=args,
                      on_result=on_result, on_progress=on_progress)
     counts.running = 0

@@ -47,9 +47,15 @@ class Counts:
     dashboard: str | None = None
 
 
-def dashboard_link(client) -> str | None:
-    """The Dask dashboard's address, or None if the scheduler serves none (the dashboard
-    needs ``bokeh``: ``pip install bokeh``)."""
+def dashboard_link(client, *, local: bool = False) -> str | None:
+    """The Dask dashboard's address, or None if the scheduler serves none. The dashboard
+    needs ``bokeh`` beside the scheduler (``pip install bokeh``); without it a scheduler
+    serves only a page saying so, which a ``local`` cluster's link is not given for."""
+    if local:
+        import importlib.util
+
+        if importlib.util.find_spec("bokeh") is None:
+            return None
     try:
         services = client.scheduler_info().get("services", {})
     except Exception:  # a scheduler that does not answer: no link, the sweep goes on
