@@ -126,7 +126,7 @@ def test_killed_worker_nothing_lost_or_duplicated(tmp_path):
     worker; every run appears once, with the numbers of a serial run."""
     from dask.distributed import Client, LocalCluster
 
-    study = {"grid": {"model": ["hft_ring"], "threshold": [0.2, 0.15, 0.12, 0.1]}}
+    study = {"grid": {"model": ["hft_ring"], "threshold": [0.2, 0.15, 0.12]}}
     reference = sweep(study, serial=True)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=":0") as cluster, Client(cluster) as client:
@@ -148,12 +148,12 @@ def test_killed_worker_nothing_lost_or_duplicated(tmp_path):
         worker.join(120)
     assert victim is not None, "no run was seen running"
     t = box["t"]
-    assert len(t) == 4 and t["key"].is_unique and (t["status"] == "ok").all()
+    assert len(t) == 3 and t["key"].is_unique and (t["status"] == "ok").all()
     pd.testing.assert_frame_equal(numbers(t), numbers(reference))
     # the killed run was finished by another process
     killed = t[t["key"] == task.rsplit("-", 1)[-1]].iloc[0]
     assert not killed["worker"].endswith(f":{pids[victim]}")
-    assert len(list((tmp_path / "runs").glob("*.json"))) == 4
+    assert len(list((tmp_path / "runs").glob("*.json"))) == 3
 
 
 def test_resume_reruns_nothing_finished(tmp_path):
@@ -203,3 +203,57 @@ def test_cli_sweep_writes_and_resumes(tmp_path, capsys):
     assert hetmesh.io.export.read_mesh(meshes[0]).n_elements == t["n_elements"][0]
     assert main(["sweep", str(study), "--serial", "--out", str(out)]) == 0
     assert "2 runs (0 failed, 2 found done)" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------- reproduce and fea.study on Dask
+@pytest.fixture(scope="module")
+def client():
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=":0") as cluster, Client(cluster) as c:
+        yield c
+
+
+def test_reproduce_on_a_cluster_has_the_serial_numbers(tmp_path, client):
+    from hetmesh import reproduce
+
+    kw = dict(cases=["power_plate", "hft_ring"], quick=True, peers=False, fea=False)
+    serial = reproduce.run(tmp_path / "serial", **kw)
+    stages = []
+    dist = reproduce.run(tmp_path / "dask", client=client,
+                         progress=lambda s, f: stages.append(f), **kw)
+    assert [(r.case, r.threshold) for r in dist.runs] == \
+        [(r.case, r.threshold) for r in serial.runs]
+    for a, b in zip(serial.runs, dist.runs):
+        assert b.error is None
+        assert a.adaptive.stats == b.adaptive.stats and a.uniform.stats == b.uniform.stats
+        assert a.n_iso == b.n_iso and a.histogram_uniform_elements == b.histogram_uniform_elements
+        assert (a.mesh_figure, a.histogram) == (b.mesh_figure, b.histogram)
+    assert sorted(p.relative_to(tmp_path / "dask") for p in dist.figures) == \
+        sorted(p.relative_to(tmp_path / "serial") for p in serial.figures)
+    assert all(p.is_file() for p in dist.figures)
+    assert stages == sorted(stages) and stages[-1] == 1.0
+
+
+def test_fea_study_on_a_cluster_has_the_serial_numbers(client):
+    model = hetmesh.load_model(hetmesh.example_path("fgm_plate"))
+    kw = dict(reference_elements=1500, uniform_elements=(250, 600), thresholds=(0.3,),
+              check=False, order=1)
+    serial = hetmesh.fea.study(model, **kw)
+    dist = hetmesh.fea.study(model, client=client, **kw)
+    drop = ("mesh_seconds", "solve_seconds")
+
+    def strip(d):
+        return {k: strip(v) if isinstance(v, dict) else v for k, v in d.items() if k not in drop}
+
+    assert strip(dist.reference) == strip(serial.reference)
+    assert [strip(m) for m in dist.meshes] == [strip(m) for m in serial.meshes]
+    assert dist.needed == serial.needed and dist.needed_by_set == serial.needed_by_set
+
+
+def test_cli_reproduce_workers_flags(tmp_path, capsys):
+    assert main(["reproduce", "--workers", "2", "--scheduler", "tcp://x:1", "--out",
+                 str(tmp_path)]) == 2
+    assert "not allowed with argument" in capsys.readouterr().err
+    assert main(["reproduce", "--workers", "0", "--out", str(tmp_path)]) == 2
