@@ -257,3 +257,21 @@ def test_cli_reproduce_workers_flags(tmp_path, capsys):
                  str(tmp_path)]) == 2
     assert "not allowed with argument" in capsys.readouterr().err
     assert main(["reproduce", "--workers", "0", "--out", str(tmp_path)]) == 2
+
+
+def test_fea_step_records_probe_values():
+    """With [fea], every row has the probes' von Mises stress and temperature, the ones
+    hetmesh.fea.solve gives on the same mesh; a model without [fea] is a failed row."""
+    t = sweep({"grid": {"model": ["fgm_plate", "unit_square"], "threshold": 0.3},
+               "fea": {"probes": ["P1", "P3"], "order": 1}}, serial=True)
+    ok, bad = t.iloc[0], t.iloc[1]
+    model = hetmesh.load_model(hetmesh.example_path("fgm_plate"))
+    r = hetmesh.generate(model, 0.3)
+    from dataclasses import replace
+    cfg = replace(model.fea, order=1, probes={k: model.fea.probes[k] for k in ("P1", "P3")})
+    solved = hetmesh.fea.solve(r.mesh, r.model, config=cfg)
+    for p in ("P1", "P3"):
+        assert ok[f"fea.{p}.von_mises"] == solved.probes[p]["von_mises"]
+        assert ok[f"fea.{p}.temperature"] == solved.probes[p]["temperature"]
+    assert "fea.P2.von_mises" not in t.columns and ok["fea_seconds"] > 0
+    assert bad["status"] == "failed" and "has no [fea] table" in bad["error"]
