@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Iterator
@@ -110,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     from ..study import load_study, sweep
 
     study = load_study(args.study)  # a bad study fails before anything is written
-    out: Path = args.out if args.out is not None else Path(f"sweep-{study.name}")
+    out: Path = args.out if args.out is not None else \
+        Path("sweep-" + re.sub(r"[^A-Za-z0-9_.-]+", "_", study.name).strip("._"))
     if out.exists() and not out.is_dir():
         raise OutputError(f"--out {out} is not a directory")
     if out.exists():

@@ -138,12 +138,14 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
         on_progress(0, 0)
     elif serial or client is not None:
         map_runs(run_one, todo, [s["key"] for s in todo], client=None if serial else client,
-                 args=args, on_result=on_result, on_progress=on_progress)
+                 args=args, on_result=on_result, on_progress=on_progress,
+                 costs=[s.get("cost", 0.0) for s in todo])
     else:
         with open_client(workers=workers, scheduler=scheduler) as dask_client:
             counts.dashboard = dashboard_link(dask_client, local=scheduler is None)
             map_runs(run_one, todo, [s["key"] for s in todo], client=dask_client, args=args,
-                     on_result=on_result, on_progress=on_progress)
+                     on_result=on_result, on_progress=on_progress,
+                     costs=[s.get("cost", 0.0) for s in todo])
     counts.running = 0
     if progress is not None:
         progress(counts)

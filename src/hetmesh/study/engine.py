@@ -136,7 +136,7 @@ def _nthreads(client) -> int:
 def map_runs(func: Callable, items: Sequence[Any], keys: Sequence[str], *, client=None,
              args: tuple = (), on_result: Callable[[int, Any, str | None], None] | None = None,
              on_progress: Callable[[int, int], None] | None = None,
-             prefix: str = "hetmesh-run") -> list:
+             prefix: str = "hetmesh-run", costs: Sequence[float] | None = None) -> list:
     """``[func(item, *args) for item in items]``, on ``client`` if given.
 
     Parameters
@@ -153,6 +153,10 @@ def map_runs(func: Callable, items: Sequence[Any], keys: Sequence[str], *, clien
         None.
     on_progress : callable ``(running, pending)``, optional
         Called after every result with the runs running now and not yet finished.
+    costs : sequence of float, optional
+        Expected cost of each item: on a client, the costliest are started first (Dask
+        priorities; submission order for an executor), so that the last runs to finish are
+        short ones. Results are still returned in the order of ``items``.
 
     Returns
     -------
@@ -178,15 +182,21 @@ def map_runs(func: Callable, items: Sequence[Any], keys: Sequence[str], *, clien
                 value, error = None, _message(exc)
             deliver(i, value, error)
         return results
+    rank = list(range(len(items)))
+    if costs is not None:  # costliest first; ties in the given order
+        rank = sorted(rank, key=lambda i: (-float(costs[i]), i))
+    futures: list = [None] * len(items)
     if _is_dask(client):
         from dask.distributed import as_completed
 
-        futures = [client.submit(func, item, *args, key=f"{prefix}-{k}", pure=False)
-                   for item, k in zip(items, keys)]
-        completed = as_completed(futures)
+        for r, i in enumerate(rank):
+            futures[i] = client.submit(func, items[i], *args, key=f"{prefix}-{keys[i]}",
+                                       pure=False, priority=len(items) - r)
+        completed = as_completed([futures[i] for i in rank])
         nthreads = _nthreads(client)
     else:
-        futures = [client.submit(func, item, *args) for item in items]
+        for i in rank:
+            futures[i] = client.submit(func, items[i], *args)
         completed = cf.as_completed(futures)
         nthreads = getattr(client, "_max_workers", 1) or 1
     index = {id(f): i for i, f in enumerate(futures)}

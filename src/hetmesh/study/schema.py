@@ -69,7 +69,8 @@ class Study:
         duplicates (same content key) dropped. Keys: ``index``, ``key``, ``model`` (name),
         ``model_file``, ``model_text``, ``method``, ``threshold``, ``options`` (the other
         run keys, defaults filled in), ``fea`` (None or ``{"probes": [...] | None, "order":
-        int | None}``), ``mesh_format`` (None or an extension).
+        int | None}``), ``mesh_format`` (None or an extension), ``cost`` (the a-priori
+        element estimate: the longest runs are started first; not part of the key).
     source : Path or None
         The study file.
     description : str
@@ -172,7 +173,7 @@ def parse_study(data: Mapping, where: str = "study", *, base: str | os.PathLike 
     for k, v in (("name", name), ("description", description)):
         if not isinstance(v, str):
             raise w.fail(f"study.{k}", f"expected a string, got {_describe(v)}")
-    defaults = _run_table(w, top.get("defaults", {}), "defaults", partial=True)
+    defaults = _run_table(w, top.get("defaults", {}), "defaults")
     fea = _fea(w, top["fea"]) if "fea" in top else None
     output = w.table(top.get("output", {}), "output", _OUTPUT_KEYS)
     mesh_format = _mesh_format(w, output.get("mesh", False))
@@ -186,11 +187,12 @@ def parse_study(data: Mapping, where: str = "study", *, base: str | os.PathLike 
         raise w.fail("runs", f"expected an array of tables ([[runs]]), got {_describe(runs)}")
     for i, r in enumerate(runs):
         key = f"runs[{i}]"
-        raw_runs.append((key, {**defaults, **_run_table(w, r, key, partial=True)}))
+        raw_runs.append((key, {**defaults, **_run_table(w, r, key)}))
     if not raw_runs:
         raise w.fail("", "no runs: give a [grid] table or [[runs]] tables")
 
     models: dict[str, tuple[str, Path | None, str]] = {}
+    costs: dict[str, Any] = {}
     specs: list[dict] = []
     seen: dict[str, str] = {}
     for key, run in raw_runs:
@@ -202,6 +204,9 @@ def parse_study(data: Mapping, where: str = "study", *, base: str | os.PathLike 
             models[model_ref] = resolve_model(model_ref, base_dir, w, f"{key}.model")
         model_name, model_file, text = models[model_ref]
         spec = _spec(w, key, run, model_name, model_file, text, fea, mesh_format)
+        if model_ref not in costs:
+            costs[model_ref] = _cost_model(base_dir, model_ref)
+        spec["cost"] = costs[model_ref](spec["threshold"], spec["options"].get("max_size"))
         if spec["key"] in seen:
             log.warning("%s: %s repeats %s; it runs once", where, key, seen[spec["key"]])
             continue
@@ -233,7 +238,7 @@ def _short(v) -> str:
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
-def _run_table(w: _Where, value, key: str, *, partial: bool) -> dict:
+def _run_table(w: _Where, value, key: str) -> dict:
     table = w.table(value, key, RUN_KEYS)
     for k, v in table.items():
         _check_value(w, _join(key, k), k, v)
@@ -319,6 +324,26 @@ def resolve_model(ref: str, base: Path, w: _Where | None = None,
     except HetmeshError as exc:
         raise w.fail(key, str(exc).splitlines()[0]) from None
     return model.name, (path.resolve() if is_path else None), text
+
+
+def _cost_model(base: Path, ref: str):
+    """``(threshold, max_size) -> expected elements`` of a model (the a-priori count of
+    equilateral elements of side ``min(delta_0 / |grad f|, max_size)``), so that a cluster can
+    start the longest runs first and no long run is left alone at the end."""
+    from .. import example_path, load_model
+    from ..density import background_points, gradient_norm, integrate, size_at
+
+    is_path = ref.endswith(".toml") or "/" in ref or os.sep in ref
+    model = load_model(base / ref if is_path else example_path(ref), check=False)
+    domain = model.domain
+    g = gradient_norm(model.material, background_points(domain, 100))
+    default = domain.diameter / 8.0
+
+    def cost(threshold: float, max_size: float | None) -> float:
+        h = size_at(g, threshold, max_size or default)
+        return float(4.0 / math.sqrt(3.0) * integrate(1.0 / h ** 2, domain))
+
+    return cost
 
 
 def _spec(w: _Where, key: str, run: dict, model_name: str, model_file: Path | None, text: str,
