@@ -17,7 +17,7 @@ from hetmesh.cli import main
 from hetmesh.errors import OptionError
 from hetmesh.study import load_study, parse_study, run_one, rows_to_frame, sweep
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "sweep.toml"
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "studies" / "sweep.toml"
 
 #: the columns that differ between two runs of the same mesh: times, the process
 TIMING = ["seconds", "mesh_seconds", "fea_seconds", "timings", "worker"]

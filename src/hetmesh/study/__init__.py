@@ -6,7 +6,7 @@ optional FEA step and mesh files. :func:`sweep` runs them on a Dask cluster (a l
 default, or any scheduler by address), one row per run, and writes the table (Parquet and
 CSV) and a summary PNG::
 
-    table = hetmesh.sweep("examples/sweep.toml", out="results")      # local cluster
+    table = hetmesh.sweep("examples/studies/sweep.toml", out="results")      # local cluster
     table = hetmesh.sweep(study, client=Client("tcp://head:8786"))     # a running cluster
     table[["model", "threshold", "n_elements", "q_avg", "seconds"]]
 
@@ -94,9 +94,11 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
 
     Examples
     --------
-    >>> t = hetmesh.sweep("examples/sweep.toml", workers=2, out="sweep-out")  # doctest: +SKIP
+    >>> t = hetmesh.sweep("examples/studies/sweep.toml", workers=2, out="sweep-out")  # doctest: +SKIP
     >>> t.groupby("model")["n_elements"].max()                                 # doctest: +SKIP
     """
+    if client is not None and (workers is not None or scheduler is not None or serial):
+        raise OptionError("sweep: give a client, or workers/scheduler/serial, not both")
     study = _as_study(study)
     out_dir = _prepare_out(Path(out)) if out is not None else None
     specs = study.specs
@@ -137,6 +139,8 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
     if not todo:
         on_progress(0, 0)
     elif serial or client is not None:
+        if client is not None and hasattr(client, "scheduler_info"):  # a Dask client
+            counts.dashboard = dashboard_link(client)
         map_runs(run_one, todo, [s["key"] for s in todo], client=None if serial else client,
                  args=args, on_result=on_result, on_progress=on_progress,
                  costs=[s.get("cost", 0.0) for s in todo])

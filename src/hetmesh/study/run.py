@@ -144,7 +144,7 @@ def run_one(spec: dict, out: str | os.PathLike | None = None) -> dict[str, Any]:
 
     Examples
     --------
-    >>> study = hetmesh.study.load_study("examples/sweep.toml")   # doctest: +SKIP
+    >>> study = hetmesh.study.load_study("examples/studies/sweep.toml")   # doctest: +SKIP
     >>> run_one(study.specs[0])["n_elements"]                     # doctest: +SKIP
     150
     """

@@ -131,7 +131,7 @@ def load_study(path: str | os.PathLike) -> Study:
 
     Examples
     --------
-    >>> study = load_study("examples/sweep.toml")     # doctest: +SKIP
+    >>> study = load_study("examples/studies/sweep.toml")     # doctest: +SKIP
     >>> len(study.specs)                               # doctest: +SKIP
     6
     """
