@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+from concurrent.futures.process import BrokenProcessPool
 import logging
 import os
 from dataclasses import dataclass
@@ -228,6 +229,6 @@ def _message(exc: BaseException) -> str:
     name = type(exc).__name__
     text = " ".join(str(exc).split())
     if name in ("KilledWorker", "CancelledError", "FutureCancelledError") or \
-            isinstance(exc, (cf.CancelledError, cf.process.BrokenProcessPool)):
+            isinstance(exc, (cf.CancelledError, BrokenProcessPool)):
         return f"{LOST}: {name}: {text}" if text else f"{LOST}: {name}"
     return f"internal error: {name}: {text}" if text else f"internal error: {name}"
