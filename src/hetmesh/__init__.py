@@ -20,15 +20,17 @@ from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, Mat
                      MeshingError, ModelFileError, OptionError, OutputError)
 from .io.model import Model, load_model
 from .mesh import Mesh
+from .study import sweep
 from .metrics import MeshStats
 from .uniform import uniform
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "generate", "uniform", "mesh_statistics", "load_model", "example_path", "Model", "Mesh",
-    "Result", "MeshStats", "HetmeshError", "ModelFileError", "GeometryError", "MaterialError",
-    "FormulaError", "OptionError", "MeshingError", "BudgetError", "OutputError", "__version__",
+    "generate", "uniform", "sweep", "mesh_statistics", "load_model", "example_path", "Model",
+    "Mesh", "Result", "MeshStats", "HetmeshError", "ModelFileError", "GeometryError",
+    "MaterialError", "FormulaError", "OptionError", "MeshingError", "BudgetError", "OutputError",
+    "__version__",
 ]
 
 

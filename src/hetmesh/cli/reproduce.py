@@ -24,6 +24,16 @@ def _cases(text: str) -> list[str]:
 _cases.__name__ = "case list"
 
 
+def _workers(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise ValueError(text)
+    return value
+
+
+_workers.__name__ = "worker count"
+
+
 def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     from ..reproduce import CASES
 
@@ -45,6 +55,13 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
     p.add_argument("--quick", action="store_true",
                    help="one coarse threshold per model and no peers (under a minute)")
     p.add_argument("--no-peers", action="store_true", help="skip the Gmsh/Triangle section")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", "-j", type=_workers, default=None, metavar="N",
+                       help="run the models and the FEA study's meshes on a local Dask "
+                            "cluster of N worker processes (default: in this process)")
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="run them on the Dask scheduler at ADDRESS (tcp://host:8786 or a "
+                            "scheduler file); DIR must be shared with the workers")
     p.add_argument("--quiet", "-q", action="store_true",
                    help="no progress bar and no summary; errors only")
     p.set_defaults(run=run)
@@ -65,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     with progress_reporter(quiet=args.quiet, label="reproduce") as progress:
         report = reproduce(out, cases=args.cases, quick=args.quick,
                            peers=False if args.no_peers else None, progress=progress,
-                           command=command)
+                           command=command, workers=args.workers, scheduler=args.scheduler)
     if not args.quiet:
         console = Console(highlight=False, markup=False)
         console.print(summary_table(report))

@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import FEAError, HetmeshError
 
 __all__ = ["study", "ProbeStudy", "StudyPlan", "PLANS", "TOLERANCE", "elements_needed",
-           "h_for_elements", "probe_sets", "uniform_mesher"]
+           "h_for_elements", "probe_sets", "uniform_mesher", "measure"]
 
 log = logging.getLogger(__name__)
 
@@ -226,13 +226,70 @@ def _needed(runs: list[dict], names: list[str], key: str, tol: float) -> dict:
             "reduction_is_lower_bound": bool(red is not None and not ae)}
 
 
+def measure(model, cfg, kind: str, p: float, *, uniform_mesh=None) -> dict:
+    """One mesh of a study and its probes: a plain function (the model, its FEA settings,
+    ``kind`` "uniform" with edge ``p`` or "adaptive" with ``delta_0 = p``), so that it runs
+    the same in this process and on a worker.
+
+    Returns ``{"elements", "von_mises" (probe -> Pa), "mesh_seconds", "solve_seconds"}``, or
+    ``{"error": message}`` if meshing or solving raised a :class:`HetmeshError`.
+    ``uniform_mesh`` is a :func:`uniform_mesher` of ``model`` to reuse (default: a new one).
+    """
+    from ..adapt import generate
+    from .analysis import solve
+
+    t0 = time.perf_counter()
+    try:
+        if kind == "adaptive":
+            mesh = generate(model, p).mesh
+        else:
+            mesh = (uniform_mesh or uniform_mesher(model))(p)
+        t1 = time.perf_counter()
+        r = solve(mesh, model, config=cfg)
+    except HetmeshError as exc:
+        return {"error": str(exc).splitlines()[0] if str(exc) else type(exc).__name__}
+    vm = {k: float(v["von_mises"]) for k, v in r.probes.items()}
+    return {"elements": int(mesh.n_elements), "von_mises": vm, "mesh_seconds": t1 - t0,
+            "solve_seconds": time.perf_counter() - t1}
+
+
+def _measure_item(item: tuple) -> dict:
+    model, cfg, kind, p = item
+    return measure(model, cfg, kind, p)
+
+
+def _measure_on(client, model, cfg, jobs, steps, what, progress) -> list[dict]:
+    """:func:`measure` of every job on ``client`` (a Dask client or an executor)."""
+    import uuid
+
+    from ..study.engine import map_runs
+
+    token = uuid.uuid4().hex[:12]
+    done = [0]
+    errors: dict[int, str] = {}
+
+    def on_result(i: int, value, error: str | None) -> None:
+        done[0] += 1
+        if error is not None:
+            errors[i] = error
+        if progress is not None:
+            kind, p = steps[i]
+            progress(what[kind].format(p), done[0] / len(jobs))
+
+    results = map_runs(_measure_item, [(model, cfg, k, p) for k, p in jobs],
+                       [f"{token}-{i}" for i in range(len(jobs))], client=client,
+                       on_result=on_result, prefix="hetmesh-probe-study")
+    return [r if r is not None else {"error": errors.get(i, "no result")}
+            for i, r in enumerate(results)]
+
+
 # ------------------------------------------------------------------------------- the study
 
 def study(model, *, quick: bool = False, progress: Progress | None = None,
           order: int | None = None, reference_elements: int | None = None,
           uniform_elements: Sequence[int] | None = None,
           thresholds: Sequence[float] | None = None, check: bool | None = None,
-          tolerance: float = TOLERANCE) -> ProbeStudy:
+          tolerance: float = TOLERANCE, client=None) -> ProbeStudy:
     """The case-4 study: probe von Mises errors of uniform and adaptive meshes against a
     fine uniform reference, and the elements each family needs for ``tolerance``.
 
@@ -251,6 +308,9 @@ def study(model, *, quick: bool = False, progress: Progress | None = None,
         Override the plan's (see :class:`StudyPlan`).
     tolerance : float
         Relative probe accuracy (default 0.5 %).
+    client : dask.distributed.Client or concurrent.futures.Executor, optional
+        Mesh and solve the study's meshes there, all at once (:func:`measure` on each);
+        the same numbers as in this process. ``progress`` then reports the meshes done.
 
     Returns
     -------
@@ -268,9 +328,6 @@ def study(model, *, quick: bool = False, progress: Progress | None = None,
     >>> s = hetmesh.fea.study(model, quick=True)                        # doctest: +SKIP
     >>> s.needed["uniform"], s.needed["adaptive"], s.reduction          # doctest: +SKIP
     """
-    from ..adapt import generate
-    from .analysis import solve
-
     t_start = time.perf_counter()
     cfg = getattr(model, "fea", None)
     if cfg is None:
@@ -299,54 +356,54 @@ def study(model, *, quick: bool = False, progress: Progress | None = None,
     sets = probe_sets(names)
     primary = "P" if "P" in sets else next(iter(sets))
     area = model.domain.area
-    uniform_mesh = uniform_mesher(model)
+    uniform_mesh = uniform_mesher(model) if client is None else None
     h_ref = h_for_elements(area, plan.reference_elements)
     hs = sorted((h_for_elements(area, n) for n in plan.uniform_elements), reverse=True)
     d0s = sorted(plan.thresholds, reverse=True)
     steps = [("reference", h_ref)] + ([("check", 2 * h_ref)] if plan.check else []) \
         + [("uniform", h) for h in hs] + [("adaptive", d) for d in d0s]
 
-    def run(kind: str, p: float):
-        t0 = time.perf_counter()
-        mesh = generate(model, p).mesh if kind == "adaptive" else uniform_mesh(p)
-        t1 = time.perf_counter()
-        r = solve(mesh, model, config=cfg)
-        vm = {k: float(v["von_mises"]) for k, v in r.probes.items()}
-        return mesh, vm, t1 - t0, time.perf_counter() - t1
+    what = {"reference": "reference, uniform h = {:.3g}",
+            "check": "reference check, uniform h = {:.3g}",
+            "uniform": "uniform h = {:.3g}", "adaptive": "adaptive delta_0 = {:g}"}
+    # the reference and its check are uniform meshes
+    jobs = [("adaptive" if kind == "adaptive" else "uniform", p) for kind, p in steps]
+    if client is None:
+        measured = []
+        for i, (kind, p) in enumerate(steps):
+            if progress is not None:
+                progress(what[kind].format(p), i / len(steps))
+            measured.append(measure(model, cfg, *jobs[i], uniform_mesh=uniform_mesh))
+            if kind in ("reference", "check") and "error" in measured[-1]:
+                break  # the study cannot go on without its reference
+    else:
+        measured = _measure_on(client, model, cfg, jobs, steps, what, progress)
 
     reference: dict = {}
     meshes: list[dict] = []
-    for i, (kind, p) in enumerate(steps):
-        what = {"reference": f"reference, uniform h = {p:.3g}",
-                "check": f"reference check, uniform h = {p:.3g}",
-                "uniform": f"uniform h = {p:.3g}", "adaptive": f"adaptive delta_0 = {p:g}"}
-        if progress is not None:
-            progress(what[kind], i / len(steps))
+    for (kind, p), m in zip(steps, measured):
         if kind in ("reference", "check"):
-            try:
-                mesh, vm, tm, ts = run("uniform", p)
-            except HetmeshError as exc:
+            if "error" in m:
                 raise FEAError(f"the study's {kind} mesh (uniform h = {p:.4g}) failed: "
-                               f"{str(exc).splitlines()[0]}") from exc
-            entry = {"elements": int(mesh.n_elements), "h": p, "von_mises": vm,
-                     "mesh_seconds": tm, "solve_seconds": ts}
+                               f"{m['error']}")
+            entry = {"elements": m["elements"], "h": p, "von_mises": m["von_mises"],
+                     "mesh_seconds": m["mesh_seconds"], "solve_seconds": m["solve_seconds"]}
             if kind == "reference":
                 reference = entry
             else:
-                entry["difference"] = _rel(vm, reference["von_mises"], names)
+                entry["difference"] = _rel(m["von_mises"], reference["von_mises"], names)
                 reference["check"] = entry
             continue
-        try:
-            mesh, vm, tm, ts = run(kind, p)
-        except HetmeshError as exc:  # a study reports, it does not stop
-            log.warning("study: %s failed: %s", what[kind], exc)
-            meshes.append({"family": kind, "param": p, "error": str(exc).splitlines()[0]})
+        if "error" in m:  # a study reports, it does not stop
+            log.warning("study: %s failed: %s", what[kind].format(p), m["error"])
+            meshes.append({"family": kind, "param": p, "error": m["error"]})
             continue
+        vm = m["von_mises"]
         ref = reference["von_mises"]
         errors = {s: max(_rel(vm, ref, ns).values()) for s, ns in sets.items()}
-        meshes.append({"family": kind, "param": p, "elements": int(mesh.n_elements),
+        meshes.append({"family": kind, "param": p, "elements": m["elements"],
                        "von_mises": vm, "max_error": errors[primary], "errors": errors,
-                       "mesh_seconds": tm, "solve_seconds": ts})
+                       "mesh_seconds": m["mesh_seconds"], "solve_seconds": m["solve_seconds"]})
     if progress is not None:
         progress("done", 1.0)
 

@@ -120,7 +120,8 @@ def _prepare_out(out: Path) -> Path:
 
 def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | None = None,
         quick: bool = False, peers: bool | None = None, fea: bool | None = None,
-        progress: Progress | None = None, command: str | None = None) -> Report:
+        progress: Progress | None = None, command: str | None = None,
+        workers: int | None = None, scheduler: str | None = None, client=None) -> Report:
     """Mesh the paper's models and write ``out/report.md`` with its figures.
 
     Parameters
@@ -141,6 +142,10 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
         Called before every step with the fraction of the steps done.
     command : str, optional
         The command line, quoted in the report.
+    workers, scheduler, client : optional
+        Run the models' records and the FEA study's meshes on a local Dask cluster of
+        ``workers`` processes, on the scheduler at ``scheduler``, or on ``client``
+        (:mod:`hetmesh.study.engine`); the same numbers as this process alone.
 
     Returns
     -------
@@ -175,27 +180,18 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
 
     models = {n: load_model(example_path(n)) for n in names}
     runs, figures = [], []
-    for case, threshold in pairs:
-        step(f"{case.name} delta_0={threshold:g}: adaptive and uniform")
-        record = _mesh_record(out, case, threshold, models[case.name], quick, installed,
-                              step, figures)
-        runs.append(record)
-    fea_result, fea_error = None, None
-    if study:
-        step("fgm_plate: FEA study (Table 7)")
-        base = done[0] - 1
-
-        def study_progress(stage: str, fraction: float | None) -> None:
-            if progress is not None:
-                progress(f"fgm_plate FEA study: {stage}",
-                         (base + (fraction or 0.0)) / steps)
-
-        try:
-            fea_model = models.get("fgm_plate") or load_model(example_path("fgm_plate"))
-            fea_result = study(fea_model, quick=quick, progress=study_progress)
-        except HetmeshError as exc:
-            fea_error = str(exc).splitlines()[0]
-            log.warning("FEA study failed: %s", fea_error)
+    with _engine(workers, scheduler, client) as dask_client:
+        if dask_client is None:
+            for case, threshold in pairs:
+                step(f"{case.name} delta_0={threshold:g}: adaptive and uniform")
+                record = _mesh_record(out, case, threshold, models[case.name], quick,
+                                      installed, step, figures)
+                runs.append(record)
+        else:
+            runs = _distributed_records(dask_client, out, pairs, quick, installed, step)
+            figures += [out / p for r in runs for p in (r.mesh_figure, r.histogram) if p]
+        fea_result, fea_error = _fea_study(study, models, quick, progress, done, steps,
+                                           dask_client)
     if progress is not None:
         progress("writing the report", 1.0)
     report = Report(path=out / "report.md", quick=quick, cases=names, runs=runs,
@@ -235,3 +231,77 @@ def _mesh_record(out: Path, case: Case, threshold: float, model, quick: bool,
         step(f"{case.name} delta_0={threshold:g}: {peer}")
         record.peers[peer] = run_peer(peer, adaptive.model, threshold)
     return record
+
+
+def _fea_study(study, models: dict, quick: bool, progress, done: list, steps: int,
+               client) -> tuple[object, str | None]:
+    """The Table 7 study (on ``client`` if given): ``(result, error message)``."""
+    from .. import example_path, load_model
+
+    if not study:
+        return None, None
+    if progress is not None:
+        progress("fgm_plate: FEA study (Table 7)", done[0] / steps)
+    base = done[0]
+    done[0] += 1
+
+    def study_progress(stage: str, fraction: float | None) -> None:
+        if progress is not None:
+            progress(f"fgm_plate FEA study: {stage}", (base + (fraction or 0.0)) / steps)
+
+    extra = {} if client is None else {"client": client}
+    try:
+        fea_model = models.get("fgm_plate") or load_model(example_path("fgm_plate"))
+        return study(fea_model, quick=quick, progress=study_progress, **extra), None
+    except HetmeshError as exc:
+        fea_error = str(exc).splitlines()[0]
+        log.warning("FEA study failed: %s", fea_error)
+        return None, fea_error
+
+
+def _engine(workers, scheduler, client):
+    """A context giving the Dask client to run on, or None (this process)."""
+    import contextlib
+
+    if client is not None:
+        return contextlib.nullcontext(client)
+    if workers is None and scheduler is None:
+        return contextlib.nullcontext(None)
+    from ..study.engine import open_client
+
+    return open_client(workers=workers, scheduler=scheduler)
+
+
+def _distributed_records(client, out: Path, pairs, quick: bool, installed: list[str],
+                         step) -> list[CaseRun]:
+    """:func:`~hetmesh.reproduce.runs.case_record` of every pair on ``client``, in report
+    order; ``step`` is called once per model/threshold and peer, as records arrive."""
+    import hashlib
+
+    from ..study.engine import map_runs
+
+    where = hashlib.sha1(str(out.resolve()).encode()).hexdigest()[:8]
+    items = [(str(out), case.name, threshold, quick, installed) for case, threshold in pairs]
+    errors: dict[int, str] = {}
+
+    def on_result(i: int, record, error: str | None) -> None:
+        case, threshold = pairs[i]
+        for what in ["adaptive and uniform", *installed]:
+            step(f"{case.name} delta_0={threshold:g}: {what}")
+        if error is not None:
+            errors[i] = error
+            log.warning("%s at delta_0 = %g: %s", case.name, threshold, error)
+
+    records = map_runs(_case_record_star, items,
+                       [f"{where}-{c.name}-{t:g}-{'q' if quick else 'f'}-{'-'.join(installed)}"
+                        for c, t in pairs],
+                       client=client, on_result=on_result, prefix="hetmesh-reproduce")
+    for i, error in errors.items():
+        records[i] = CaseRun(pairs[i][0].name, pairs[i][1], error=error)
+    return records
+
+
+def _case_record_star(item: tuple) -> CaseRun:
+    from .runs import case_record
+
+    return case_record(*item)

@@ -19,7 +19,7 @@ from ..errors import HetmeshError
 from ..metrics import MeshStats
 
 __all__ = ["MeshRun", "PeerRun", "CaseRun", "mesh_pair", "uniform_like",
-           "draw_figures", "run_peer"]
+           "draw_figures", "run_peer", "case_record"]
 
 log = logging.getLogger(__name__)
 
@@ -144,3 +144,23 @@ def run_peer(peer: str, model, threshold: float) -> PeerRun:
         return PeerRun(peer, error=str(exc).splitlines()[0])
     return PeerRun(peer, stats=r.stats, seconds=r.seconds, search_seconds=r.search_seconds,
                    s=r.s, tries=len(r.trace))
+
+
+def case_record(out: str, case: str, threshold: float, quick: bool,
+                peers: list[str]) -> CaseRun:
+    """Everything the report measures for one model at one threshold, as a plain function
+    of plain data (the output directory, the case's name, the threshold, quick or not, the
+    peers to run), so that it runs the same in this process and on a Dask worker
+    (``hetmesh reproduce --workers/--scheduler``; the figures go to ``out/figures``, which
+    on a cluster must be a file system the workers share).
+
+    Returns the :class:`CaseRun` (statistics, times, figure paths, peers' results); a
+    failing mesh is recorded in it, not raised.
+    """
+    from .. import example_path, load_model
+    from . import _mesh_record
+    from .paper import CASES
+
+    model = load_model(example_path(case))
+    return _mesh_record(Path(out), CASES[case], float(threshold), model, bool(quick),
+                        list(peers), lambda stage: None, [])
