@@ -183,7 +183,8 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
     def delta_of(rows):
         t = tris if rows is None else tris[rows]
         regions = element_subregions(ctx.field, ws.P, t) if has_subregions(ctx.field) else None
-        return (element_delta(ctx.field, ws.P, t, sampling, comp, regions=regions),)
+        return (element_delta(ctx.field, ws.P, t, sampling, comp, regions=regions,
+                              threshold=ctx.threshold),)
 
     if carry is None:
         return comp, delta_of(None)[0]

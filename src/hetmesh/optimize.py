@@ -89,12 +89,13 @@ class _Eval:
             return (C.max(axis=1) - C.min(axis=1)).max(axis=1)
         tl = np.arange(3 * n).reshape(n, 3)
         return element_delta(self.field, X.reshape(-1, 2), tl, self.sampling,
-                             C.reshape(3 * n, -1), regions=reg)
+                             C.reshape(3 * n, -1), regions=reg, threshold=self.thr)
 
     def full(self, P, tris):
         comp = self.comp(P)
         reg = element_subregions(self.field, P, tris) if self.sub else None
-        return comp, element_delta(self.field, P, tris, self.sampling, comp, regions=reg), reg
+        return comp, element_delta(self.field, P, tris, self.sampling, comp, regions=reg,
+                                   threshold=self.thr), reg
 
 
 def _qa(X: np.ndarray):

@@ -18,7 +18,7 @@ from rich.console import Console
 
 from ..errors import OutputError
 from ..io.jsondoc import jsonable
-from ..options import check_options
+from ..options import SAMPLINGS, check_options
 from .progress import progress_reporter
 
 __all__ = [
@@ -68,10 +68,13 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
     p.add_argument("--max-elements", type=_count, metavar="N",
                    help="element budget; meshing stops with an error rather than exceed it "
                         "(default: 5000000)")
-    p.add_argument("--sampling", choices=("vertices", "dense"),
+    p.add_argument("--sampling", choices=SAMPLINGS,
                    help="where delta(T) < D is guaranteed: at the vertices (the paper's "
-                        "definition) or also on a 15-point lattice in every element, which "
-                        "sees composition peaks between vertices (default: vertices); the "
+                        "definition), also on a 15-point lattice in every element, which "
+                        "sees most composition peaks between vertices, or 'certified': "
+                        "everywhere inside every element, proven by interval arithmetic on "
+                        "the formulas (a Lipschitz bound for feature trees; dense sampling, "
+                        "with a warning, for other materials) (default: vertices); the "
                         "statistics show the lattice's delta_max_dense either way")
     p.add_argument("--chord-tol", type=float, metavar="C",
                    help="largest distance between a curved boundary or interface and any of "
