@@ -541,3 +541,94 @@ def test_format_option_writes_gmsh22(tmp_path):
                "--format", "gmsh22", "--quiet"])
     assert rc == 0
     assert out.read_text().splitlines()[1].startswith("2.2")
+
+
+# -- promises: --max-size, stats and fea on a mesh of another model, history ------------
+
+def _example(name: str, tmp_path: Path) -> Path:
+    path = tmp_path / f"{name}.toml"
+    path.write_text((resources.files("hetmesh") / "examples" / f"{name}.toml")
+                    .read_text(encoding="utf-8"), encoding="utf-8")
+    return path
+
+
+def test_max_size_bounds_every_edge(tmp_path, capsys):
+    import numpy as np
+
+    from hetmesh.io.export import read_mesh
+
+    square, out = _example("unit_square", tmp_path), tmp_path / "s.vtu"
+    code, _, err = run(["mesh", square, "-d", "0.1", "--max-size", "0.05", "-o", out, "-q"],
+                       capsys)
+    assert code == 0, err
+    mesh = read_mesh(out)
+    P, T = mesh.points, mesh.triangles
+    edges = np.sqrt(((P[T] - P[T][:, [1, 2, 0]]) ** 2).sum(axis=2))
+    assert edges.max() <= 0.05
+    # without it the coarsest elements are larger
+    code, _, _ = run(["mesh", square, "-d", "0.1", "-o", out, "-q"], capsys)
+    mesh = read_mesh(out)
+    P, T = mesh.points, mesh.triangles
+    assert np.sqrt(((P[T] - P[T][:, [1, 2, 0]]) ** 2).sum(axis=2)).max() > 0.06
+
+
+def test_stats_refuses_a_mesh_of_another_model(model, meshed, tmp_path, capsys):
+    square = _example("unit_square", tmp_path)
+    line = assert_one_line_error(*run(["stats", meshed[0], "--model", square], capsys),
+                                 contains="not a mesh of model 'unit_square'")
+    assert "boundary node" in line
+
+
+def _with_nan_node(src: Path, dst: Path) -> Path:
+    import meshio
+
+    m = meshio.read(src)
+    m.points[3, 0] = float("nan")
+    meshio.write(dst, m)
+    return dst
+
+
+def test_stats_and_fea_refuse_a_mesh_with_a_nan_node(tmp_path, capsys):
+    plate, good = _example("fgm_plate", tmp_path), tmp_path / "plate.vtu"
+    assert run(["mesh", plate, "-d", "0.3", "-o", good, "-q"], capsys)[0] == 0
+    bad = _with_nan_node(good, tmp_path / "nan.vtu")
+    assert_one_line_error(*run(["stats", bad, "--model", plate], capsys),
+                          contains="non-finite coordinates (node 3")
+    assert_one_line_error(*run(["fea", plate, "--mesh", bad], capsys),
+                          contains="non-finite coordinates (node 3")
+    assert run(["fea", plate, "--mesh", good, "-q"], capsys)[0] == 0
+
+
+def test_stats_quiet_prints_nothing(model, meshed, capsys):
+    code, out, err = run(["stats", meshed[0], "--model", model, "--quiet"], capsys)
+    assert (code, out, err) == (0, "", "")
+
+
+def test_stats_reports_each_sampling_and_the_certified_bound(model, meshed, capsys):
+    code, out, _ = run(["stats", meshed[0], "--model", model, "--json", "--sampling",
+                        "certified"], capsys)
+    assert code == 0
+    got = json.loads(out)
+    assert got["delta_max_certified"] == got["delta_max"]
+    # the lattice is pulled a hair inside the element: it may see a hair less than the vertices
+    assert got["delta_max"] >= max(got["delta_max_dense"], got["delta_max_vertices"]) > 0
+    code, out, _ = run(["stats", meshed[0], "--model", model], capsys)
+    assert "delta_max_vertices" in out and "delta_max_certified" in out
+
+
+def test_history_ends_with_the_optimisation_pass(meshed):
+    doc = json.loads(meshed[1].read_text())
+    last = doc["history"][-1]
+    assert last["stage"] == "optimize"
+    assert last["delta_max"] == pytest.approx(doc["stats"]["delta_max"], rel=1e-9)
+    assert last["elements"] == doc["stats"]["n_elements"]
+
+
+def test_mesh_with_certified_sampling(model, tmp_path, capsys):
+    out, stats = tmp_path / "c.vtu", tmp_path / "c.json"
+    code, _, err = run(mesh_argv(model, out, "--stats", stats, "--sampling", "certified"),
+                       capsys)
+    assert code == 0, err
+    doc = json.loads(stats.read_text())["stats"]
+    assert doc["delta_max_certified"] == doc["delta_max"] < THRESHOLD
+    assert doc["delta_max_dense"] <= doc["delta_max"]

@@ -12,20 +12,22 @@ samples. :func:`certified_delta` bounds it from above instead:
   formula is smooth on the piece. A piecewise field's element is enclosed on its own
   subregion's branch, as the mesher evaluates it.
 * **Feature-tree fields** (:class:`~hetmesh.material.hft.HFTField`): distances are
-  1-Lipschitz, so every composition is Lipschitz with the constant
-  ``sup |grad c_j|``; a piece of radius ``r`` around its centroid ``c`` (the largest distance
-  from ``c`` to a corner) then has ``c_j`` within ``c_j(c) +- L r``, where ``L`` bounds the
-  gradient's norm over the element from the gradient sampled at the lattice of every piece
-  times :data:`LIPSCHITZ_SAFETY`. This is a bound for the smooth field of the element's own
-  subregion under that estimate of ``L``, not an interval proof.
+  1-Lipschitz, so within a subregion every composition is Lipschitz with the constant
+  ``L_j = sup |grad c_j|``; every point of a piece of circumradius ``R`` lies within
+  ``R / 2`` of one of its corners and edge midpoints, so ``c_j`` stays within
+  ``L_j R / 2`` of its values there. ``L_j`` is estimated per piece from the gradient at
+  seven samples times :data:`LIPSCHITZ_SAFETY`: a bound for the smooth field of the
+  element's own subregion under that estimate (which shrinks with the pieces), not an
+  interval proof.
 * Anything else (a Python callable, :class:`~hetmesh.material.CallableField`) has no tree
   to enclose: :func:`certified_delta` warns and returns the dense-sampled delta.
 
 Each element is subdivided (four children per piece, at the edge midpoints) where its
 enclosure is not yet within ``atol + rtol * L`` of ``L``, the variation witnessed by the
-samples (corners, edge midpoints and centroids of the pieces), up to ``max_depth`` levels;
-pieces whose enclosure already lies within that margin of the witnessed extremes are not
-split further. The result is the enclosure's ``max - min``, so it is never below the true
+samples (corners, edge midpoints and centroids of the pieces), or, given delta_0, until it
+is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels;
+pieces whose enclosure already lies within that margin of the witnessed extremes (given
+delta_0: within delta_0 / 2 of their middle) are not split further. The result is the enclosure's ``max - min``, so it is never below the true
 delta(T) of the element; an element the enclosure cannot decide keeps a loose (large) bound,
 which makes the refinement split it.
 
@@ -160,24 +162,40 @@ class _FormulaEnclosure:
 
 
 class _LipschitzEnclosure:
-    """Enclosures of a feature-tree field's fractions from a Lipschitz bound per piece."""
+    """Enclosures of a feature-tree field's fractions from a Lipschitz bound per piece.
+
+    The four children of a piece (split at its edge midpoints) have circumradius ``R / 2``
+    and their corners among the piece's corners and edge midpoints, so every point of the
+    piece is within ``R / 2`` of one of those six samples: ``c_j`` lies within
+    ``L_j R / 2`` of their range, ``L_j`` the sampled gradient norm's maximum over the
+    seven samples (corners, midpoints, centroid) times :data:`LIPSCHITZ_SAFETY`.
+    """
 
     def __init__(self, field, offset: np.ndarray):
         self.field = field
-        self.off = np.zeros(2)  # the tree applies its own shift in composition()
         self.m = len(field.constituents)
 
     def enclose(self, corners: np.ndarray, region: np.ndarray | None):
         k = len(corners)
-        pts = _seven(corners).reshape(-1, 2) + self.off
+        pts = _seven(corners).reshape(-1, 2)
         reg = None if region is None else np.repeat(region, 7)
-        comp = self.field.composition(pts, region=reg).reshape(k, 7, self.m)
-        grad = self.field.gradient(pts, region=reg).reshape(k, 7, self.m, 2)
+        with np.errstate(all="ignore"):
+            comp = self.field.composition(pts, region=reg).reshape(k, 7, self.m)
+            grad = self.field.gradient(pts, region=reg).reshape(k, 7, self.m, 2)
         lip = np.sqrt((grad ** 2).sum(axis=3)).max(axis=1) * LIPSCHITZ_SAFETY  # (k, m)
-        centre = corners.mean(axis=1)
-        radius = np.sqrt(((corners - centre[:, None]) ** 2).sum(axis=2)).max(axis=1)
-        c = comp[:, -1]
-        return _widen(c - lip * radius[:, None], c + lip * radius[:, None])
+        reach = 0.5 * _circumradius(corners)[:, None] * lip
+        return _widen(comp.min(axis=1) - reach, comp.max(axis=1) + reach)
+
+
+def _circumradius(corners: np.ndarray) -> np.ndarray:
+    """Circumradii ``(K,)`` of triangles ``(K, 3, 2)`` (inf for degenerate ones)."""
+    a = np.hypot(*(corners[:, 1] - corners[:, 2]).T)
+    b = np.hypot(*(corners[:, 2] - corners[:, 0]).T)
+    c = np.hypot(*(corners[:, 0] - corners[:, 1]).T)
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area2 = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
 
 
 def _enclosure(field):
@@ -307,9 +325,14 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         margin = np.zeros(m_el)
         margin[live] = 0.5 * (atol + rtol * seen)
         mo = margin[owner][:, None]
+        top, bottom = smax[owner] + mo, smin[owner] - mo
+        if threshold is not None:  # a piece inside the band of width delta_0 around the
+            half = 0.5 * threshold * (1.0 - 1e-9)  # witnessed middle needs no split
+            mid = 0.5 * (smax[owner] + smin[owner])
+            top, bottom = np.fmax(top, mid + half), np.fmin(bottom, mid - half)
         done = np.zeros(m_el, bool)
         done[live[settled]] = True
-        keep = done[owner] | ((hi <= smax[owner] + mo) & (lo >= smin[owner] - mo)).all(axis=1)
+        keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
         if 4 * int((~keep).sum()) > MAX_PIECES:
             log.debug("certify: piece budget reached at depth %d", depth)
             break

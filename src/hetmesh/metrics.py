@@ -320,7 +320,9 @@ class MeshStats:
     (:func:`delta_dense`: 15 points, vertices included), whatever the sampling: what a reader
     of "delta_max < delta_0" as a property of the whole element wants to know, from samples
     (a lower bound on the element's true variation, not a certificate); ``None`` where not
-    computed.
+    computed. ``delta_max_vertices`` is the vertex-sampled delta_max whatever the sampling,
+    and ``delta_max_certified`` an upper bound on every element's variation over the whole
+    element (:func:`hetmesh.certify.certified_delta`), where computed (``None`` otherwise).
     """
 
     n_points: int
@@ -332,6 +334,8 @@ class MeshStats:
     delta_max: float
     angle_min: float
     delta_max_dense: float | None = None
+    delta_max_vertices: float | None = None
+    delta_max_certified: float | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -51,6 +51,9 @@ class Context:
     variation_cap: object = None
     #: step in composition between the rows of the layers placement, over delta_0
     row_spacing: float = 0.985
+    #: the longest edge allowed (``max_size`` given), or None: no bound beyond ``h_max``'s
+    #: placement size
+    max_edge: float | None = None
     clock: dict = field(default_factory=dict)  # seconds spent per kind of work (phase split)
 
     @contextmanager

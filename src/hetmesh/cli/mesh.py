@@ -244,8 +244,12 @@ def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> li
         from ..plot import interface_markers, plot_mesh
 
         meshed = result.model if result.model is not None else model  # with discontinuities
+        kind = "adaptive" if args.command == "mesh" else args.command
         plot_mesh(result.mesh, args.plot, interface_markers=interface_markers(meshed),
-                  title=f"{model.name}: {args.command} mesh, delta_0 = {args.threshold:g}")
+                  units=getattr(model, "units", ""),
+                  constituents=model.material.constituents,
+                  title=f"{model.name}: {kind} mesh, {result.mesh.n_elements} elements, "
+                        f"$\\delta_0$ = {args.threshold:g}")
         written.append(args.plot)
     if args.stats is not None:
         from ..io.atomic import atomic_write
@@ -280,6 +284,10 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
     model = load_model(args.model)
     result, seconds = run_pipeline(func, model, args.threshold, kwargs, quiet=args.quiet,
                                    label=model.name)
+    from .stats import with_bounds
+
+    result.stats = with_bounds(result.stats, result.mesh, model,
+                               result.options.get("sampling"))
     written = write_outputs(args, model, result, seconds)
     if not args.quiet:
         print_summary(model, result, seconds, written, args.threshold)
