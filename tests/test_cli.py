@@ -632,3 +632,50 @@ def test_mesh_with_certified_sampling(model, tmp_path, capsys):
     doc = json.loads(stats.read_text())["stats"]
     assert doc["delta_max_certified"] == doc["delta_max"] < THRESHOLD
     assert doc["delta_max_dense"] <= doc["delta_max"]
+
+
+# -- signals and temporary files ----------------------------------------------------------
+
+_TERMINATE_WHILE_WRITING = """
+import os, signal, sys, time
+import hetmesh.io.atomic as atomic
+from hetmesh.cli import main
+
+def fsync(tmp):  # the mesh is in the temporary file, not yet renamed: terminate now
+    assert tmp.stat().st_size > 0
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(5)
+
+atomic._fsync = fsync
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_while_writing_leaves_nothing(model, tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "plate.vtu"
+    proc = subprocess.run([sys.executable, "-c", _TERMINATE_WHILE_WRITING, "mesh", str(model),
+                           "-d", "0.2", "-o", str(out), "-q"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 128 + 15, proc.stderr
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def test_stale_temporary_files_are_removed_by_the_next_write(model, tmp_path, capsys):
+    import subprocess
+    import sys
+
+    out = tmp_path / "plate.vtu"
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    stale = tmp_path / f".plate.{dead}-0123abcd.tmp.vtu"   # its writer was killed (-9)
+    old = tmp_path / ".plate.89abcdef.tmp.vtu"              # an older hetmesh's, a day old
+    live = tmp_path / f".plate.{os.getpid()}-fedc4321.tmp.vtu"  # a write in progress
+    other = tmp_path / f".other.{dead}-0123abcd.tmp.vtu"    # another output's
+    for p in (stale, old, live, other):
+        p.write_text("partial")
+    os.utime(old, (1e9, 1e9))
+    assert run(["mesh", model, "-d", "0.2", "-o", out, "-q"], capsys)[0] == 0
+    assert sorted(os.listdir(tmp_path)) == sorted(["plate.vtu", live.name, other.name])
