@@ -679,3 +679,35 @@ def test_stale_temporary_files_are_removed_by_the_next_write(model, tmp_path, ca
     os.utime(old, (1e9, 1e9))
     assert run(["mesh", model, "-d", "0.2", "-o", out, "-q"], capsys)[0] == 0
     assert sorted(os.listdir(tmp_path)) == sorted(["plate.vtu", live.name, other.name])
+
+
+# -- the packaged examples -------------------------------------------------------------------
+
+def test_examples_lists_and_copies_out(tmp_path, capsys):
+    code, out, _ = run(["examples"], capsys)
+    assert code == 0
+    for name in ("power_plate", "fgm_plate", "unit_square"):
+        assert name in out
+    code, out, _ = run(["examples", "power_plate", "--out", tmp_path], capsys)
+    assert code == 0 and (tmp_path / "power_plate.toml").read_text() == (
+        resources.files("hetmesh") / "examples" / "power_plate.toml").read_text()
+    assert_one_line_error(*run(["examples", "power_plate", "--out", tmp_path], capsys),
+                          contains="use --force")
+    assert run(["examples", "power_plate", "--out", tmp_path, "--force"], capsys)[0] == 0
+    assert_one_line_error(*run(["examples", "nope"], capsys), contains="power_plate")
+    # the copy meshes
+    assert run(["mesh", tmp_path / "power_plate.toml", "-d", "0.2", "-o",
+                tmp_path / "p.vtu", "-q"], capsys)[0] == 0
+
+
+@pytest.mark.parametrize("command", [["mesh", "-d", "0.1", "-o", "x.vtu"],
+                                     ["stats", "--model"], ["fea", "--mesh", "x.vtu"]])
+def test_a_missing_example_path_points_to_the_packaged_examples(command, tmp_path, capsys,
+                                                                monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model = "examples/power_plate.toml"
+    argv = {"mesh": ["mesh", model, *command[1:]], "stats": ["stats", "m.vtu", "--model", model],
+            "fea": ["fea", model, *command[1:]]}[command[0]]
+    (tmp_path / "m.vtu").write_text("")
+    assert_one_line_error(*run(argv, capsys),
+                          contains="`hetmesh examples power_plate` writes power_plate.toml")

@@ -79,7 +79,10 @@ def run(args: argparse.Namespace) -> int:
     from ..io.export import read_mesh, write_mesh
     from ..io.model import load_model
 
+    from .examples import check_model_path
+
     check_fea_outputs(args)
+    check_model_path(args.model)
     model = load_model(args.model)
     if model.fea is None:
         raise FEAError(f"{args.model}: no [fea] table (constituent properties, boundary "

@@ -30,12 +30,12 @@ from typing import Iterator, NoReturn, Sequence
 
 from .. import __version__
 from ..errors import HetmeshError, OptionError
-from . import demo, fea, mesh, reproduce, stats, uniform
+from . import demo, examples, fea, mesh, reproduce, stats, uniform
 
 __all__ = ["main", "build_parser"]
 
 PROG = "hetmesh"
-SUBCOMMANDS = (mesh, uniform, stats, fea, reproduce, demo)
+SUBCOMMANDS = (mesh, uniform, stats, fea, reproduce, demo, examples)
 
 
 class _UsageError(OptionError):

@@ -279,7 +279,9 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
     kwargs = meshing_kwargs(args)
     check_outputs(args, [args.model])
     from ..io.model import load_model
+    from .examples import check_model_path
 
+    check_model_path(args.model)
     func = load_pipeline()
     model = load_model(args.model)
     result, seconds = run_pipeline(func, model, args.threshold, kwargs, quiet=args.quiet,

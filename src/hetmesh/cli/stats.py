@@ -143,6 +143,9 @@ def run(args: argparse.Namespace) -> int:
     from ..io.export import read_mesh
     from ..io.model import load_model
 
+    from .examples import check_model_path
+
+    check_model_path(args.model)
     model = load_model(args.model)
     mesh = read_mesh(args.mesh)
     check_mesh_of_model(mesh, model, args.mesh)
