@@ -711,3 +711,27 @@ def test_a_missing_example_path_points_to_the_packaged_examples(command, tmp_pat
     (tmp_path / "m.vtu").write_text("")
     assert_one_line_error(*run(argv, capsys),
                           contains="`hetmesh examples power_plate` writes power_plate.toml")
+
+
+def test_scaled_models_mesh_the_same_up_to_the_scale(tmp_path, capsys):
+    """A power-of-two scale gives the same mesh scaled, bit for bit; others (1e12) change the
+    coordinates in their last bits, and the element count by a few per cent at most."""
+    import numpy as np
+
+    from hetmesh.io.export import read_mesh
+
+    text = (resources.files("hetmesh") / "examples" / "unit_square.toml").read_text()
+    meshes = {}
+    for s in (1.0, 2.0 ** 40, 1e12):
+        scaled = (text.replace("to = [1, 0]", f"to = [{s!r}, 0]")
+                  .replace("to = [1, 1]", f"to = [{s!r}, {s!r}]")
+                  .replace("to = [0, 1]", f"to = [0, {s!r}]")
+                  .replace('"(1 - y)**2"', f'"(1 - y/{s!r})**2"'))
+        model, out = tmp_path / f"sq{s:g}.toml", tmp_path / f"sq{s:g}.vtu"
+        model.write_text(scaled)
+        assert run(["mesh", model, "-d", "0.1", "-o", out, "-q"], capsys)[0] == 0
+        meshes[s] = read_mesh(out)
+    one, two, ten = meshes[1.0], meshes[2.0 ** 40], meshes[1e12]
+    np.testing.assert_array_equal(two.points / 2.0 ** 40, one.points)
+    np.testing.assert_array_equal(two.triangles, one.triangles)
+    assert abs(ten.n_elements - one.n_elements) <= 0.03 * one.n_elements

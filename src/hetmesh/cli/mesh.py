@@ -55,7 +55,8 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "every element of the result has delta < D")
     p.add_argument("--output", "-o", type=Path, required=True, metavar="OUT",
                    help="mesh file to write; the format follows the extension: .vtu, .vtk, "
-                        ".msh (Gmsh 4.1), .xdmf, .inp (Abaqus), .mesh (Medit)")
+                        ".msh (Gmsh 4.1), .xdmf, .inp (Abaqus), .mesh (Medit: geometry, "
+                        "regions and edge markers only, no compositions)")
     p.add_argument("--format", choices=sorted(FILE_FORMATS), default=None, metavar="FMT",
                    help="write this format whatever the extension, e.g. gmsh22 for Gmsh 2.2 "
                         f"(one of: {', '.join(sorted(FILE_FORMATS))})")
@@ -64,7 +65,9 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "0 < A <= 34 (default: 30)")
     if adaptive:
         p.add_argument("--max-size", type=float, metavar="H",
-                       help="largest element edge length, > 0 (default: the domain diameter / 8)")
+                       help="the longest edge allowed, > 0, in model units; longer edges are "
+                            "split and the result is verified (default: no bound; the coarsest "
+                            "elements are about the domain diameter / 8)")
     p.add_argument("--max-elements", type=_count, metavar="N",
                    help="element budget; meshing stops with an error rather than exceed it "
                         "(default: 5000000)")
