@@ -25,7 +25,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -712,6 +712,8 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     if outcome is None:
         raise first_error
     mesh, stats, history, timings, method = outcome
+    if sampling == "certified":  # delta_max is then an upper bound on every element's variation
+        stats = replace(stats, delta_max_certified=stats.delta_max)
     timings["total"] = time.perf_counter() - t0
     # where the time went, across the phases above (seconds): Delaunay rebuilds, Lloyd steps
     # (CVT and row staggering), refinement-point computation, delta/quality evaluation
