@@ -194,3 +194,9 @@ def test_feature_tree_bound_is_above_a_fine_lattice():
     assert (bound >= fine - 1e-9).all()
     # decided against delta_0 = 0.2: below it where the lattice is clearly below it
     assert (bound[fine < 0.15] < 0.2).all()
+
+
+@pytest.mark.parametrize("sampling", ["vertices", "dense"])
+def test_a_narrow_bump_near_the_boundary_meshes_with_every_sampling(tmp_path, sampling):
+    res = generate(_bump_model(tmp_path, 0.55, 0.91, 4e-4), 0.1, sampling=sampling)
+    assert res.stats.delta_max < 0.1 and res.mesh.is_valid()

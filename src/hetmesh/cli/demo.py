@@ -74,7 +74,10 @@ def run(args: argparse.Namespace) -> int:
             threshold=D, title=f"{model.name}: material variation $\\delta(T)$ of the elements"),
     }
     if not args.quiet:
-        from .stats import stats_table
+        from .stats import stats_table, with_bounds
+
+        adaptive.stats = with_bounds(adaptive.stats, adaptive.mesh, model, None)
+        uni.stats = with_bounds(uni.stats, uni.mesh, model, None)
 
         console = Console(highlight=False, markup=False)
         console.print(f"{model.name}, delta_0 = {D:g}")
