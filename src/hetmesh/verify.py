@@ -154,7 +154,7 @@ def coverage_problems(mesh_boundary: np.ndarray, domain_boundary: np.ndarray, ar
 
 
 def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
-                        max_chord_tol: float = 0.05) -> list[str]:
+                        max_chord_tol: float = 0.05, geometry: bool = True) -> list[str]:
     """Whether a mesh read from a file can belong to a model's domain, cheapest first.
 
     For ``hetmesh stats`` and ``hetmesh fea``, which evaluate a model's material on a mesh
@@ -163,6 +163,8 @@ def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
     :data:`ON_BOUNDARY_TOL` x its diameter); every triangle's centroid lies in the domain
     (or on its boundary); the mesh's area is the domain's up to what chords of its curves,
     at most ``max_chord_tol`` x the diameter from them, can cut off or add.
+
+    ``geometry=False`` checks only that the nodes are finite.
 
     Returns
     -------
@@ -188,6 +190,8 @@ def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
     if len(bad):
         return [f"{len(bad)} node{'s' if len(bad) > 1 else ''} with non-finite coordinates "
                 f"(node {int(bad[0])}: {tuple(float(v) for v in points[bad[0]])})"]
+    if not geometry:
+        return []
     diam = float(domain.diameter)
     a, b = triangles[:, [0, 1, 2]].ravel(), triangles[:, [1, 2, 0]].ravel()
     keys, counts = np.unique(edge_keys(a, b), return_counts=True)

@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         raise FEAError(f"{args.model}: no [fea] table (constituent properties, boundary "
                        f"conditions); see docs/model-format.md")
     mesh = read_mesh(args.mesh)
-    check_mesh_of_model(mesh, model, args.mesh)  # finite nodes on the model's domain
+    check_mesh_of_model(mesh, model, args.mesh, geometry=False)  # finite nodes
     result = solve(mesh, model)
     written = []
     if args.output is not None:

@@ -127,13 +127,15 @@ def with_bounds(stats, mesh, model, sampling: str | None):
     return dataclasses.replace(stats, **changes)
 
 
-def check_mesh_of_model(mesh, model, mesh_path) -> None:
+def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> None:
     """Raise :class:`~hetmesh.errors.MeshDataError` (exit 2) unless ``mesh`` can be a mesh of
-    ``model``'s domain (:func:`hetmesh.verify.mesh_model_problems`)."""
+    ``model``'s domain (:func:`hetmesh.verify.mesh_model_problems`; ``geometry=False``:
+    only that its nodes are finite)."""
     from ..errors import MeshDataError
     from ..verify import mesh_model_problems
 
-    problems = mesh_model_problems(mesh.points, mesh.triangles, model.domain)
+    problems = mesh_model_problems(mesh.points, mesh.triangles, model.domain,
+                                   geometry=geometry)
     if problems:
         raise MeshDataError(f"{mesh_path}: not a mesh of model {model.name!r}: {problems[0]}")
 
