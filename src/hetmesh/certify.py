@@ -188,14 +188,18 @@ class _LipschitzEnclosure:
 
 
 def _circumradius(corners: np.ndarray) -> np.ndarray:
-    """Circumradii ``(K,)`` of triangles ``(K, 3, 2)`` (inf for degenerate ones)."""
+    """How far a point of each triangle ``(K, 3, 2)`` can be from its nearest corner, at
+    most: the circumradius, or the longest edge (the triangle's diameter) where that is
+    smaller (flat triangles, whose circumradius grows without bound)."""
     a = np.hypot(*(corners[:, 1] - corners[:, 2]).T)
     b = np.hypot(*(corners[:, 2] - corners[:, 0]).T)
     c = np.hypot(*(corners[:, 0] - corners[:, 1]).T)
     e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
     area2 = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    longest = np.maximum(np.maximum(a, b), c)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
+        r = np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
+    return np.minimum(r, longest)
 
 
 def _enclosure(field):
