@@ -32,7 +32,7 @@ coord = st.floats(-0.3, 1.3, allow_nan=False)
 @given(x0=coord, x1=coord, y0=coord, y1=coord, seed=st.integers(0, 2 ** 31))
 def test_interval_encloses_sampled_values(text, x0, x1, y0, y1, seed):
     e = compile_expr(text)
-    (x0, x1), (y0, y1) = sorted((x0, x1)), sorted((y0, y1))
+    (x0, x1), (y0, y1) = sorted((x0 + 0.0, x1 + 0.0)), sorted((y0 + 0.0, y1 + 0.0))  # no -0.0
     lo, hi = e.interval(x=(x0, x1), y=(y0, y1))
     rng = np.random.default_rng(seed)
     x = np.r_[rng.uniform(x0, x1, 200), x0, x1, x0, x1]
