@@ -614,6 +614,11 @@ def test_stats_reports_each_sampling_and_the_certified_bound(model, meshed, caps
     assert got["delta_max"] >= max(got["delta_max_dense"], got["delta_max_vertices"]) > 0
     code, out, _ = run(["stats", meshed[0], "--model", model], capsys)
     assert "delta_max_vertices" in out and "delta_max_certified" in out
+    code, out, _ = run(["stats", meshed[0], "--model", model, "--json", "--sampling",
+                        "certified", "-d", str(THRESHOLD)], capsys)
+    assert got["delta_max_vertices"] <= json.loads(out)["delta_max_certified"] < THRESHOLD
+    assert_one_line_error(*run(["stats", meshed[0], "--model", model, "-d", "1.5"], capsys),
+                          contains="--threshold 1.5")
 
 
 def test_history_ends_with_the_optimisation_pass(meshed):

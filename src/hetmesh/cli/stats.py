@@ -85,6 +85,11 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                    help="delta from the vertex compositions (the paper's), from a dense "
                         "lattice in every element, or certified: an upper bound on the "
                         "variation inside every element (default: vertices)")
+    p.add_argument("--threshold", "-d", type=float, metavar="D",
+                   help="with --sampling certified: decide every element against delta_0 = D "
+                        "(its bound is refined until it is below D or the samples reach D); "
+                        "without it the bound is refined to within 1 %% + 1e-4 of the "
+                        "sampled variation")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--quiet", "-q", action="store_true",
                    help="print nothing; the exit status tells whether the mesh is of the "
@@ -140,8 +145,20 @@ def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> Non
         raise MeshDataError(f"{mesh_path}: not a mesh of model {model.name!r}: {problems[0]}")
 
 
+def _statistics(mesh, model, sampling: str, threshold: float | None):
+    """:func:`hetmesh.adapt.mesh_statistics`, with ``threshold`` for certified sampling."""
+    from ..discontinuity import element_subregions, has_subregions
+    from ..metrics import element_delta, statistics
+
+    fld = model.material
+    regions = (element_subregions(fld, mesh.points, mesh.triangles) if has_subregions(fld)
+               else None)
+    delta = element_delta(fld, mesh.points, mesh.triangles, sampling, regions=regions,
+                          threshold=threshold)
+    return statistics(mesh.points, mesh.triangles, delta)
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..adapt import mesh_statistics
     from ..io.export import read_mesh
     from ..io.model import load_model
 
@@ -151,7 +168,11 @@ def run(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     mesh = read_mesh(args.mesh)
     check_mesh_of_model(mesh, model, args.mesh)
-    stats = with_bounds(mesh_statistics(mesh, model, sampling=args.sampling), mesh, model,
+    if args.threshold is not None:
+        from ..options import check_options
+
+        check_options(args.threshold, names={"threshold": "--threshold"})
+    stats = with_bounds(_statistics(mesh, model, args.sampling, args.threshold), mesh, model,
                         args.sampling)
     if args.quiet:
         return 0
