@@ -27,9 +27,9 @@ enclosure is not yet within ``atol + rtol * L`` of ``L``, the variation witnesse
 samples (corners, edge midpoints and centroids of the pieces), or, given delta_0, until it
 is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels;
 pieces whose enclosure already lies within that margin of the witnessed extremes (given
-delta_0: within delta_0 / 2 of their middle) are not split further. The result is the enclosure's ``max - min``, so it is never below the true
-delta(T) of the element; an element the enclosure cannot decide keeps a loose (large) bound,
-which makes the refinement split it.
+delta_0: within delta_0 / 2 of their middle) are not split further. The result is the
+enclosure's ``max - min``, so it is never below the true delta(T) of the element; an element
+the enclosure cannot decide keeps a loose (large) bound, which makes the refinement split it.
 
 Rounding: intervals are widened outwards by a few units in the last place (see
 :data:`hetmesh.expr.Interval`); the pieces' boxes by a few units in the last place of the
