@@ -174,7 +174,8 @@ def _exit_on_sigterm() -> Iterator[None]:
 
 
 def _alive(pid: int) -> bool:
-    if pid == os.getpid():
+    """Whether process ``pid`` may still be writing (True when it cannot be told)."""
+    if pid == os.getpid() or os.name != "posix":  # os.kill(pid, 0) terminates on Windows
         return True
     try:
         os.kill(pid, 0)
@@ -200,8 +201,9 @@ def _remove_stale(target: Path) -> None:
             continue
         path = target.parent / name
         try:
-            stale = (not _alive(int(m.group(1))) if m.group(1) else
-                     now - path.stat().st_mtime > STALE_AGE)
+            age = now - path.stat().st_mtime
+            stale = age > STALE_AGE if not m.group(1) else \
+                not _alive(int(m.group(1))) or (os.name != "posix" and age > STALE_AGE)
         except OSError:
             continue
         if stale:
