@@ -541,3 +541,202 @@ def test_format_option_writes_gmsh22(tmp_path):
                "--format", "gmsh22", "--quiet"])
     assert rc == 0
     assert out.read_text().splitlines()[1].startswith("2.2")
+
+
+# -- promises: --max-size, stats and fea on a mesh of another model, history ------------
+
+def _example(name: str, tmp_path: Path) -> Path:
+    path = tmp_path / f"{name}.toml"
+    path.write_text((resources.files("hetmesh") / "examples" / f"{name}.toml")
+                    .read_text(encoding="utf-8"), encoding="utf-8")
+    return path
+
+
+def test_max_size_bounds_every_edge(tmp_path, capsys):
+    import numpy as np
+
+    from hetmesh.io.export import read_mesh
+
+    square, out = _example("unit_square", tmp_path), tmp_path / "s.vtu"
+    code, _, err = run(["mesh", square, "-d", "0.1", "--max-size", "0.05", "-o", out, "-q"],
+                       capsys)
+    assert code == 0, err
+    mesh = read_mesh(out)
+    P, T = mesh.points, mesh.triangles
+    edges = np.sqrt(((P[T] - P[T][:, [1, 2, 0]]) ** 2).sum(axis=2))
+    assert edges.max() <= 0.05
+    # without it the coarsest elements are larger
+    code, _, _ = run(["mesh", square, "-d", "0.1", "-o", out, "-q"], capsys)
+    mesh = read_mesh(out)
+    P, T = mesh.points, mesh.triangles
+    assert np.sqrt(((P[T] - P[T][:, [1, 2, 0]]) ** 2).sum(axis=2)).max() > 0.06
+
+
+def test_stats_refuses_a_mesh_of_another_model(model, meshed, tmp_path, capsys):
+    square = _example("unit_square", tmp_path)
+    line = assert_one_line_error(*run(["stats", meshed[0], "--model", square], capsys),
+                                 contains="not a mesh of model 'unit_square'")
+    assert "boundary node" in line
+
+
+def _with_nan_node(src: Path, dst: Path) -> Path:
+    import meshio
+
+    m = meshio.read(src)
+    m.points[3, 0] = float("nan")
+    meshio.write(dst, m)
+    return dst
+
+
+def test_stats_and_fea_refuse_a_mesh_with_a_nan_node(tmp_path, capsys):
+    plate, good = _example("fgm_plate", tmp_path), tmp_path / "plate.vtu"
+    assert run(["mesh", plate, "-d", "0.3", "-o", good, "-q"], capsys)[0] == 0
+    bad = _with_nan_node(good, tmp_path / "nan.vtu")
+    assert_one_line_error(*run(["stats", bad, "--model", plate], capsys),
+                          contains="non-finite coordinates (node 3")
+    assert_one_line_error(*run(["fea", plate, "--mesh", bad], capsys),
+                          contains="non-finite coordinates (node 3")
+    assert run(["fea", plate, "--mesh", good, "-q"], capsys)[0] == 0
+
+
+def test_stats_quiet_prints_nothing(model, meshed, capsys):
+    code, out, err = run(["stats", meshed[0], "--model", model, "--quiet"], capsys)
+    assert (code, out, err) == (0, "", "")
+
+
+def test_stats_reports_each_sampling_and_the_certified_bound(model, meshed, capsys):
+    code, out, _ = run(["stats", meshed[0], "--model", model, "--json", "--sampling",
+                        "certified"], capsys)
+    assert code == 0
+    got = json.loads(out)
+    assert got["delta_max_certified"] == got["delta_max"]
+    # the lattice is pulled a hair inside the element: it may see a hair less than the vertices
+    assert got["delta_max"] >= max(got["delta_max_dense"], got["delta_max_vertices"]) > 0
+    code, out, _ = run(["stats", meshed[0], "--model", model], capsys)
+    assert "delta_max_vertices" in out and "delta_max_certified" in out
+    code, out, _ = run(["stats", meshed[0], "--model", model, "--json", "--sampling",
+                        "certified", "-d", str(THRESHOLD)], capsys)
+    assert got["delta_max_vertices"] <= json.loads(out)["delta_max_certified"] < THRESHOLD
+    assert_one_line_error(*run(["stats", meshed[0], "--model", model, "-d", "1.5"], capsys),
+                          contains="--threshold 1.5")
+
+
+def test_history_ends_with_the_optimisation_pass(meshed):
+    doc = json.loads(meshed[1].read_text())
+    last = doc["history"][-1]
+    assert last["stage"] == "optimize"
+    assert last["delta_max"] == pytest.approx(doc["stats"]["delta_max"], rel=1e-9)
+    assert last["elements"] == doc["stats"]["n_elements"]
+
+
+def test_mesh_with_certified_sampling(model, tmp_path, capsys):
+    out, stats = tmp_path / "c.vtu", tmp_path / "c.json"
+    code, _, err = run(mesh_argv(model, out, "--stats", stats, "--sampling", "certified"),
+                       capsys)
+    assert code == 0, err
+    doc = json.loads(stats.read_text())["stats"]
+    assert doc["delta_max_certified"] == doc["delta_max"] < THRESHOLD
+    assert doc["delta_max_dense"] <= doc["delta_max"]
+
+
+# -- signals and temporary files ----------------------------------------------------------
+
+_TERMINATE_WHILE_WRITING = """
+import os, signal, sys, time
+import hetmesh.io.atomic as atomic
+from hetmesh.cli import main
+
+def fsync(tmp):  # the mesh is in the temporary file, not yet renamed: terminate now
+    assert tmp.stat().st_size > 0
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(5)
+
+atomic._fsync = fsync
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_while_writing_leaves_nothing(model, tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "plate.vtu"
+    proc = subprocess.run([sys.executable, "-c", _TERMINATE_WHILE_WRITING, "mesh", str(model),
+                           "-d", "0.2", "-o", str(out), "-q"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 128 + 15, proc.stderr
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def test_stale_temporary_files_are_removed_by_the_next_write(model, tmp_path, capsys):
+    import subprocess
+    import sys
+
+    out = tmp_path / "plate.vtu"
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    stale = tmp_path / f".plate.{dead}-0123abcd.tmp.vtu"   # its writer was killed (-9)
+    old = tmp_path / ".plate.89abcdef.tmp.vtu"              # an older hetmesh's, a day old
+    live = tmp_path / f".plate.{os.getpid()}-fedc4321.tmp.vtu"  # a write in progress
+    other = tmp_path / f".other.{dead}-0123abcd.tmp.vtu"    # another output's
+    for p in (stale, old, live, other):
+        p.write_text("partial")
+    os.utime(old, (1e9, 1e9))
+    assert run(["mesh", model, "-d", "0.2", "-o", out, "-q"], capsys)[0] == 0
+    assert sorted(os.listdir(tmp_path)) == sorted(["plate.vtu", live.name, other.name])
+
+
+# -- the packaged examples -------------------------------------------------------------------
+
+def test_examples_lists_and_copies_out(tmp_path, capsys):
+    code, out, _ = run(["examples"], capsys)
+    assert code == 0
+    for name in ("power_plate", "fgm_plate", "unit_square"):
+        assert name in out
+    code, out, _ = run(["examples", "power_plate", "--out", tmp_path], capsys)
+    assert code == 0 and (tmp_path / "power_plate.toml").read_text() == (
+        resources.files("hetmesh") / "examples" / "power_plate.toml").read_text()
+    assert_one_line_error(*run(["examples", "power_plate", "--out", tmp_path], capsys),
+                          contains="use --force")
+    assert run(["examples", "power_plate", "--out", tmp_path, "--force"], capsys)[0] == 0
+    assert_one_line_error(*run(["examples", "nope"], capsys), contains="power_plate")
+    # the copy meshes
+    assert run(["mesh", tmp_path / "power_plate.toml", "-d", "0.2", "-o",
+                tmp_path / "p.vtu", "-q"], capsys)[0] == 0
+
+
+@pytest.mark.parametrize("command", [["mesh", "-d", "0.1", "-o", "x.vtu"],
+                                     ["stats", "--model"], ["fea", "--mesh", "x.vtu"]])
+def test_a_missing_example_path_points_to_the_packaged_examples(command, tmp_path, capsys,
+                                                                monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model = "examples/power_plate.toml"
+    argv = {"mesh": ["mesh", model, *command[1:]], "stats": ["stats", "m.vtu", "--model", model],
+            "fea": ["fea", model, *command[1:]]}[command[0]]
+    (tmp_path / "m.vtu").write_text("")
+    assert_one_line_error(*run(argv, capsys),
+                          contains="`hetmesh examples power_plate` writes power_plate.toml")
+
+
+def test_scaled_models_mesh_the_same_up_to_the_scale(tmp_path, capsys):
+    """A power-of-two scale gives the same mesh scaled, bit for bit; others (1e12) change the
+    coordinates in their last bits, and the element count by a few per cent at most."""
+    import numpy as np
+
+    from hetmesh.io.export import read_mesh
+
+    text = (resources.files("hetmesh") / "examples" / "unit_square.toml").read_text()
+    meshes = {}
+    for s in (1.0, 2.0 ** 40, 1e12):
+        scaled = (text.replace("to = [1, 0]", f"to = [{s!r}, 0]")
+                  .replace("to = [1, 1]", f"to = [{s!r}, {s!r}]")
+                  .replace("to = [0, 1]", f"to = [0, {s!r}]")
+                  .replace('"(1 - y)**2"', f'"(1 - y/{s!r})**2"'))
+        model, out = tmp_path / f"sq{s:g}.toml", tmp_path / f"sq{s:g}.vtu"
+        model.write_text(scaled)
+        assert run(["mesh", model, "-d", "0.1", "-o", out, "-q"], capsys)[0] == 0
+        meshes[s] = read_mesh(out)
+    one, two, ten = meshes[1.0], meshes[2.0 ** 40], meshes[1e12]
+    np.testing.assert_array_equal(two.points / 2.0 ** 40, one.points)
+    np.testing.assert_array_equal(two.triangles, one.triangles)
+    assert abs(ten.n_elements - one.n_elements) <= 0.03 * one.n_elements

@@ -106,3 +106,53 @@ def test_unknown_image_format(tmp_path):
     with pytest.raises(OutputError, match="cannot write"):
         plot_delta_histogram(np.ones(3) * 0.01, tmp_path / "no" / "h.png", threshold=0.05)
     assert not os.listdir(tmp_path)
+
+
+@pytest.mark.parametrize("threshold,top", [(0.05, 0.0499), (0.03, 0.0299999), (0.1, 0.14),
+                                           (0.003, 0.0028)])
+def test_delta_histogram_bins_have_an_edge_on_the_threshold(threshold, top):
+    from hetmesh.plot import _bin_edges
+
+    rng = np.random.default_rng(1)
+    d = np.r_[rng.uniform(0, top, 400), top]
+    edges = _bin_edges([("a", d)], threshold, None)
+    assert np.isclose(edges, threshold, rtol=0, atol=1e-15).sum() == 1
+    assert edges[0] == 0 and edges[-1] > max(top, threshold) and 20 <= len(edges) - 1 <= 60
+    # the bars right of the threshold hold exactly the elements at or above it
+    counts, _ = np.histogram(d, edges)
+    k = int(np.flatnonzero(np.isclose(edges, threshold, rtol=0, atol=1e-15))[0])
+    assert counts[k:].sum() == (d >= threshold).sum()
+    fig = delta_histogram_figure(d, threshold=threshold)  # drawn on those edges
+    assert fig.axes[0].get_xlim()[1] == pytest.approx(edges[-1])
+
+
+def test_mesh_figure_axes_carry_the_model_units_and_a_legend_for_interfaces():
+    fig = mesh_figure(graded_mesh(), interface_markers=[2], units="mm",
+                      constituents=["ceramic", "metal"])
+    ax = fig.axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (mm)", "y (mm)")
+    assert fig.axes[1].get_ylabel() == "metal (volume fraction)"
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == [
+        "interfaces and material discontinuities"]
+    ax = mesh_figure(graded_mesh()).axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x", "y") and not mesh_figure(
+        graded_mesh()).legends
+
+
+def test_point_labels_of_close_points_do_not_overlap():
+    from hetmesh.plot import _new_figure, label_points
+
+    fig = _new_figure(7, 3)
+    ax = fig.add_subplot()
+    xy = np.array([[6.0, 0.0], [7.0, 0.0], [15.0, 8.0], [15.0, 9.0], [45.0, 8.0]])
+    ax.plot(xy[:, 0], xy[:, 1], "o")
+    ax.set_xlim(0, 60)
+    ax.set_ylim(-2, 20)
+    label_points(ax, xy, ["Q1", "P1", "P2", "Q5", "P5"])
+    fig.canvas.draw()
+    boxes = [t.get_window_extent() for t in ax.texts]
+    assert len(boxes) == 5
+    for i in range(5):
+        for j in range(i + 1, 5):
+            assert not boxes[i].overlaps(boxes[j]), (ax.texts[i].get_text(),
+                                                      ax.texts[j].get_text())

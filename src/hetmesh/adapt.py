@@ -26,7 +26,7 @@ import functools
 import logging
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -65,6 +65,9 @@ CHORD_TOL = DEFAULT_CHORD_TOL
 ON_CURVE_TOL = 1e-8
 #: the smallest size the placement aims at, relative to the largest (``Context.h_min``)
 H_MIN_RATIO = 2.0 ** -10
+#: ``max_size`` is enforced as the longest edge less this (relative), against rounding in
+#: the user's coordinates
+MAX_EDGE_MARGIN = 1e-9
 
 
 @dataclass
@@ -101,6 +104,7 @@ def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL, *,
                   threshold=threshold, h_max=h_max, scalar=scalar,
                   chord_tol=chord_tol * dom.diameter, h_min=H_MIN_RATIO * h_max,
                   row_spacing=row_spacing,
+                  max_edge=h_max * (1.0 - MAX_EDGE_MARGIN) if max_size is not None else None,
                   variation_cap=variation_cap(fl.composition, dom.bounds, threshold))
     if geo_grade is not None:
         pslg = build_pslg(dom, h_max, ctx.chord_tol)
@@ -197,7 +201,8 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
     def delta_of(rows):
         t = tris if rows is None else tris[rows]
         regions = element_subregions(ctx.field, ws.P, t) if has_subregions(ctx.field) else None
-        return (element_delta(ctx.field, ws.P, t, sampling, comp, regions=regions),)
+        return (element_delta(ctx.field, ws.P, t, sampling, comp, regions=regions,
+                              threshold=ctx.threshold),)
 
     if carry is None:
         return comp, delta_of(None)[0]
@@ -274,6 +279,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
                                    None if src is None else (src, state[2]))
             known, known_at = comp, ws.P.copy()
             viol = delta >= thr if check_delta else np.zeros(len(tris), bool)
+            longest = _too_long(ws.P, tris, ctx.max_edge)  # max_size: split the longest edge
+            viol |= longest
             if src is None:
                 q, ang = quality_and_angle(ws.P, tris)
             else:
@@ -317,7 +324,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
                               f"{max_elements} elements); raise --max-elements or the threshold")
         n_before = ws.n
         with ctx.timed("insertion"):
-            new_c = _insert_refinement_points(ws, ctx, tris, comp, viol, badq, afloor, sharp)
+            new_c = _insert_refinement_points(ws, ctx, tris, comp, viol, badq, afloor, sharp,
+                                              longest=longest)
         if ws.n == n_before:
             raise MeshingError(f"refinement stalled in round {rnd} with {int(viol.sum())} "
                                f"elements at delta >= {thr:g} and {int(badq.sum())} below the "
@@ -360,8 +368,15 @@ def _restore_workset(ws: WorkSet, saved: WorkSet) -> None:
         setattr(ws, f, getattr(saved, f))
 
 
+def _too_long(P: np.ndarray, tris: np.ndarray, max_edge: float | None) -> np.ndarray:
+    """The triangles with an edge longer than ``max_edge`` (none if it is None)."""
+    if max_edge is None:
+        return np.zeros(len(tris), bool)
+    return side_lengths(P, tris).max(axis=1) > max_edge
+
+
 def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
-                              afloor: float, sharp: np.ndarray) -> np.ndarray:
+                              afloor: float, sharp: np.ndarray, longest=None) -> np.ndarray:
     """One round's new nodes; returns the ids of the nodes that split constraint edges.
 
     MOR: each violator's edge with the largest composition jump is split (on its curve if it
@@ -379,6 +394,8 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
                           for k in range(3)], axis=1)
         lens = side_lengths(ws.P, tv)
         kk = (jumps + 1e-9 * lens / lens.max()).argmax(axis=1)
+        if longest is not None and longest.any():  # too long: split the longest edge
+            kk = np.where(longest[viol], lens.argmax(axis=1), kk)
         a = tv[np.arange(len(tv)), (kk + 1) % 3]
         b = tv[np.arange(len(tv)), (kk + 2) % 3]
         ek, first = np.unique(edge_keys(a, b), return_index=True)
@@ -532,6 +549,9 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
     problems += _curve_problems(ws, ctx, local, frame.scale)
     if check_delta and delta.max() >= threshold:
         problems.append(f"delta_max {delta.max():.6g} >= threshold {threshold:g}")
+    if _too_long(P, tris, None if ctx.max_edge is None else
+                 ctx.max_edge / (1.0 - MAX_EDGE_MARGIN)).any():
+        problems.append(f"an edge is longer than max_size {ctx.h_max * frame.scale:g}")
     on = ws.vcurve >= 0
     if on.any():
         off = 0.0
@@ -664,10 +684,11 @@ def _mesh_with(method: str, ctx: Context, frame, threshold: float, chord_tol: fl
             low = _below_floor(ws, ctx, tris, min_quality, min_angle)
             if low:  # the few the smoothing left: repair them, then smooth again
                 saved, kept = _copy_workset(ws), (tris, comp, delta)
+                extra: list = []  # the rounds of this repair, in the history if it is kept
                 try:
                     tris, comp, delta = repair(ws, ctx, min_angle_deg=min_angle,
                                                min_quality=min_quality, sampling=sampling,
-                                               max_elements=max_elements, history=history,
+                                               max_elements=max_elements, history=extra,
                                                smooth_rounds=0)
                     tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta,
                                                       sampling=sampling,
@@ -678,9 +699,14 @@ def _mesh_with(method: str, ctx: Context, frame, threshold: float, chord_tol: fl
                 if after >= low or len(tris) > POLISH_GROWTH * len(kept[0]):
                     _restore_workset(ws, saved)
                     tris, comp, delta = kept
+                else:
+                    history.extend(extra)
                 log.info("final quality repair: %d -> %d triangles below the floor%s", low,
                          after, "" if after < low else " (not kept)")
         timings["optimize"] = time.perf_counter() - t4
+        history.append({"round": len(history), "stage": "optimize", "elements": int(len(tris)),
+                        "points": int(ws.n), "delta_max": float(delta.max()),
+                        "violators": int((delta >= threshold).sum())})
     t3 = time.perf_counter()
     mesh, stats = finish(ws, ctx, tris, comp, delta, frame, threshold=threshold,
                          min_angle_deg=min_angle)
@@ -784,6 +810,8 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     if outcome is None:
         raise first_error
     mesh, stats, history, timings, method = outcome
+    if sampling == "certified":  # delta_max is then an upper bound on every element's variation
+        stats = replace(stats, delta_max_certified=stats.delta_max)
     timings["total"] = time.perf_counter() - t0
     # where the time went, across the phases above (seconds): Delaunay rebuilds, Lloyd steps
     # (CVT and row staggering), refinement-point computation, delta/quality evaluation

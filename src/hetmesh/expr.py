@@ -40,7 +40,7 @@ import numpy as np
 from .errors import FormulaError
 
 __all__ = ["compile_expr", "Expr", "FUNCTIONS", "MAX_LENGTH", "MAX_NODES", "MAX_DEPTH",
-           "split_conditions"]
+           "split_conditions", "Interval"]
 
 MAX_LENGTH = 1000  #: longest accepted formula, in characters
 MAX_NODES = 500  #: most expression nodes in a parsed formula
@@ -324,6 +324,193 @@ def _run(tape: list[tuple[int, Any, tuple[int, ...], tuple[int, ...]]],
     return slots[-1]
 
 
+# --------------------------------------------------------------------------- intervals
+#: An interval array pair ``(lo, hi)``: every value in ``[lo, hi]`` elementwise.
+Interval = tuple[np.ndarray, np.ndarray]
+# Outward rounding: bounds are widened by 4 units in the last place (numpy's float
+# arithmetic is correctly rounded, its libm functions are within 1-2 ulp), and by the
+# smallest normal number near zero.
+_ULPS = 4.0 * np.finfo(np.float64).eps
+_TINY = np.finfo(np.float64).tiny
+_INF = np.inf
+_HALF_PI, _TWO_PI = math.pi / 2.0, 2.0 * math.pi
+
+
+def _out(lo: np.ndarray, hi: np.ndarray) -> Interval:
+    """``[lo, hi]`` widened outwards to cover rounding; NaN bounds become infinite."""
+    lo = lo - (np.abs(lo) * _ULPS + _TINY)
+    hi = hi + (np.abs(hi) * _ULPS + _TINY)
+    return np.where(np.isnan(lo), -_INF, lo), np.where(np.isnan(hi), _INF, hi)
+
+
+def _mono(f: Callable[[np.ndarray], np.ndarray], lo_dom: float = -_INF,
+          hi_dom: float = _INF) -> Callable[[Interval], Interval]:
+    """An increasing function on ``[lo_dom, hi_dom]``: the argument is clipped to it."""
+    def apply(a: Interval) -> Interval:
+        lo, hi = np.clip(a[0], lo_dom, hi_dom), np.clip(a[1], lo_dom, hi_dom)
+        empty = (a[1] < lo_dom) | (a[0] > hi_dom)  # undefined everywhere on the box
+        flo, fhi = _out(f(lo), f(hi))
+        return np.where(empty, -_INF, flo), np.where(empty, _INF, fhi)
+    return apply
+
+
+def _i_mul(a: Interval, b: Interval) -> Interval:
+    p = [a[i] * b[j] for i in (0, 1) for j in (0, 1)]
+    p = [np.where(np.isnan(v), 0.0, v) for v in p]  # 0 * inf is 0 on a closed interval
+    return _out(reduce(np.minimum, p), reduce(np.maximum, p))
+
+
+def _i_div(a: Interval, b: Interval) -> Interval:
+    zero = (b[0] <= 0.0) & (b[1] >= 0.0)
+    inv = _out(1.0 / np.where(zero, 1.0, b[1]), 1.0 / np.where(zero, 1.0, b[0]))
+    lo, hi = _i_mul(a, inv)
+    return np.where(zero, -_INF, lo), np.where(zero, _INF, hi)
+
+
+def _mig_mag(a: Interval) -> Interval:
+    """The smallest and largest ``|v|`` over ``[lo, hi]``."""
+    alo, ahi = np.abs(a[0]), np.abs(a[1])
+    mig = np.where((a[0] <= 0.0) & (a[1] >= 0.0), 0.0, np.minimum(alo, ahi))
+    return mig, np.maximum(alo, ahi)
+
+
+def _i_pow(a: Interval, b: Interval) -> Interval:
+    lo_b, hi_b = b
+    const = bool(np.all(lo_b == hi_b)) and lo_b.size > 0
+    if const and np.all(lo_b == lo_b.flat[0]):
+        p = float(lo_b.flat[0])
+        if p.is_integer() and abs(p) < 2 ** 53:
+            n = int(p)
+            if n >= 0:
+                if n % 2 == 0:
+                    mig, mag = _mig_mag(a)
+                    return _out(mig ** n, mag ** n)
+                return _out(a[0] ** n, a[1] ** n)
+            return _i_div((np.float64(1.0), np.float64(1.0)), _i_pow(a, (-lo_b, -hi_b)))
+        lo, hi = np.maximum(a[0], 0.0), a[1]
+        empty = a[1] < 0.0
+        flo, fhi = (lo ** p, hi ** p) if p > 0 else (hi ** p, lo ** p)
+        flo, fhi = _out(flo, fhi)
+        return np.where(empty, -_INF, flo), np.where(empty, _INF, fhi)
+    # a**b = exp(b log a) for a > 0; elsewhere unbounded (negative bases)
+    lg = _mono(np.log, 0.0)(a)
+    lo, hi = _I_UNARY["exp"](_i_mul(b, lg))
+    ok = a[0] > 0.0
+    return np.where(ok, lo, -_INF), np.where(ok, hi, _INF)
+
+
+def _i_periodic(a: Interval, f, peak: float) -> Interval:
+    """``f`` = sin or cos on ``[lo, hi]``: ``f`` is 1 at ``peak + 2 k pi``, -1 half a
+    period later."""
+    lo, hi = a
+    flo, fhi = f(lo), f(hi)
+    vlo, vhi = np.minimum(flo, fhi), np.maximum(flo, fhi)
+
+    def holds(at: float) -> np.ndarray:  # some at + 2 k pi in [lo, hi] (rounding: widened)
+        k = np.ceil((lo - at) / _TWO_PI - 1e-9)
+        return at + k * _TWO_PI <= hi + 1e-9 * np.maximum(1.0, np.abs(hi))
+
+    wide = ~((hi - lo) < _TWO_PI)  # also NaN and infinite bounds
+    top = wide | holds(peak)
+    bottom = wide | holds(peak + math.pi)
+    vlo, vhi = _out(vlo, vhi)
+    return np.where(bottom, -1.0, np.maximum(vlo, -1.0)), np.where(top, 1.0,
+                                                                   np.minimum(vhi, 1.0))
+
+
+def _i_tan(a: Interval) -> Interval:
+    lo, hi = a
+    k = np.ceil((lo - _HALF_PI) / math.pi - 1e-9)  # a pole in [lo, hi]?
+    pole = ~((hi - lo) < math.pi) | (_HALF_PI + k * math.pi <= hi + 1e-9 *
+                                     np.maximum(1.0, np.abs(hi)))
+    flo, fhi = _out(np.tan(lo), np.tan(hi))
+    return np.where(pole, -_INF, flo), np.where(pole, _INF, fhi)
+
+
+def _i_atan2(y: Interval, x: Interval) -> Interval:
+    """atan2 over a box: at its corners, unless it holds the origin or straddles the cut
+    along the negative x-axis (then [-pi, pi])."""
+    c = [np.arctan2(yy, xx) for yy in y for xx in x]
+    lo, hi = _out(reduce(np.minimum, c), reduce(np.maximum, c))
+    cut = (y[0] <= 0.0) & (y[1] >= 0.0) & (x[0] <= 0.0)
+    return np.where(cut, -math.pi - 1e-15, lo), np.where(cut, math.pi + 1e-15, hi)
+
+
+def _i_cmp(op: str):
+    """Comparisons as intervals of truth values: (1, 1) true on the whole box, (0, 0)
+    false on it, (0, 1) undecided (also where a side is unbounded or NaN)."""
+    strict = op in ("lt", "gt")
+
+    def apply(a: Interval, b: Interval) -> Interval:
+        if op in ("gt", "ge"):
+            a, b = b, a  # a > b is b < a
+        true = (a[1] < b[0]) if strict else (a[1] <= b[0])
+        false = (a[0] >= b[1]) if strict else (a[0] > b[1])
+        return true.astype(np.float64), (~false).astype(np.float64)
+    return apply
+
+
+def _i_where(c: Interval, a: Interval, b: Interval) -> Interval:
+    true, false = c[0] >= 1.0, c[1] <= 0.0
+    return (np.where(true, a[0], np.where(false, b[0], np.minimum(a[0], b[0]))),
+            np.where(true, a[1], np.where(false, b[1], np.maximum(a[1], b[1]))))
+
+
+_I_UNARY: dict[str, Callable[[Interval], Interval]] = {
+    "neg": lambda a: (-a[1], -a[0]),
+    "exp": _mono(np.exp), "log": _mono(np.log, 0.0), "log10": _mono(np.log10, 0.0),
+    "sqrt": _mono(np.sqrt, 0.0), "sinh": _mono(np.sinh), "tanh": _mono(np.tanh),
+    "arctan": _mono(np.arctan), "arcsin": _mono(np.arcsin, -1.0, 1.0),
+    "arccos": lambda a: _I_UNARY["neg"](_mono(lambda v: -np.arccos(v), -1.0, 1.0)(a)),
+    "cosh": lambda a: _out(*(np.cosh(v) for v in _mig_mag(a))),
+    "abs": lambda a: _mig_mag(a),
+    "sign": lambda a: (np.sign(a[0]), np.sign(a[1])),
+    "sin": lambda a: _i_periodic(a, np.sin, _HALF_PI),
+    "cos": lambda a: _i_periodic(a, np.cos, 0.0),
+    "tan": _i_tan,
+    "not": lambda a: (1.0 - a[1], 1.0 - a[0]),
+}
+_I_BINARY: dict[str, Callable[[Interval, Interval], Interval]] = {
+    "add": lambda a, b: _out(a[0] + b[0], a[1] + b[1]),
+    "sub": lambda a, b: _out(a[0] - b[1], a[1] - b[0]),
+    "mul": _i_mul, "div": _i_div, "pow": _i_pow, "atan2": _i_atan2,
+    "min": lambda a, b: (np.minimum(a[0], b[0]), np.minimum(a[1], b[1])),
+    "max": lambda a, b: (np.maximum(a[0], b[0]), np.maximum(a[1], b[1])),
+    "and": lambda a, b: (np.minimum(a[0], b[0]), np.minimum(a[1], b[1])),
+    "or": lambda a, b: (np.maximum(a[0], b[0]), np.maximum(a[1], b[1])),
+    **{op: _i_cmp(op) for op in ("lt", "le", "gt", "ge")},
+}
+
+
+def _build_itape(root: _Node) -> list[tuple[str, Any, tuple[int, ...]]]:
+    """The distinct nodes in evaluation order as ``(op, value, input slots)``."""
+    slot: dict[_Node, int] = {}
+    tape = []
+    for n in _post_order(root):
+        slot[n] = len(tape)
+        tape.append((n.op, n.value, tuple(slot[a] for a in n.args)))
+    return tape
+
+
+def _irun(tape, env: Mapping[str, Interval]) -> Interval:
+    slots: list[Any] = [None] * len(tape)
+    for k, (op, value, ins) in enumerate(tape):
+        if op == "var":
+            lo, hi = env[value]
+            lo, hi = np.where(np.isnan(lo), -_INF, lo), np.where(np.isnan(hi), _INF, hi)
+            slots[k] = (lo, hi)
+        elif op in ("const", "bool"):
+            v = np.float64(float(value))
+            slots[k] = (v, v)
+        elif op == "where":
+            slots[k] = _i_where(*(slots[i] for i in ins))
+        elif len(ins) == 1:
+            slots[k] = _I_UNARY[op](slots[ins[0]])
+        else:
+            slots[k] = _I_BINARY[op](slots[ins[0]], slots[ins[1]])
+    return slots[-1]
+
+
 class Expr:
     """A compiled formula: call it with arrays, differentiate it symbolically.
 
@@ -339,11 +526,12 @@ class Expr:
         Prefix of error messages (e.g. ``"plate.toml: material.composition.metal"``).
     """
 
-    __slots__ = ("_text", "_node", "_tape", "names", "variables", "where")
+    __slots__ = ("_text", "_node", "_tape", "_itape", "names", "variables", "where")
 
     def __init__(self, node: _Node, variables: tuple[str, ...], where: str,
                  text: str | None = None) -> None:
         self._node, self._text, self._tape = node, text, _build_tape(node)
+        self._itape: list | None = None
         self.names, self.variables, self.where = node.names, variables, where
 
     @property
@@ -377,6 +565,38 @@ class Expr:
                 or result.dtype != np.float64 or any(result is a for a in env.values())):
             result = np.array(np.broadcast_to(result, shape), dtype=np.float64)
         return result
+
+    def interval(self, **bounds: Any) -> Interval:
+        """An enclosure of the formula's values over boxes: interval arithmetic on the tree.
+
+        Each variable is given as a pair ``(lo, hi)`` of broadcasting arrays (or one array,
+        a point). The result ``(lo, hi)`` contains every value the formula takes at points
+        of the box where it is defined (rounding outwards, see :data:`Interval`); a box on
+        which some operation may be unbounded (a division by an interval holding 0) gives
+        ``(-inf, inf)``. Conditions are three-valued: where a comparison is not decided on
+        the box, ``where(c, a, b)`` gives the hull of both branches.
+
+        >>> lo, hi = compile_expr("x**2 - y").interval(x=(-1.0, 2.0), y=(0.0, 1.0))
+        >>> float(lo) <= -1.0 and 4.0 <= float(hi) < 4.0 + 1e-12
+        True
+        >>> [float(v) for v in compile_expr("where(x < 0, 0, 1)").interval(x=(0.5, 2.0))]
+        [1.0, 1.0]
+        """
+        wrong = [f"unexpected variable {k!r}" for k in bounds if k not in self.variables] + \
+            [f"missing value for {k!r}" for k in sorted(self.names.difference(bounds))]
+        if wrong:
+            raise TypeError(f"{self.where}: {wrong[0]} (variables: {', '.join(self.variables)})")
+        env = {}
+        for k, v in bounds.items():
+            lo, hi = v if isinstance(v, tuple) else (v, v)
+            env[k] = (np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64))
+        if self._itape is None:
+            self._itape = _build_itape(self._node)
+        with np.errstate(all="ignore"):
+            lo, hi = _irun(self._itape, env)
+        shape = np.broadcast_shapes(*(a.shape for pair in env.values() for a in pair))
+        return (np.array(np.broadcast_to(lo, shape), dtype=np.float64),
+                np.array(np.broadcast_to(hi, shape), dtype=np.float64))
 
     def diff(self, name: str) -> Expr:
         """Symbolic derivative with respect to the variable ``name`` (chain rule on the tree).

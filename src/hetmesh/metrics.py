@@ -176,9 +176,13 @@ def triangle_areas2(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: str = "vertices",
                   composition: np.ndarray | None = None,
-                  regions: np.ndarray | None = None) -> np.ndarray:
-    """delta(T) of every element, from the vertices (Eqs. 14-15) or, with ``sampling="dense"``,
-    also from a lattice inside it; ``composition`` at the points if already known.
+                  regions: np.ndarray | None = None,
+                  threshold: float | None = None) -> np.ndarray:
+    """delta(T) of every element, from the vertices (Eqs. 14-15), with ``sampling="dense"``
+    also from a lattice inside it, with ``sampling="certified"`` an upper bound on its
+    variation over the whole element (:func:`hetmesh.certify.certified_delta`);
+    ``composition`` at the points if already known; ``threshold`` (delta_0, optional) lets
+    the certified bound stop refining an element once it is decided against delta_0.
 
     ``regions`` (the subregion of every element, for a feature-tree field) makes every
     element use its own subregion's composition at all its vertices: a vertex on a material
@@ -190,6 +194,10 @@ def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: st
         delta = _delta_own_region(field, points, triangles, comp, regions, delta)
     if sampling == "dense":
         delta = np.maximum(delta, delta_dense(field, points, triangles, regions=regions))
+    elif sampling == "certified":
+        from .certify import certified_delta
+        delta = np.maximum(delta, certified_delta(field, points, triangles, regions=regions,
+                                                      threshold=threshold))
     return delta
 
 
@@ -312,7 +320,9 @@ class MeshStats:
     (:func:`delta_dense`: 15 points, vertices included), whatever the sampling: what a reader
     of "delta_max < delta_0" as a property of the whole element wants to know, from samples
     (a lower bound on the element's true variation, not a certificate); ``None`` where not
-    computed.
+    computed. ``delta_max_vertices`` is the vertex-sampled delta_max whatever the sampling,
+    and ``delta_max_certified`` an upper bound on every element's variation over the whole
+    element (:func:`hetmesh.certify.certified_delta`), where computed (``None`` otherwise).
     """
 
     n_points: int
@@ -324,6 +334,8 @@ class MeshStats:
     delta_max: float
     angle_min: float
     delta_max_dense: float | None = None
+    delta_max_vertices: float | None = None
+    delta_max_certified: float | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)

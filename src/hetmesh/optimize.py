@@ -76,6 +76,7 @@ class _Eval:
         # batch) must not see an element this pass put at delta_0 - 1 ulp
         self.thr = ctx.threshold * (1.0 - DELTA_MARGIN)
         self.sub = has_subregions(ctx.field)
+        self.max_edge = getattr(ctx, "max_edge", None)
 
     def comp(self, pts):
         """Compositions at ``pts`` (pointwise: by blocks of points)."""
@@ -86,15 +87,21 @@ class _Eval:
         ``C (n, 3, m)``; ``reg`` their subregions (or None)."""
         n = len(X)
         if self.sampling == "vertices" and reg is None:
-            return (C.max(axis=1) - C.min(axis=1)).max(axis=1)
-        tl = np.arange(3 * n).reshape(n, 3)
-        return element_delta(self.field, X.reshape(-1, 2), tl, self.sampling,
-                             C.reshape(3 * n, -1), regions=reg)
+            d = (C.max(axis=1) - C.min(axis=1)).max(axis=1)
+        else:
+            tl = np.arange(3 * n).reshape(n, 3)
+            d = element_delta(self.field, X.reshape(-1, 2), tl, self.sampling,
+                              C.reshape(3 * n, -1), regions=reg, threshold=self.thr)
+        if self.max_edge is not None:  # max_size: a move may not make an edge too long
+            e = np.sqrt(((X - X[:, [1, 2, 0]]) ** 2).sum(axis=2)).max(axis=1)
+            d = np.where(e > self.max_edge, np.inf, d)
+        return d
 
     def full(self, P, tris):
         comp = self.comp(P)
         reg = element_subregions(self.field, P, tris) if self.sub else None
-        return comp, element_delta(self.field, P, tris, self.sampling, comp, regions=reg), reg
+        return comp, element_delta(self.field, P, tris, self.sampling, comp, regions=reg,
+                                   threshold=self.thr), reg
 
 
 def _qa(X: np.ndarray):

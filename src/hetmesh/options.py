@@ -28,7 +28,7 @@ MIN_CHORD_TOL, MAX_CHORD_TOL = 1e-7, 0.05
 #: spends on shape (q_avg +0.01 to +0.015 on the examples, for 15-35 % more elements)
 DEFAULT_ROW_SPACING = 0.85
 ROW_SPACING_RANGE = (0.3, 0.99)
-SAMPLINGS = ("vertices", "dense")
+SAMPLINGS = ("vertices", "dense", "certified")
 LABELS = {"threshold": "threshold", "min_angle": "min angle", "max_elements": "max elements",
           "max_size": "max size", "sampling": "sampling", "min_quality": "min quality",
           "seed": "seed", "chord_tol": "chord tolerance", "row_spacing": "row spacing"}

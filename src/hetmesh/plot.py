@@ -24,7 +24,7 @@ from .io.atomic import atomic_path
 from .mesh import Mesh
 
 __all__ = ["mesh_figure", "plot_mesh", "delta_histogram_figure", "plot_delta_histogram",
-           "interface_markers"]
+           "interface_markers", "label_points", "axis_labels"]
 
 log = logging.getLogger(__name__)
 
@@ -73,8 +73,45 @@ def _edge_segments(mesh: Mesh, select: np.ndarray) -> np.ndarray:
     return mesh.points[mesh.edges[select]]
 
 
+def axis_labels(ax, units: str = "") -> None:
+    """``x``/``y`` axis labels with the model's length unit, e.g. ``x (mm)``."""
+    unit = f" ({units.strip()})" if units and units.strip() else ""
+    ax.set_xlabel(f"x{unit}")
+    ax.set_ylabel(f"y{unit}")
+
+
+def label_points(ax, xy: np.ndarray, names: Sequence[str], *, color: str = "cyan",
+                 fontsize: float = 7.0, offset: float = 5.0) -> None:
+    """Annotate points with names, each label on the side away from its nearest
+    neighbour (so that labels of close points, e.g. probes 1 mm apart, do not overlap).
+
+    ``offset`` is in typographic points; labels get a thin dark outline for contrast.
+    """
+    from matplotlib import patheffects
+
+    xy = np.asarray(xy, np.float64).reshape(-1, 2)
+    if not len(xy):
+        return
+    span = float(np.ptp(xy, axis=0).max()) if len(xy) > 1 else 1.0
+    for i, name in enumerate(names):
+        d = xy[i] - xy
+        dist = np.hypot(d[:, 0], d[:, 1])
+        dist[i] = np.inf
+        j = int(np.argmin(dist))
+        if len(xy) > 1 and dist[j] < 0.15 * max(span, 1e-300):
+            u = d[j] / max(dist[j], 1e-300)  # away from the nearest neighbour
+        else:
+            u = np.array([0.7071, 0.7071])
+        ha = "left" if u[0] > 0.3 else "right" if u[0] < -0.3 else "center"
+        va = "bottom" if u[1] > 0.3 else "top" if u[1] < -0.3 else "center"
+        ax.annotate(name, tuple(xy[i]), xytext=(offset * u[0], offset * u[1]),
+                    textcoords="offset points", ha=ha, va=va, fontsize=fontsize, color=color,
+                    path_effects=[patheffects.withStroke(linewidth=1.5, foreground="black")])
+
+
 def mesh_figure(mesh: Mesh, *, data: str | None = None, title: str | None = None,
-                interface_markers: Iterable[int] = (), show_edges: bool = True) -> Figure:
+                interface_markers: Iterable[int] = (), show_edges: bool = True,
+                units: str = "", constituents: Iterable[str] = ()) -> Figure:
     """The mesh coloured by a point data array (Gouraud shading), with its edges.
 
     Parameters
@@ -89,6 +126,10 @@ def mesh_figure(mesh: Mesh, *, data: str | None = None, title: str | None = None
         Edge markers whose constrained edges are drawn thick and red (interfaces).
     show_edges : bool
         Draw the triangles' edges in thin dark lines.
+    units : str
+        The model's length unit, for the axis labels (``x (mm)``).
+    constituents : iterable of str
+        The model's constituents: a colour bar of one of them says ``(volume fraction)``.
 
     Returns
     -------
@@ -98,7 +139,11 @@ def mesh_figure(mesh: Mesh, *, data: str | None = None, title: str | None = None
     --------
     >>> fig = mesh_figure(mesh, data="metal", interface_markers=[5])   # doctest: +SKIP
     """
-    fig = _new_figure(*_figure_size(mesh))
+    interface_markers = list(interface_markers)
+    constituents = tuple(constituents)
+    width, height = _figure_size(mesh)
+    legend = bool(len(mesh.edges)) and bool(np.isin(mesh.edge_markers, interface_markers).any())
+    fig = _new_figure(width, height + (0.45 if legend else 0.0))  # room for the legend
     ax = fig.add_subplot()
     tri = Triangulation(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles)
     picked = _point_values(mesh, data)
@@ -108,33 +153,38 @@ def mesh_figure(mesh: Mesh, *, data: str | None = None, title: str | None = None
     else:
         label, values = picked
         art = ax.tripcolor(tri, values, shading="gouraud", cmap="viridis")
+        if label in constituents:
+            label = f"{label} (volume fraction)"
     fig.colorbar(art, ax=ax, label=label, shrink=0.9)
     if show_edges:
         lw = 0.3 if mesh.n_elements < 20_000 else 0.08
         ax.triplot(tri, color="0.15", lw=lw, alpha=0.8)
-    _draw_constrained_edges(ax, mesh, interface_markers)
+    if _draw_constrained_edges(ax, mesh, interface_markers):
+        fig.legend(loc="outside lower center", fontsize=8, frameon=False)
     ax.set_aspect("equal")
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    axis_labels(ax, units)
     if title:
         ax.set_title(title)
     return fig
 
 
-def _draw_constrained_edges(ax, mesh: Mesh, interface_markers: Iterable[int]) -> None:
-    """Boundary/interface edges: dark outline, the ``interface_markers`` thick and red."""
+def _draw_constrained_edges(ax, mesh: Mesh, interface_markers: Iterable[int]) -> bool:
+    """Boundary/interface edges: dark outline, the ``interface_markers`` thick and red
+    (labelled for a legend). Returns whether red edges were drawn."""
     if not len(mesh.edges):
-        return
+        return False
     red = np.isin(mesh.edge_markers, np.fromiter(interface_markers, dtype=np.int64))
     if (~red).any():
         ax.add_collection(LineCollection(_edge_segments(mesh, ~red), colors="0.05", linewidths=0.8))
     if red.any():
-        ax.add_collection(LineCollection(_edge_segments(mesh, red), colors="red", linewidths=2.0))
+        ax.add_collection(LineCollection(_edge_segments(mesh, red), colors="red", linewidths=2.0,
+                                         label="interfaces and material discontinuities"))
+    return bool(red.any())
 
 
 def plot_mesh(mesh: Mesh, path: str | Path, *, data: str | None = None, title: str | None = None,
               interface_markers: Iterable[int] = (), show_edges: bool = True,
-              dpi: int = 150) -> Path:
+              dpi: int = 150, units: str = "", constituents: Iterable[str] = ()) -> Path:
     """Save :func:`mesh_figure` to ``path`` (atomically; format from the extension).
 
     Returns
@@ -148,7 +198,7 @@ def plot_mesh(mesh: Mesh, path: str | Path, *, data: str | None = None, title: s
     PosixPath('plate.png')
     """
     fig = mesh_figure(mesh, data=data, title=title, interface_markers=interface_markers,
-                      show_edges=show_edges)
+                      show_edges=show_edges, units=units, constituents=constituents)
     return _save(fig, path, dpi)
 
 
@@ -174,10 +224,20 @@ def _series(delta, other, labels: Sequence[str]) -> list[tuple[str, np.ndarray]]
 
 
 def _bin_edges(series: list[tuple[str, np.ndarray]], threshold: float, bins) -> np.ndarray:
+    """Bins from 0 whose edges fall on the threshold: ``k`` equal bins up to delta_0 (about
+    ``bins`` in all over the data), then as many of the same width as the values above it
+    need; no bin straddles delta_0, so the bars left of its line hold the elements below it
+    and those right of it the elements at or above it."""
     if bins is not None and np.ndim(bins) == 1:
         return np.asarray(bins, np.float64)
+    n = 40 if bins is None else int(bins)
     top = max([threshold] + [float(d.max()) for _, d in series if d.size])
-    return np.linspace(0.0, 1.05 * top, (40 if bins is None else int(bins)) + 1)
+    k = max(4, int(round(n * threshold / (1.05 * top))))
+    step = threshold / k
+    above = int(np.ceil(max(0.0, 1.05 * top - threshold) / step))
+    above = max(above, 1)  # room right of the threshold line
+    return np.concatenate([np.linspace(0.0, threshold, k + 1),
+                           threshold + step * np.arange(1, above + 1)])
 
 
 def delta_histogram_figure(delta, *, threshold: float, other: DeltaLike | None = None,
@@ -200,8 +260,8 @@ def delta_histogram_figure(delta, *, threshold: float, other: DeltaLike | None =
     labels : sequence of str
         Legend labels of ``delta`` and ``other``.
     bins : int or array, optional
-        Number of bins (default 40, from 0 to 1.05 x the largest value or the threshold)
-        or the bin edges.
+        About how many bins (default 40, from 0 to 1.05 x the largest value or the
+        threshold, with a bin edge on the threshold) or the bin edges.
     title : str, optional
 
     Returns

@@ -54,6 +54,9 @@ class Context:
     #: the geometric size bound near small boundary features (a
     #: :class:`~hetmesh.geosize.BoundarySize`), or None
     geo_size: object = None
+    #: the longest edge allowed (``max_size`` given), or None: no bound beyond ``h_max``'s
+    #: placement size
+    max_edge: float | None = None
     clock: dict = field(default_factory=dict)  # seconds spent per kind of work (phase split)
 
     @contextmanager

@@ -35,13 +35,17 @@ from .geometry.curves import CurveBatch
 from .mesh import edge_keys
 
 __all__ = ["chord_sagitta", "chord_problems", "chord_areas", "coverage_problems",
-           "CHORD_SLACK", "AREA_SLACK"]
+           "mesh_model_problems", "CHORD_SLACK", "AREA_SLACK", "ON_BOUNDARY_TOL"]
 
 #: relative allowance on the chord tolerance, for rounding (the placements step by
 #: 2 arccos(1 - tol/r), which loses digits for a small tol/r)
 CHORD_SLACK = 1e-6
 #: relative allowance on the area, for the rounding of the triangles' areas
 AREA_SLACK = 1e-9
+#: :func:`mesh_model_problems`: how far (x the domain's diameter) a mesh's boundary node may
+#: be from the domain's boundary (files keep coordinates to about 1e-16 relative; .inp and
+#: .mesh files write fewer digits)
+ON_BOUNDARY_TOL = 1e-6
 
 
 def _angles(batch: CurveBatch, curve: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -147,3 +151,76 @@ def coverage_problems(mesh_boundary: np.ndarray, domain_boundary: np.ndarray, ar
         out.append(f"mesh area {area * a2:.9g} differs from the domain's {domain_area * a2:.9g}"
                    f" by more than its boundary chords allow ({chord_area * a2:.3g})")
     return out
+
+
+def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
+                        max_chord_tol: float = 0.05, geometry: bool = True) -> list[str]:
+    """Whether a mesh read from a file can belong to a model's domain, cheapest first.
+
+    For ``hetmesh stats`` and ``hetmesh fea``, which evaluate a model's material on a mesh
+    they did not make: every node the triangles use has finite coordinates; every node of
+    the mesh's boundary lies on the domain's boundary (outer loop or holes, within
+    :data:`ON_BOUNDARY_TOL` x its diameter); every triangle's centroid lies in the domain
+    (or on its boundary); the mesh's area is the domain's up to what chords of its curves,
+    at most ``max_chord_tol`` x the diameter from them, can cut off or add.
+
+    ``geometry=False`` checks only that the nodes are finite.
+
+    Returns
+    -------
+    list of str
+        Empty if the mesh passes; else one message (the first check that fails), naming
+        a node or coordinate.
+
+    Examples
+    --------
+    >>> from hetmesh.geometry import Loop, Segment, make_domain
+    >>> sq = make_domain(Loop(tuple(Segment(a, b) for a, b in [((0, 0), (1, 0)),
+    ...     ((1, 0), (1, 1)), ((1, 1), (0, 1)), ((0, 1), (0, 0))]), "outer"))
+    >>> P = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> mesh_model_problems(P, np.array([[0, 1, 2], [0, 2, 3]]), sq)
+    []
+    >>> mesh_model_problems(P * 2, np.array([[0, 1, 2], [0, 2, 3]]), sq)
+    ["boundary node 2 at (2, 2) is 1.41 from the domain's boundary (the mesh is not of this model)"]
+    """
+    points = np.asarray(points, dtype=float)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    used = np.unique(triangles)
+    bad = used[~np.isfinite(points[used]).all(axis=1)]
+    if len(bad):
+        return [f"{len(bad)} node{'s' if len(bad) > 1 else ''} with non-finite coordinates "
+                f"(node {int(bad[0])}: {tuple(float(v) for v in points[bad[0]])})"]
+    if not geometry:
+        return []
+    diam = float(domain.diameter)
+    a, b = triangles[:, [0, 1, 2]].ravel(), triangles[:, [1, 2, 0]].ravel()
+    keys, counts = np.unique(edge_keys(a, b), return_counts=True)
+    once = np.isin(edge_keys(a, b), keys[counts == 1])
+    nodes = np.unique(np.concatenate([a[once], b[once]]))
+    if len(nodes):
+        dist = np.asarray(domain.distance_to_boundary(points[nodes], interfaces=False))
+        i = int(np.argmax(dist))
+        if dist[i] > ON_BOUNDARY_TOL * diam:
+            x, y = points[nodes[i]]
+            return [f"boundary node {int(nodes[i])} at ({x:.6g}, {y:.6g}) is {dist[i]:.3g} "
+                    f"from the domain's boundary (the mesh is not of this model)"]
+    cent = points[triangles].mean(axis=1)
+    inside = np.asarray(domain.contains(cent), dtype=bool)
+    if not inside.all():
+        out = np.flatnonzero(~inside)
+        near = np.asarray(domain.distance_to_boundary(cent[out], interfaces=False)) <= \
+            max_chord_tol * diam
+        out = out[~near]
+        if len(out):
+            x, y = cent[out[0]]
+            return [f"{len(out)} triangles lie outside the domain (the first centred at "
+                    f"({x:.6g}, {y:.6g}); the mesh is not of this model)"]
+    p0, p1, p2 = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    area = 0.5 * float(np.abs((p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1])
+                              - (p1[:, 1] - p0[:, 1]) * (p2[:, 0] - p0[:, 0])).sum())
+    length = sum(float(info.curve.length) for info in domain.curves if info.kind != "interface")
+    allow = max_chord_tol * diam * length + AREA_SLACK * float(domain.area)
+    if not abs(area - float(domain.area)) <= allow:
+        return [f"the mesh's area {area:.6g} differs from the domain's {float(domain.area):.6g}"
+                f" (the mesh does not cover this model's domain)"]
+    return []

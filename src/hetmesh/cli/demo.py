@@ -64,13 +64,20 @@ def run(args: argparse.Namespace) -> int:
         "uniform mesh": write_mesh(uni.mesh, out / f"{EXAMPLE}_uniform.vtu"),
         "mesh picture": plot_mesh(adaptive.mesh, out / f"{EXAMPLE}.png",
                                   interface_markers=interface_markers(model),
-                                  title=f"{model.name}: adaptive mesh, delta_0 = {D:g}"),
+                                  units=model.units,
+                                  constituents=model.material.constituents,
+                                  title=f"{model.name}: adaptive mesh, "
+                                        f"{adaptive.mesh.n_elements} elements, "
+                                        f"$\\delta_0$ = {D:g}"),
         "delta histogram": plot_delta_histogram(
             {"adaptive": adaptive.mesh, "uniform": uni.mesh}, out / f"{EXAMPLE}_delta.png",
-            threshold=D, title=f"{model.name}: delta over the elements"),
+            threshold=D, title=f"{model.name}: material variation $\\delta(T)$ of the elements"),
     }
     if not args.quiet:
-        from .stats import stats_table
+        from .stats import stats_table, with_bounds
+
+        adaptive.stats = with_bounds(adaptive.stats, adaptive.mesh, model, None)
+        uni.stats = with_bounds(uni.stats, uni.mesh, model, None)
 
         console = Console(highlight=False, markup=False)
         console.print(f"{model.name}, delta_0 = {D:g}")

@@ -15,6 +15,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .mesh import check_output_paths, mesh_extensions, plot_extensions
+from .stats import check_mesh_of_model
 
 __all__ = ["add_parser", "run", "probe_table"]
 
@@ -78,12 +79,16 @@ def run(args: argparse.Namespace) -> int:
     from ..io.export import read_mesh, write_mesh
     from ..io.model import load_model
 
+    from .examples import check_model_path
+
     check_fea_outputs(args)
+    check_model_path(args.model)
     model = load_model(args.model)
     if model.fea is None:
         raise FEAError(f"{args.model}: no [fea] table (constituent properties, boundary "
                        f"conditions); see docs/model-format.md")
     mesh = read_mesh(args.mesh)
+    check_mesh_of_model(mesh, model, args.mesh, geometry=False)  # finite nodes
     result = solve(mesh, model)
     written = []
     if args.output is not None:
@@ -92,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         written.append(write_report(result, args.report, model_file=str(args.model),
                                     mesh_file=str(args.mesh)))
     if args.plot is not None:
-        written.append(plot_von_mises(result, args.plot))
+        written.append(plot_von_mises(result, args.plot, units=model.units))
     if not args.quiet:
         console = Console(highlight=False, markup=False)
         T = result.temperature

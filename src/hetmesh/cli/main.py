@@ -30,12 +30,12 @@ from typing import Iterator, NoReturn, Sequence
 
 from .. import __version__
 from ..errors import HetmeshError, OptionError
-from . import demo, export, fea, mesh, reproduce, stats, sweep, uniform
+from . import demo, examples, export, fea, mesh, reproduce, stats, sweep, uniform
 
 __all__ = ["main", "build_parser"]
 
 PROG = "hetmesh"
-SUBCOMMANDS = (mesh, uniform, stats, fea, export, reproduce, sweep, demo)
+SUBCOMMANDS = (mesh, uniform, stats, fea, export, reproduce, sweep, demo, examples)
 
 
 class _UsageError(OptionError):

@@ -18,7 +18,7 @@ from rich.console import Console
 
 from ..errors import OutputError
 from ..io.jsondoc import jsonable
-from ..options import check_options
+from ..options import SAMPLINGS, check_options
 from .progress import progress_reporter
 
 __all__ = [
@@ -55,7 +55,8 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "every element of the result has delta < D")
     p.add_argument("--output", "-o", type=Path, required=True, metavar="OUT",
                    help="mesh file to write; the format follows the extension: .vtu, .vtk, "
-                        ".msh (Gmsh 4.1), .xdmf, .inp (Abaqus), .mesh (Medit)")
+                        ".msh (Gmsh 4.1), .xdmf, .inp (Abaqus), .mesh (Medit: geometry, "
+                        "regions and edge markers only, no compositions)")
     p.add_argument("--format", choices=sorted(FILE_FORMATS), default=None, metavar="FMT",
                    help="write this format whatever the extension, e.g. gmsh22 for Gmsh 2.2 "
                         f"(one of: {', '.join(sorted(FILE_FORMATS))})")
@@ -64,14 +65,19 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "0 < A <= 34 (default: 30)")
     if adaptive:
         p.add_argument("--max-size", type=float, metavar="H",
-                       help="largest element edge length, > 0 (default: the domain diameter / 8)")
+                       help="the longest edge allowed, > 0, in model units; longer edges are "
+                            "split and the result is verified (default: no bound; the coarsest "
+                            "elements are about the domain diameter / 8)")
     p.add_argument("--max-elements", type=_count, metavar="N",
                    help="element budget; meshing stops with an error rather than exceed it "
                         "(default: 5000000)")
-    p.add_argument("--sampling", choices=("vertices", "dense"),
+    p.add_argument("--sampling", choices=SAMPLINGS,
                    help="where delta(T) < D is guaranteed: at the vertices (the paper's "
-                        "definition) or also on a 15-point lattice in every element, which "
-                        "sees composition peaks between vertices (default: vertices); the "
+                        "definition), also on a 15-point lattice in every element, which "
+                        "sees most composition peaks between vertices, or 'certified': "
+                        "everywhere inside every element, proven by interval arithmetic on "
+                        "the formulas (a Lipschitz bound for feature trees; dense sampling, "
+                        "with a warning, for other materials) (default: vertices); the "
                         "statistics show the lattice's delta_max_dense either way")
     p.add_argument("--chord-tol", type=float, metavar="C",
                    help="largest distance between a curved boundary or interface and any of "
@@ -241,8 +247,12 @@ def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> li
         from ..plot import interface_markers, plot_mesh
 
         meshed = result.model if result.model is not None else model  # with discontinuities
+        kind = "adaptive" if args.command == "mesh" else args.command
         plot_mesh(result.mesh, args.plot, interface_markers=interface_markers(meshed),
-                  title=f"{model.name}: {args.command} mesh, delta_0 = {args.threshold:g}")
+                  units=getattr(model, "units", ""),
+                  constituents=model.material.constituents,
+                  title=f"{model.name}: {kind} mesh, {result.mesh.n_elements} elements, "
+                        f"$\\delta_0$ = {args.threshold:g}")
         written.append(args.plot)
     if args.stats is not None:
         from ..io.atomic import atomic_write
@@ -272,11 +282,17 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
     kwargs = meshing_kwargs(args)
     check_outputs(args, [args.model])
     from ..io.model import load_model
+    from .examples import check_model_path
 
+    check_model_path(args.model)
     func = load_pipeline()
     model = load_model(args.model)
     result, seconds = run_pipeline(func, model, args.threshold, kwargs, quiet=args.quiet,
                                    label=model.name)
+    from .stats import with_bounds
+
+    result.stats = with_bounds(result.stats, result.mesh, model,
+                               result.options.get("sampling"))
     written = write_outputs(args, model, result, seconds)
     if not args.quiet:
         print_summary(model, result, seconds, written, args.threshold)

@@ -42,14 +42,16 @@ def write_report(result, path: str | Path, **extra) -> Path:
     return Path(path)
 
 
-def von_mises_figure(result, *, title: str | None = None, show_probes: bool = True):
-    """The recovered von Mises stress (MPa, Gouraud shading) with the probes marked.
+def von_mises_figure(result, *, title: str | None = None, show_probes: bool = True,
+                     units: str = ""):
+    """The recovered von Mises stress (MPa, Gouraud shading) with the probes marked;
+    ``units`` the model's length unit for the axes.
 
     Returns a :class:`matplotlib.figure.Figure`.
     """
     from matplotlib.tri import Triangulation
 
-    from ..plot import _figure_size, _new_figure
+    from ..plot import _figure_size, _new_figure, axis_labels, label_points
 
     mesh = result.mesh
     fig = _new_figure(*_figure_size(mesh))
@@ -62,20 +64,17 @@ def von_mises_figure(result, *, title: str | None = None, show_probes: bool = Tr
     if show_probes and result.probes:
         xy = np.array([[p["x"], p["y"]] for p in result.probes.values()])
         ax.plot(xy[:, 0], xy[:, 1], "o", ms=4, mfc="cyan", mec="k", mew=0.5)
-        for name, p in result.probes.items():
-            ax.annotate(name, (p["x"], p["y"]), xytext=(3, 3), textcoords="offset points",
-                        fontsize=7, color="cyan")
+        label_points(ax, xy, list(result.probes))
     ax.set_aspect("equal")
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    axis_labels(ax, units)
     ax.set_title(title or f"{result.model_name}: von Mises stress, {mesh.n_elements} elements, "
                           f"plane {result.config.plane}")
     return fig
 
 
 def plot_von_mises(result, path: str | Path, *, title: str | None = None,
-                   dpi: int = 150) -> Path:
+                   dpi: int = 150, units: str = "") -> Path:
     """Save :func:`von_mises_figure` to ``path`` (format from the extension, atomically)."""
     from ..plot import _save
 
-    return _save(von_mises_figure(result, title=title), path, dpi)
+    return _save(von_mises_figure(result, title=title, units=units), path, dpi)

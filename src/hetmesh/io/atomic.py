@@ -1,10 +1,18 @@
 """Atomic file writes: write to a temporary file next to the target, rename on success.
 
 Every file hetmesh writes (meshes, plots, statistics) goes through :func:`atomic_path` or
-:func:`atomic_write`, so a crash, an exception or Ctrl-C never leaves a half-written file
-behind and never clobbers an existing one. The temporary file lives in the target's
-directory (``os.replace`` is atomic only within one file system) and keeps the target's
-suffix, so tools that choose the format by extension (meshio, matplotlib) still work.
+:func:`atomic_write`, so a crash, an exception, Ctrl-C or ``kill`` (SIGTERM) never leaves a
+half-written file behind and never clobbers an existing one. The temporary file lives in the
+target's directory (``os.replace`` is atomic only within one file system), is named
+``.<stem>.<pid>-<hex>.tmp<suffix>`` and keeps the target's suffix, so tools that choose the
+format by extension (meshio, matplotlib) still work.
+
+* SIGTERM while a temporary file exists (in the main thread, when no other handler is
+  installed) raises ``SystemExit(143)``: the file is removed as on any exception, and the
+  process exits with the status of a terminated process.
+* What no handler can clean up (SIGKILL, a power cut) is removed by the next write to the
+  same path: temporary files of that path whose process is gone (or, named without a
+  process id, older than :data:`STALE_AGE` seconds).
 """
 
 from __future__ import annotations
@@ -12,17 +20,25 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import re
 import secrets
+import signal
+import threading
+import time
 from pathlib import Path
 from typing import IO, Iterator
 
 from ..errors import OptionError, OutputError
 
-__all__ = ["atomic_path", "atomic_write"]
+__all__ = ["atomic_path", "atomic_write", "STALE_AGE", "TERMINATED"]
 
 log = logging.getLogger(__name__)
 
 _MODES = ("w", "wb")
+#: a temporary file of ours without a process id in its name is stale after this (seconds)
+STALE_AGE = 3600.0
+#: the exit status after SIGTERM during a write (128 + the signal's number)
+TERMINATED = 128 + int(signal.SIGTERM)
 
 
 @contextlib.contextmanager
@@ -56,19 +72,22 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     ...     meshio.write(tmp, mesh)
     """
     target = Path(path)
-    tmp = _create_temp(target)
-    try:
-        yield tmp
-        if not tmp.is_file():
-            raise OutputError(f"cannot write {target}: the temporary file {tmp.name} vanished")
-        _fsync(tmp)
-        os.replace(tmp, target)
-    except OSError as exc:
-        _discard(tmp)
-        raise OutputError(f"cannot write {target}: {_reason(exc)}") from exc
-    except BaseException:
-        _discard(tmp)
-        raise
+    _remove_stale(target)
+    with _exit_on_sigterm():
+        tmp = _create_temp(target)
+        try:
+            yield tmp
+            if not tmp.is_file():
+                raise OutputError(f"cannot write {target}: the temporary file {tmp.name} "
+                                  f"vanished")
+            _fsync(tmp)
+            os.replace(tmp, target)
+        except OSError as exc:
+            _discard(tmp)
+            raise OutputError(f"cannot write {target}: {_reason(exc)}") from exc
+        except BaseException:
+            _discard(tmp)
+            raise
     log.debug("wrote %s", target)
 
 
@@ -123,7 +142,7 @@ def _create_temp(target: Path) -> Path:
     if not parent.is_dir():
         raise OutputError(f"cannot write {target}: {parent} is not a directory")
     for _ in range(100):
-        tmp = parent / f".{target.stem}.{secrets.token_hex(4)}.tmp{target.suffix}"
+        tmp = parent / f".{target.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp{target.suffix}"
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         except FileExistsError:
@@ -133,6 +152,63 @@ def _create_temp(target: Path) -> Path:
         os.close(fd)
         return tmp
     raise OutputError(f"cannot write {target}: no free temporary file name in {parent}")
+
+
+@contextlib.contextmanager
+def _exit_on_sigterm() -> Iterator[None]:
+    """While the block runs, SIGTERM raises ``SystemExit(TERMINATED)`` (so that the
+    temporary file is removed) -- in the main thread, if SIGTERM has its default action."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    def terminate(signum, frame):
+        raise SystemExit(TERMINATED)
+
+    signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` may still be writing (True when it cannot be told)."""
+    if pid == os.getpid() or os.name != "posix":  # os.kill(pid, 0) terminates on Windows
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists (another user's), or cannot tell: keep its file
+    return True
+
+
+def _remove_stale(target: Path) -> None:
+    """Remove the temporary files a killed writer of ``target`` left behind."""
+    pattern = re.compile(rf"\.{re.escape(target.stem)}\.(?:(\d+)-)?[0-9a-f]{{8}}"
+                         rf"\.tmp{re.escape(target.suffix)}")
+    try:
+        names = os.listdir(target.parent)
+    except OSError:
+        return
+    now = time.time()
+    for name in names:
+        m = pattern.fullmatch(name)
+        if m is None:
+            continue
+        path = target.parent / name
+        try:
+            age = now - path.stat().st_mtime
+            stale = age > STALE_AGE if not m.group(1) else \
+                not _alive(int(m.group(1))) or (os.name != "posix" and age > STALE_AGE)
+        except OSError:
+            continue
+        if stale:
+            log.info("removing %s, left by an interrupted write of %s", path, target.name)
+            _discard(path)
 
 
 def _fsync(tmp: Path) -> None:

@@ -1,0 +1,356 @@
+"""Certified element variation: an upper bound on delta(T) that holds inside the element.
+
+Vertex sampling (the paper's Eqs. 14-15) measures delta(T) at the three corners of an
+element; a lattice (``sampling="dense"``) at 15 points. Both are lower bounds on the true
+variation ``max_j (max_T c_j - min_T c_j)`` and both miss a narrow peak between their
+samples. :func:`certified_delta` bounds it from above instead:
+
+* **Formula fields** (:class:`~hetmesh.material.AnalyticField`): each formula is enclosed
+  over the bounding box of a piece of the element by interval arithmetic on its compiled
+  tree (:meth:`hetmesh.expr.Expr.interval`), intersected with the mean-value form
+  ``f(c) + grad f(box) . (box - c)`` (the gradient's tree enclosed the same way) where the
+  formula is smooth on the piece. A piecewise field's element is enclosed on its own
+  subregion's branch, as the mesher evaluates it.
+* **Feature-tree fields** (:class:`~hetmesh.material.hft.HFTField`): distances are
+  1-Lipschitz, so within a subregion every composition is Lipschitz with the constant
+  ``L_j = sup |grad c_j|``; every point of a piece of circumradius ``R`` lies within
+  ``R / 2`` of one of its corners and edge midpoints, so ``c_j`` stays within
+  ``L_j R / 2`` of its values there. ``L_j`` is estimated per piece from the gradient at
+  seven samples times :data:`LIPSCHITZ_SAFETY`: a bound for the smooth field of the
+  element's own subregion under that estimate (which shrinks with the pieces), not an
+  interval proof.
+* Anything else (a Python callable, :class:`~hetmesh.material.CallableField`) has no tree
+  to enclose: :func:`certified_delta` warns and returns the dense-sampled delta.
+
+Each element is subdivided (four children per piece, at the edge midpoints) where its
+enclosure is not yet within ``atol + rtol * L`` of ``L``, the variation witnessed by the
+samples (corners, edge midpoints and centroids of the pieces), or, given delta_0, until it
+is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels;
+pieces whose enclosure already lies within that margin of the witnessed extremes (given
+delta_0: within delta_0 / 2 of their middle) are not split further. The result is the
+enclosure's ``max - min``, so it is never below the true delta(T) of the element; an element
+the enclosure cannot decide keeps a loose (large) bound, which makes the refinement split it.
+
+Rounding: intervals are widened outwards by a few units in the last place (see
+:data:`hetmesh.expr.Interval`); the pieces' boxes by a few units in the last place of the
+coordinates, so the affine map from the mesher's local frame to the model's coordinates
+loses nothing.
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+
+import numpy as np
+
+__all__ = ["certified_delta", "certifiable", "CertificationUnavailable", "LIPSCHITZ_SAFETY",
+           "RTOL", "ATOL", "MAX_DEPTH"]
+
+log = logging.getLogger(__name__)
+
+#: relative gap between the certified bound and the witnessed variation at which an element
+#: is settled
+RTOL = 0.01
+#: absolute gap (in composition) at which an element is settled
+ATOL = 1e-4
+#: the most subdivision levels of an element (4**MAX_DEPTH pieces at most, in practice a few
+#: dozen: only the pieces near the extremes are split)
+MAX_DEPTH = 14
+#: the most pieces enclosed in one pass; past it the remaining elements keep their bounds
+MAX_PIECES = 1 << 21
+#: feature trees: the sampled gradient norm is multiplied by this to bound the Lipschitz
+#: constant of a piece
+LIPSCHITZ_SAFETY = 2.0
+
+_CHILDREN = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])  # of (a, b, c, ab, bc, ca)
+
+
+class CertificationUnavailable(UserWarning):
+    """The field has no expression tree to enclose; dense sampling was used instead."""
+
+
+def _unwrap(field):
+    """``(base field, scale, offset)`` with the field's values at local points ``p`` those of
+    ``base`` at ``p * scale + offset`` (the mesher's local frame undone)."""
+    scale, offset = 1.0, np.zeros(2)
+    while hasattr(field, "base") and hasattr(field, "frame"):
+        frame = field.frame
+        offset = offset * frame.scale + frame.offset  # p -> (p s1 + o1) s2 + o2
+        scale = scale * frame.scale
+        field = field.base
+    return field, scale, offset
+
+
+def certifiable(field) -> str | None:
+    """``None`` if :func:`certified_delta` can bound ``field``, else the reason it cannot."""
+    from .material.analytic import AnalyticField
+    from .material.hft import HFTField
+    base = _unwrap(field)[0]
+    if isinstance(base, (AnalyticField, HFTField)):
+        return None
+    return (f"certified sampling needs a formula or feature-tree material; "
+            f"{type(base).__name__} has no expression to enclose")
+
+
+# --------------------------------------------------------------------------- enclosures
+def _box(corners: np.ndarray, off: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Bounding boxes ``(xlo, xhi, ylo, yhi)`` of pieces ``(K, 3, 2)`` shifted by ``off``,
+    widened by 8 units in the last place of the coordinates."""
+    lo = corners.min(axis=1) + off
+    hi = corners.max(axis=1) + off
+    pad = 8.0 * np.spacing(np.maximum(np.abs(lo), np.abs(hi)))
+    lo, hi = lo - pad, hi + pad
+    return lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]
+
+
+def _imul(a, b):
+    p = [a[i] * b[j] for i in (0, 1) for j in (0, 1)]
+    p = [np.where(np.isnan(v), 0.0, v) for v in p]
+    lo, hi = np.minimum(np.minimum(p[0], p[1]), np.minimum(p[2], p[3])), \
+        np.maximum(np.maximum(p[0], p[1]), np.maximum(p[2], p[3]))
+    return _widen(lo, hi)
+
+
+def _widen(lo, hi):
+    eps = 4.0 * np.finfo(float).eps
+    tiny = np.finfo(float).tiny
+    lo = lo - (np.abs(lo) * eps + tiny)
+    hi = hi + (np.abs(hi) * eps + tiny)
+    return np.where(np.isnan(lo), -np.inf, lo), np.where(np.isnan(hi), np.inf, hi)
+
+
+class _FormulaEnclosure:
+    """Interval enclosures of an :class:`AnalyticField`'s fractions over boxes."""
+
+    def __init__(self, field, offset: np.ndarray):
+        self.field = field
+        self.off = field.offset  # the field's own shift (AnalyticField.shifted)
+        self.m = len(field.constituents)
+
+    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        f = self.field
+        xlo, xhi, ylo, yhi = _box(corners, self.off)
+        cx, cy = 0.5 * (xlo + xhi), 0.5 * (ylo + yhi)
+        piecewise = bool(f._conds)
+        env: dict = {}
+        if piecewise and region is not None:
+            bits = f._region_bits(region, len(corners)).astype(np.float64)
+            env = {name: bits[:, i] for i, name in enumerate(f._cond_names)}
+            exprs, grads, smooth = f._fixed, f._fixed_grads, True
+        else:
+            exprs, grads, smooth = f._exprs, f._grads, not piecewise
+        k = len(corners)
+        lo = np.empty((k, self.m))
+        hi = np.empty((k, self.m))
+        for j, e, (dx, dy) in zip(f._given, exprs, grads):
+            a, b = e.interval(x=(xlo, xhi), y=(ylo, yhi), **env)
+            if smooth:
+                c0, c1 = e.interval(x=cx, y=cy, **env)
+                gx = dx.interval(x=(xlo, xhi), y=(ylo, yhi), **env)
+                gy = dy.interval(x=(xlo, xhi), y=(ylo, yhi), **env)
+                tx = _imul(gx, _widen(xlo - cx, xhi - cx))
+                ty = _imul(gy, _widen(ylo - cy, yhi - cy))
+                mlo, mhi = _widen(c0 + tx[0] + ty[0], c1 + tx[1] + ty[1])
+                a, b = np.maximum(a, mlo), np.minimum(b, mhi)
+            lo[:, j], hi[:, j] = a, b
+        if f._derived_col is not None:
+            d = f._derived_col
+            g = f._given
+            lo[:, d], hi[:, d] = _widen(1.0 - hi[:, g].sum(axis=1), 1.0 - lo[:, g].sum(axis=1))
+        return lo, hi
+
+
+class _LipschitzEnclosure:
+    """Enclosures of a feature-tree field's fractions from a Lipschitz bound per piece.
+
+    The four children of a piece (split at its edge midpoints) have circumradius ``R / 2``
+    and their corners among the piece's corners and edge midpoints, so every point of the
+    piece is within ``R / 2`` of one of those six samples: ``c_j`` lies within
+    ``L_j R / 2`` of their range, ``L_j`` the sampled gradient norm's maximum over the
+    seven samples (corners, midpoints, centroid) times :data:`LIPSCHITZ_SAFETY`.
+    """
+
+    def __init__(self, field, offset: np.ndarray):
+        self.field = field
+        self.m = len(field.constituents)
+
+    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        k = len(corners)
+        pts = _seven(corners).reshape(-1, 2)
+        reg = None if region is None else np.repeat(region, 7)
+        with np.errstate(all="ignore"):
+            comp = self.field.composition(pts, region=reg).reshape(k, 7, self.m)
+            grad = self.field.gradient(pts, region=reg).reshape(k, 7, self.m, 2)
+        lip = np.sqrt((grad ** 2).sum(axis=3)).max(axis=1) * LIPSCHITZ_SAFETY  # (k, m)
+        reach = 0.5 * _circumradius(corners)[:, None] * lip
+        return _widen(comp.min(axis=1) - reach, comp.max(axis=1) + reach)
+
+
+def _circumradius(corners: np.ndarray) -> np.ndarray:
+    """How far a point of each triangle ``(K, 3, 2)`` can be from its nearest corner, at
+    most: the circumradius, or the longest edge (the triangle's diameter) where that is
+    smaller (flat triangles, whose circumradius grows without bound)."""
+    a = np.hypot(*(corners[:, 1] - corners[:, 2]).T)
+    b = np.hypot(*(corners[:, 2] - corners[:, 0]).T)
+    c = np.hypot(*(corners[:, 0] - corners[:, 1]).T)
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area2 = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    longest = np.maximum(np.maximum(a, b), c)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(area2 > 0, a * b * c / (2.0 * area2), np.inf)
+    return np.minimum(r, longest)
+
+
+def _enclosure(field):
+    from .material.analytic import AnalyticField
+    from .material.hft import HFTField
+    base, scale, offset = _unwrap(field)
+    if isinstance(base, AnalyticField):
+        return base, scale, offset, _FormulaEnclosure(base, offset)
+    if isinstance(base, HFTField):
+        return base, scale, offset, _LipschitzEnclosure(base, offset)
+    return base, scale, offset, None
+
+
+# --------------------------------------------------------------------------- the bound
+def certified_delta(field, points: np.ndarray, triangles: np.ndarray, *,
+                    regions: np.ndarray | None = None, rtol: float = RTOL,
+                    atol: float = ATOL, max_depth: int = MAX_DEPTH,
+                    threshold: float | None = None) -> np.ndarray:
+    """An upper bound ``(M,)`` on every element's true variation delta(T).
+
+    Parameters
+    ----------
+    field : material field
+        A formula field or feature tree (possibly in the mesher's local frame); for any
+        other field a :class:`CertificationUnavailable` warning is issued and the
+        dense-sampled delta (:func:`hetmesh.metrics.delta_dense`) returned.
+    points, triangles : arrays
+        The mesh, in the coordinates ``field`` takes.
+    regions : (M,) int, optional
+        Each element's subregion (piecewise fields): the element is bounded on that
+        subregion's smooth field.
+    rtol, atol : float
+        An element is settled when its bound is within ``atol + rtol * L`` of the variation
+        ``L`` its samples witness.
+    max_depth : int
+        The most subdivision levels.
+    threshold : float, optional
+        delta_0: an element is also settled once its bound is below it (certified) or its
+        samples reach it (it must be split anyway). Its bound is then the enclosure of that
+        moment, which may be looser than ``atol + rtol * L``.
+
+    Returns
+    -------
+    (M,) float
+        ``bound >= max_j (max_T c_j - min_T c_j)`` for every element ``T``.
+
+    Examples
+    --------
+    >>> from hetmesh.material import AnalyticField
+    >>> f = AnalyticField({"b": "exp(-((x - 0.3)**2 + (y - 0.3)**2)/1e-4)"}, ["a", "b"])
+    >>> P = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]); T = np.array([[0, 1, 2]])
+    >>> float(f.composition(P)[:, 1].max()) < 1e-100       # the corners see nothing
+    True
+    >>> 1.0 <= float(certified_delta(f, P, T)[0]) < 1.0 + 0.02
+    True
+    """
+    from .metrics import delta_dense
+    points = np.asarray(points, dtype=float)
+    triangles = np.asarray(triangles)
+    if not len(triangles):
+        return np.zeros(0)
+    base, scale, offset, enc = _enclosure(field)
+    if enc is None:
+        warnings.warn(f"{certifiable(field)}: using dense sampling instead (a lower "
+                      f"bound, not a certificate)", CertificationUnavailable, stacklevel=2)
+        return delta_dense(field, points, triangles, regions=regions)
+    # the elements in the base field's coordinates (frame undone; the box pads rounding)
+    corners = points[triangles] * scale + offset
+    own = None if regions is None else np.asarray(regions, dtype=np.int64)
+    return _bound(base, enc, corners, own, rtol, atol, max_depth, threshold)
+
+
+def _samples(base, corners: np.ndarray, region: np.ndarray | None) -> np.ndarray:
+    """Compositions ``(K, 7, m)`` at the corners, edge midpoints and centroid of pieces."""
+    pts = _seven(corners).reshape(-1, 2)
+    with np.errstate(all="ignore"):
+        if region is not None:
+            comp = base.composition(pts, region=np.repeat(region, 7))
+        else:
+            comp = base.composition(pts)
+    comp = np.asarray(comp, dtype=float).reshape(len(corners), 7, -1)
+    return comp if np.isfinite(comp).all() else np.where(np.isfinite(comp), comp, np.nan)
+
+
+def _seven(corners: np.ndarray) -> np.ndarray:
+    """The corners, edge midpoints and centroid ``(K, 7, 2)`` of pieces ``(K, 3, 2)``."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    return np.stack([a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a),
+                     (a + b + c) / 3.0], axis=1)
+
+
+def _split(corners: np.ndarray) -> np.ndarray:
+    """The four children ``(4K, 3, 2)`` of pieces ``(K, 3, 2)`` (edge midpoints)."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    six = np.stack([a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)], axis=1)
+    return six[:, _CHILDREN].reshape(-1, 3, 2)
+
+
+def _group(values: np.ndarray, starts: np.ndarray, ufunc) -> np.ndarray:
+    """``ufunc`` over consecutive rows of ``values`` from each of ``starts`` (sorted owners)."""
+    return ufunc.reduceat(values, starts, axis=0)
+
+
+def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndarray:
+    m_el = len(corners)
+    owner = np.arange(m_el)
+    pieces = corners
+    s = _samples(base, pieces, own)
+    smax, smin = np.fmax.reduce(s, axis=1), np.fmin.reduce(s, axis=1)  # witnessed (M, m)
+    frozen_hi = np.full_like(smax, -np.inf)
+    frozen_lo = np.full_like(smin, np.inf)
+    bound = np.full(m_el, np.inf)
+    for depth in range(max_depth + 1):
+        reg = None if own is None else own[owner]
+        lo, hi = enc.enclose(pieces, reg)
+        live, starts = np.unique(owner, return_index=True)  # owner is sorted
+        HI = np.maximum(np.maximum(frozen_hi[live], _group(hi, starts, np.maximum)), smax[live])
+        LO = np.minimum(np.minimum(frozen_lo[live], _group(lo, starts, np.minimum)), smin[live])
+        ub = (HI - LO).max(axis=1)
+        bound[live] = ub
+        seen = np.nan_to_num(smax[live] - smin[live], nan=0.0).max(axis=1)
+        settled = ub - seen <= atol + rtol * seen
+        if threshold is not None:  # decided: proven below, or witnessed at or above
+            settled |= (ub < threshold) | (seen >= threshold)
+        if depth == max_depth or settled.all():
+            break
+        margin = np.zeros(m_el)
+        margin[live] = 0.5 * (atol + rtol * seen)
+        mo = margin[owner][:, None]
+        top, bottom = smax[owner] + mo, smin[owner] - mo
+        if threshold is not None:  # a piece inside the band of width delta_0 around the
+            half = 0.5 * threshold * (1.0 - 1e-9)  # witnessed middle needs no split
+            mid = 0.5 * (smax[owner] + smin[owner])
+            top, bottom = np.fmax(top, mid + half), np.fmin(bottom, mid - half)
+        done = np.zeros(m_el, bool)
+        done[live[settled]] = True
+        keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
+        if 4 * int((~keep).sum()) > MAX_PIECES:
+            log.debug("certify: piece budget reached at depth %d", depth)
+            break
+        fk = ~done[owner] & keep  # pieces of open elements that need no further split
+        if fk.any():
+            o = owner[fk]
+            lv, st = np.unique(o, return_index=True)
+            frozen_hi[lv] = np.maximum(frozen_hi[lv], _group(hi[fk], st, np.maximum))
+            frozen_lo[lv] = np.minimum(frozen_lo[lv], _group(lo[fk], st, np.minimum))
+        pieces = _split(pieces[~keep])
+        owner = np.repeat(owner[~keep], 4)
+        s = _samples(base, pieces, None if own is None else own[owner])
+        lv, st = np.unique(owner, return_index=True)
+        smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
+        smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))
+    log.debug("certify: %d elements, bound max %.4g", m_el, bound.max())
+    return bound

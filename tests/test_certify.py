@@ -1,0 +1,202 @@
+"""Interval arithmetic on formulas and the certified element variation."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from hetmesh import generate
+from hetmesh.certify import CertificationUnavailable, certified_delta
+from hetmesh.expr import compile_expr
+from hetmesh.material import AnalyticField, CallableField
+from hetmesh.metrics import delta_dense
+
+FORMULAS = [
+    "x**2 - y", "exp(-((x - 0.3)**2 + (y - 0.5)**2)/0.0004)", "sin(5*x)*cos(3*y)",
+    "atan2(y - 0.5, x - 0.5)", "sqrt(x)*log(1 + y)", "where(x < 0.5, x, 1 - y)", "tan(x)",
+    "x**-2", "x**y", "abs(x - y)", "clip(3*x - 1, 0, 1)", "arccos(x) + arcsin(y)",
+    "cosh(x - y) + sinh(x)", "tanh(4*x) + log10(y + 1)", "min(x, y)**3", "x**0.5",
+    "sign(x - 0.3)", "1/(x - 0.5)", "max(x, 1 - y) if x*y > 0.2 else -y", "x**3 - 2*x*y",
+    "exp(x)/(1 + exp(y))", "(x - y)**4 - x**5", "cos(40*x*y)",
+]
+coord = st.floats(-0.3, 1.3, allow_nan=False)
+
+
+@pytest.mark.parametrize("text", FORMULAS)
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(x0=coord, x1=coord, y0=coord, y1=coord, seed=st.integers(0, 2 ** 31))
+def test_interval_encloses_sampled_values(text, x0, x1, y0, y1, seed):
+    e = compile_expr(text)
+    (x0, x1), (y0, y1) = sorted((x0 + 0.0, x1 + 0.0)), sorted((y0 + 0.0, y1 + 0.0))  # no -0.0
+    lo, hi = e.interval(x=(x0, x1), y=(y0, y1))
+    rng = np.random.default_rng(seed)
+    x = np.r_[rng.uniform(x0, x1, 200), x0, x1, x0, x1]
+    y = np.r_[rng.uniform(y0, y1, 200), y0, y1, y1, y0]
+    v = e(x=x, y=y)
+    v = v[np.isfinite(v)]
+    assert lo <= hi or (np.isinf(lo) and np.isinf(hi))
+    if len(v):
+        assert lo <= v.min() and v.max() <= hi
+
+
+def test_interval_is_tight_on_small_boxes_and_exact_on_points():
+    e = compile_expr("exp(-((x - 0.3)**2 + (y - 0.5)**2)/0.0004)")
+    lo, hi = e.interval(x=0.31, y=0.52)
+    v = float(e(x=0.31, y=0.52))
+    assert lo <= v <= hi and hi - lo < 1e-14
+    lo, hi = e.interval(x=(0.29, 0.31), y=(0.49, 0.51))  # the peak inside: 1
+    assert lo < 0.61 and 1.0 <= hi < 1.0 + 1e-12
+
+
+def test_interval_conditions_are_three_valued():
+    e = compile_expr("where(x < 0.5, 0.2, 0.8)")
+    assert [float(v) for v in e.interval(x=(0.0, 0.4))] == [0.2, 0.2]
+    assert [float(v) for v in e.interval(x=(0.6, 0.9))] == [0.8, 0.8]
+    assert [float(v) for v in e.interval(x=(0.4, 0.6))] == [0.2, 0.8]
+    lo, hi = compile_expr("1/x").interval(x=(-1.0, 1.0))
+    assert lo == -math.inf and hi == math.inf
+    with pytest.raises(TypeError, match="missing value for 'y'"):
+        compile_expr("x + y").interval(x=(0.0, 1.0))
+
+
+def _grid(n):
+    xs = np.linspace(0.0, 1.0, n + 1)
+    X, Y = np.meshgrid(xs, xs)
+    P = np.c_[X.ravel(), Y.ravel()]
+    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    a, b, c, d = (idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(),
+                  idx[1:, :-1].ravel())
+    return P, np.r_[np.c_[a, b, c], np.c_[a, c, d]]
+
+
+@pytest.mark.parametrize("text", ["x*y", "exp(-((x - 0.31)**2 + (y - 0.52)**2)/4e-4)",
+                                  "0.5 + 0.5*sin(9*x)*cos(7*y)", "where(x < 0.43, x/2, 0.9)"])
+def test_certified_bound_is_above_the_fine_lattice_and_close_to_it(text):
+    f = AnalyticField({"b": text}, ["a", "b"])
+    P, T = _grid(12)
+    bound = certified_delta(f, P, T)
+    fine = delta_dense(f, P, T, order=60)
+    assert (bound >= fine - 1e-12).all()
+    # tight: within the settling tolerance (1 % + 1e-4) of the samples, plus lattice misses
+    assert (bound <= fine * 1.02 + 2e-3).all()
+
+
+def test_certified_sees_a_peak_between_every_sample():
+    f = AnalyticField({"b": "exp(-((x - 0.3)**2 + (y - 0.3)**2)/1e-6)"}, ["a", "b"])
+    P = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    T = np.array([[0, 1, 2]])
+    assert delta_dense(f, P, T)[0] < 1e-6  # the 15-point lattice misses it
+    assert 1.0 <= certified_delta(f, P, T)[0] < 1.02
+
+
+def test_certified_bound_in_the_local_frame_of_a_far_away_model():
+    from hetmesh.frame import local_field, local_frame
+    f = AnalyticField({"b": "exp(-((x - 1e6 - 0.3)**2 + (y - 0.3)**2)/1e-4)"}, ["a", "b"])
+    frame = local_frame((1e6, 0.0, 1e6 + 1.0, 1.0))
+    fl = local_field(f, frame)
+    P = frame.to_local(np.array([[1e6, 0.0], [1e6 + 1.0, 0.0], [1e6, 1.0]]))
+    assert 1.0 <= certified_delta(fl, P, np.array([[0, 1, 2]]))[0] < 1.02
+
+
+def test_callable_fields_fall_back_to_dense_sampling_with_a_warning():
+    f = CallableField(lambda x, y: x * y, ["a", "b"])
+    P, T = _grid(4)
+    with pytest.warns(CertificationUnavailable, match="no expression to enclose"):
+        d = certified_delta(f, P, T)
+    np.testing.assert_array_equal(d, delta_dense(f, P, T))
+
+
+def _bump_model(tmp_path, a, b, w):
+    from hetmesh.io.model import load_model
+    path = tmp_path / "bump.toml"
+    path.write_text(f"""
+[model]
+name = "bump"
+[domain.outer]
+start = [0, 0]
+path = [ {{ to = [1, 0] }}, {{ to = [1, 1] }}, {{ to = [0, 1] }}, {{ to = [0, 0] }} ]
+[material]
+constituents = ["ceramic", "metal"]
+[material.composition]
+metal = "exp(-((x - {a!r})**2 + (y - {b!r})**2)/{w!r})"
+""")
+    return load_model(path)
+
+
+def _true_delta(P, T, c, w):
+    """The exact variation of a radial bump over every triangle: its value at the
+    triangle's point nearest the centre minus its smallest corner value."""
+    c = np.asarray(c, float)
+    best, dist = None, None
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        p, q = P[T[:, i]], P[T[:, j]]
+        e = q - p
+        t = np.clip(((c - p) * e).sum(1) / (e * e).sum(1), 0.0, 1.0)
+        x = p + t[:, None] * e
+        dd = ((x - c) ** 2).sum(1)
+        if best is None:
+            best, dist = x, dd
+        else:
+            k = dd < dist
+            best[k], dist[k] = x[k], dd[k]
+    a, b, d = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    cr = lambda u, v: u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]  # noqa: E731
+    s = np.stack([cr(b - a, c - a), cr(d - b, c - b), cr(a - d, c - d)], 1)
+    best[(s >= 0).all(1) | (s <= 0).all(1)] = c
+    f = lambda q: np.exp(-((q - c) ** 2).sum(-1) / w)  # noqa: E731
+    return f(best) - f(P[T]).min(axis=1)
+
+
+@pytest.mark.parametrize("centre,w", [((0.55, 0.91), 4e-4), ((0.2093, 0.6517), 1e-4),
+                                      ((0.8, 0.13), 2.5e-5)])
+def test_narrow_bump_meshes_with_no_element_above_threshold(tmp_path, centre, w):
+    model = _bump_model(tmp_path, *centre, w)
+    res = generate(model, 0.1, sampling="certified")
+    P, T = res.mesh.points, res.mesh.triangles
+    true = _true_delta(P, T, centre, w)
+    assert true.max() < 0.1
+    assert res.stats.delta_max < 0.1 and res.stats.delta_max >= true.max() - 1e-12
+    assert res.stats.delta_max_certified == res.stats.delta_max
+
+
+def test_piecewise_field_bounded_on_each_element_own_branch():
+    from hetmesh.discontinuity import element_subregions
+
+    f = AnalyticField({"b": "where(x < 0.43, 0.5*x + 0.1*sin(20*y), 0.9 - 0.2*y)"}, ["a", "b"])
+    P, T = _grid(10)
+    regions = element_subregions(f, P, T)
+    bound = certified_delta(f, P, T, regions=regions)
+    fine = delta_dense(f, P, T, order=40, regions=regions)
+    assert (bound >= fine - 1e-12).all() and (bound <= fine * 1.02 + 2e-3).all()
+    # without regions an element across the jump is bounded across it
+    across = certified_delta(f, P, T)
+    assert across.max() > 0.3 and (across >= delta_dense(f, P, T, order=40) - 1e-12).all()
+
+
+def test_feature_tree_bound_is_above_a_fine_lattice():
+    from importlib import resources
+
+    from hetmesh.discontinuity import element_subregions
+    from hetmesh.io.model import load_model
+
+    with resources.as_file(resources.files("hetmesh") / "examples" / "hft_ring.toml") as p:
+        model = load_model(p)
+    res = generate(model, 0.2)
+    f, P, T = model.material, res.mesh.points, res.mesh.triangles
+    regions = element_subregions(f, P, T)
+    bound = certified_delta(f, P, T, regions=regions, threshold=0.2)
+    fine = delta_dense(f, P, T, order=24, regions=regions)
+    assert (bound >= fine - 1e-9).all()
+    # decided against delta_0 = 0.2: below it where the lattice is clearly below it
+    assert (bound[fine < 0.15] < 0.2).all()
+
+
+@pytest.mark.parametrize("sampling", ["vertices", "dense"])
+def test_a_narrow_bump_near_the_boundary_meshes_with_every_sampling(tmp_path, sampling):
+    res = generate(_bump_model(tmp_path, 0.55, 0.91, 4e-4), 0.1, sampling=sampling)
+    assert res.stats.delta_max < 0.1 and res.mesh.is_valid()
