@@ -381,7 +381,8 @@ def _combine(children: st.SearchStrategy[str]) -> st.SearchStrategy[str]:
 SMOOTH_FORMULAS = st.recursive(LEAVES, _combine, max_leaves=8)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow],
+          derandomize=True)
 @given(text=SMOOTH_FORMULAS)
 def test_random_smooth_formulas(text: str) -> None:
     f = compile_expr(text)
@@ -390,9 +391,13 @@ def test_random_smooth_formulas(text: str) -> None:
     for name in ("x", "y"):
         d = f.diff(name)
         fd = central_difference(f, name, values, h)
+        # the difference quotient's own error, from a second step: a fast oscillation
+        # (sin((18 x)**3)) makes it the larger error, not the exact derivative
+        fd_err = np.abs(central_difference(f, name, values, 4 * h) - fd)
         magnitude = 1.0 + np.max(np.abs(f(**values)))
-        np.testing.assert_allclose(d(**values), fd, rtol=1e-5, atol=1e-6 * magnitude,
-                                   err_msg=f"d/d{name} of {text} = {d.text}")
+        bound = 1e-5 * np.abs(fd) + 1e-6 * magnitude + 2.0 * fd_err
+        assert np.all(np.abs(d(**values) - fd) <= bound), \
+            f"d/d{name} of {text} = {d.text}: {d(**values)} against {fd}"
         # the printed derivative compiles back to the same function
         try:
             again = compile_expr(d.text)
