@@ -18,7 +18,7 @@ from hetmesh.geometry.trace import (OUTSIDE, _polygons, _rings, _to_xy, label_do
                                     mask_domain, region_lookup, simplify_chains,
                                     trace_labels)
 from hetmesh.io.model import load_model
-from hetmesh.material.image import (Image, ImageField, channel_map, element_pixel_delta,
+from hetmesh.material.image import (Image, channel_map, element_pixel_delta,
                                     image_field, linear_map, pixel_centres_in_triangles,
                                     read_image, table_map)
 

@@ -89,7 +89,7 @@ def trace_labels(labels: np.ndarray) -> list[Chain]:
     and the point farthest from it (so every chain has two distinct ends).
     """
     L = _padded(labels)
-    ny, nx = L.shape[0] - 2, L.shape[1] - 2
+    nx = L.shape[1] - 2
     W = nx + 1  # corner id = cj * W + ci
     BL, BR, TL, TR = L[:-1, :-1], L[:-1, 1:], L[1:, :-1], L[1:, 1:]
     right = BR != TR       # edge corner -> corner + (1, 0)
