@@ -441,3 +441,32 @@ def test_bad_input_one_line_exit_2_nothing_written(part, capsys, body, message):
     assert code == 2, err
     assert len(lines) == 1 and message in lines[0], err
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------- the examples
+def test_example_model_files_match_the_generator():
+    from hetmesh.material.image.synthetic import MODELS
+
+    folder = Path(__file__).resolve().parents[1] / "examples" / "images"
+    if not folder.exists():
+        pytest.skip("examples/ not next to the tests")
+    for name, text in MODELS.items():
+        assert (folder / f"{name}.toml").read_text() == text
+
+
+def test_examples_mesh(tmp_path):
+    import hetmesh
+    from hetmesh.material.image import write_examples
+
+    models = write_examples(tmp_path, shape=(64, 128))
+    for name, path in models.items():
+        m = load_model(path)
+        r = hetmesh.generate(m, 0.1)
+        assert r.stats.delta_max < 0.1 and r.mesh.problems() == []
+
+
+def test_demo_image(tmp_path, capsys):
+    code = main(["demo", "--image", "--quiet", "--threshold", "0.1", "--out", str(tmp_path)])
+    assert code == 0
+    assert (tmp_path / "graded_part_noisy.vtu").exists()
+    assert (tmp_path / "graded_part.tif").exists()

@@ -39,8 +39,9 @@ from .field import INTERPOLATIONS, ImageField, LabelField, covers, image_field
 from .maps import TOL, ValueMap, channel_map, linear_map, table_map
 from .read import MAX_PIXELS, RASTER_SUFFIXES, SUFFIXES, Image, read_image
 from .sampling import element_pixel_delta, pixel_centres_in_triangles
+from .synthetic import write_examples
 
 __all__ = ["Image", "read_image", "RASTER_SUFFIXES", "SUFFIXES", "ValueMap", "linear_map",
            "table_map", "channel_map", "ImageField", "LabelField", "image_field",
            "INTERPOLATIONS", "pixel_centres_in_triangles", "element_pixel_delta",
-           "covers", "MAX_PIXELS", "TOL"]
+           "covers", "MAX_PIXELS", "TOL", "write_examples"]
