@@ -101,12 +101,12 @@ def _first_bad(bad: np.ndarray) -> tuple:
 
 def _apply_table(vm: ValueMap, values, where, mask):
     v = np.asarray(values, float)
-    sel = np.ones(v.shape, bool) if mask is None else mask
+    sel = True if mask is None else mask
     lo, hi = vm.levels[0], vm.levels[-1]
-    below = np.where(sel, lo - v, -np.inf)
-    above = np.where(sel, v - hi, -np.inf)
-    worst = np.maximum(below, above)
-    if worst.size and worst.max() > TOL * max(1.0, abs(lo), abs(hi)):
+    vs = v if mask is None else v[sel]
+    tol = TOL * max(1.0, abs(lo), abs(hi))
+    if vs.size and (vs.min() < lo - tol or vs.max() > hi + tol):
+        worst = np.where(sel, np.maximum(lo - v, v - hi), -np.inf)
         idx = np.unravel_index(int(np.argmax(worst)), v.shape)
         f = vm.fractions
         t = (v[idx] - lo) / (hi - lo)

@@ -40,16 +40,17 @@ def graded_metal(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def graded_part(shape: tuple[int, int] = (256, 512), noise: float = 0.02,
-                seed: int = 0) -> np.ndarray:
+                seed: int = 0, size: tuple[float, float] = PART_SIZE) -> np.ndarray:
     """The graded part as a 16-bit image ``(ny, nx)``, top row first (as stored in a file),
     with Gaussian grey-level noise of standard deviation ``noise`` x 65535 (clipped to the
-    16-bit range; ``seed`` fixes it).
+    16-bit range; ``seed`` fixes it). ``size``: the physical size it covers (a window of
+    the part from its lower-left corner).
 
     >>> g = graded_part((32, 64), noise=0.0)
     >>> g.dtype.name, g.shape, bool(g[0].mean() > g[-1].mean())
     ('uint16', (32, 64), True)
     """
-    x, y = _centres(shape)
+    x, y = _centres(shape, size)
     f = graded_metal(x, y)
     if noise > 0:
         f = f + noise * np.random.default_rng(seed).standard_normal(f.shape)
