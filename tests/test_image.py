@@ -470,3 +470,61 @@ def test_demo_image(tmp_path, capsys):
     assert code == 0
     assert (tmp_path / "graded_part_noisy.vtu").exists()
     assert (tmp_path / "graded_part.tif").exists()
+
+
+def test_label_field_pixel_delta_and_given_domain(tmp_path):
+    """A label image inside a domain given by curves: the phase boundaries are traced from
+    the field (embed_discontinuities) and the mesh follows them."""
+    import hetmesh
+
+    j, i = np.mgrid[0:80, 0:120]
+    lab = np.where((i - 60) ** 2 + (j - 40) ** 2 < 20 ** 2, 2, 1).astype(np.uint8)
+    iio.imwrite(tmp_path / "lab.png", lab)
+    iio.imwrite(tmp_path / "grey.png", (i * 2).astype(np.uint8))
+    text = """
+[domain.outer]
+start = [1, 1]
+path = [{ to = [11, 1] }, { to = [11, 7] }, { to = [1, 7] }, { to = [1, 1] }]
+[material]
+type = "image"
+constituents = ["a", "b"]
+labels = "lab.png"
+file = "grey.png"
+spacing = 0.1
+[[material.phases]]
+label = 1
+composition = { b = 0.2 }
+[[material.phases]]
+label = 2
+map = { linear = [0, 255], constituent = "b" }
+"""
+    m = load_model(write_model(tmp_path, text))
+    r = hetmesh.generate(m, 0.1)
+    assert r.stats.delta_max < 0.1
+    assert any(p.name.startswith("discontinuity") for p in r.model.domain.interfaces)
+    d = m.material.pixel_delta(r.mesh.points, r.mesh.triangles,
+                               r.mesh.cell_data["subregion"])
+    assert d.shape == (r.stats.n_elements,) and (d >= r.mesh.cell_data["delta"] - 1e-12).all()
+
+
+@pytest.mark.parametrize("interpolation,order", [("linear", 1), ("cubic", 3)])
+def test_volume_field_slots_in(interpolation, order):
+    """The same field on an (nz, ny, nx) volume with points (N, 3): what 3-D meshing needs."""
+    from scipy.ndimage import map_coordinates
+
+    from hetmesh.material.image import ImageField
+
+    rng = np.random.default_rng(5)
+    a = rng.random((5, 6, 7))
+    img = Image(a, origin=(0.0, 1.0, 2.0), spacing=(0.5, 0.25, 2.0))
+    f = ImageField(np.stack([1 - a, a]), img, ("a", "b"), interpolation=interpolation)
+    p = rng.uniform([0, 1, 2], [3, 2.25, 10], (200, 3))
+    u = (p - img.origin) / img.spacing
+    ref = np.clip(map_coordinates(a, u[:, ::-1].T, order=order, mode="mirror"), 0, 1)
+    np.testing.assert_allclose(f.composition(p)[:, 1], ref, atol=1e-12)
+    g = f.gradient(p)
+    assert g.shape == (200, 2, 3)
+    h = 1e-6
+    fd = (f.composition(p + [0, 0, h]) - f.composition(p - [0, 0, h]))[:, 1] / (2 * h)
+    ok = (ref > 1e-6) & (ref < 1 - 1e-6)
+    np.testing.assert_allclose(g[ok, 1, 2], fd[ok], atol=1e-5)

@@ -116,6 +116,13 @@ class ImageField:
         """Gradients ``(N, m, d)`` of the interpolant (exact)."""
         return self.evaluate(points)[1].copy()
 
+    def pixel_delta(self, points, triangles, regions=None) -> np.ndarray:
+        """delta(T) over every pixel centre each element covers and its vertices
+        (:func:`~hetmesh.material.image.element_pixel_delta`); ``regions`` is ignored."""
+        from .sampling import element_pixel_delta
+
+        return element_pixel_delta(self, points, triangles)
+
     def evaluate(self, points) -> tuple[np.ndarray, np.ndarray]:
         """``(composition (N, m), gradient (N, m, d))``, cached for the last points."""
         p = self._points(points)
@@ -295,3 +302,25 @@ class LabelField:
     def gradient(self, points, region=None) -> np.ndarray:
         """Gradients ``(N, m, 2)`` (zero in a constant phase)."""
         return self._evaluate(points, region)[1]
+
+    def pixel_delta(self, points, triangles, regions=None) -> np.ndarray:
+        """delta(T) over the vertices of each element (in its own phase, ``regions``: its
+        phase, default that of its centroid) and, in a graded phase, every pixel centre it
+        covers (its elements lie inside the phase, so those pixels are the phase's)."""
+        from .sampling import element_pixel_delta
+
+        P = np.asarray(points, float)
+        T = np.asarray(triangles, np.int64)
+        own = (self.region(P[T].mean(axis=1)) if regions is None
+               else np.asarray(regions, np.int64))
+        corner = np.stack([self.composition(P[T[:, k]], region=own) for k in range(3)], 1)
+        delta = (corner.max(axis=1) - corner.min(axis=1)).max(axis=1)
+        for k, ph in enumerate(self.phases):
+            sel = np.flatnonzero(own == k)
+            if isinstance(ph, ImageField) and len(sel):
+                used, tri = np.unique(T[sel], return_inverse=True)
+                d = element_pixel_delta(ph.shifted(self._offset), P[used],
+                                        tri.reshape(-1, 3))
+                delta[sel] = np.maximum(delta[sel], d)
+        return delta
+
