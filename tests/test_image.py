@@ -528,3 +528,43 @@ def test_volume_field_slots_in(interpolation, order):
     fd = (f.composition(p + [0, 0, h]) - f.composition(p - [0, 0, h]))[:, 1] / (2 * h)
     ok = (ref > 1e-6) & (ref < 1 - 1e-6)
     np.testing.assert_allclose(g[ok, 1, 2], fd[ok], atol=1e-5)
+
+
+def test_model_keys_maps_channels_files_slices(tmp_path):
+    """The value maps and geometry keys through model files, checked at pixel centres."""
+    j, i = np.mgrid[0:20, 0:30]
+    v = (i * 8).astype(np.uint8)  # 0 .. 232, rising with x
+    rgb = np.stack([v, 255 - v, np.zeros_like(v)], axis=-1)
+    iio.imwrite(tmp_path / "rgb.png", rgb)
+    iio.imwrite(tmp_path / "r.png", v)
+    iio.imwrite(tmp_path / "g.png", 255 - v)
+    tifffile.imwrite(tmp_path / "stack.tif", np.stack([v * 0, v, v * 0]), photometric="minisblack")
+    iio.imwrite(tmp_path / "grey.png", v)
+    head = '[domain]\nimage = "extent"\n[material]\ntype = "image"\n' \
+           'constituents = ["a", "b", "c"]\n'
+    centre = np.array([[10.5, 5.5]])  # pixel (10, 5): v = 80
+    cases = {
+        'file = "grey.png"\nmap = { levels = [0, 128, 255], fractions = { a = [1, 0, 0], '
+        'b = [0, 1, 0.5] } }': [1 - 80 / 128, 80 / 128, 0],
+        'file = "rgb.png"\nmap = { channels = { b = 0, a = 1 }, range = [0, 255] }':
+            [175 / 255, 80 / 255, 0],
+    }
+    for body, want in cases.items():
+        m = load_model(write_model(tmp_path, head + body + "\n"))
+        np.testing.assert_allclose(m.material.composition(centre)[0], want, atol=1e-12)
+    two = '[domain]\nimage = "extent"\n[material]\ntype = "image"\n' \
+          'constituents = ["a", "b"]\n'
+    m = load_model(write_model(tmp_path, two + 'file = { b = "r.png", a = "g.png" }\n'
+                                              'map = { range = [0, 255] }\n'))
+    np.testing.assert_allclose(m.material.composition(centre)[0], [175 / 255, 80 / 255])
+    lin = 'map = { linear = [0, 255], constituent = "b" }\n'
+    m = load_model(write_model(tmp_path, two + 'file = "stack.tif"\nslice = 1\n' + lin))
+    np.testing.assert_allclose(m.material.composition(centre)[0, 1], 80 / 255)
+    # first_row = "bottom": the file's first row is at the bottom, so no flip
+    iio.imwrite(tmp_path / "rows.png", (j * 12).astype(np.uint8))
+    m = load_model(write_model(tmp_path, two + 'file = "rows.png"\nfirst_row = "bottom"\n'
+                                              'interpolation = "cubic"\n' + lin))
+    np.testing.assert_allclose(m.material.composition([[3.5, 2.5]])[0, 1], 24 / 255,
+                               atol=1e-12)
+    with pytest.raises(MaterialError, match="stack.tif: a 3-D volume of 3 slices"):
+        load_model(write_model(tmp_path, two + 'file = "stack.tif"\n' + lin))

@@ -72,7 +72,8 @@ def two_phase(shape: tuple[int, int] = (200, 400)) -> tuple[np.ndarray, np.ndarr
 
 #: the example model files, by name (the images they read are written next to them)
 MODELS = {
-    "graded_part": '''# A graded plate measured as a 16-bit grey image (examples/images/make_images.py).
+    "graded_part": '''\
+# A graded plate measured as a 16-bit grey image (examples/images/make_images.py).
 # The image is 40 x 20 mm; grey 0 is all ceramic, 65535 all metal.
 [model]
 name = "graded_part"
@@ -88,7 +89,8 @@ file = "graded_part_clean.tif"
 bounds = [0, 0, 40, 20]     # the outer edges of the pixels, in mm
 map = { linear = [0, 65535], constituent = "metal" }
 ''',
-    "graded_part_noisy": '''# The same plate with 2 % grey-level noise, smoothed before meshing: a Gaussian of
+    "graded_part_noisy": '''\
+# The same plate with 2 % grey-level noise, smoothed before meshing: a Gaussian of
 # standard deviation 0.25 mm (3.2 pixels) leaves 0.02 / (2 sqrt(pi) 3.2) = 0.0018 of noise,
 # well below delta_0, and blurs the 8 mm wide front by less than 1 %.
 [model]
@@ -107,7 +109,8 @@ map = { linear = [0, 65535], constituent = "metal" }
 smoothing = 0.25            # mm
 interpolation = "linear"
 ''',
-    "two_phase": '''# A two-phase part from a label image: a matrix (label 1) with a graded round inclusion
+    "two_phase": '''\
+# A two-phase part from a label image: a matrix (label 1) with a graded round inclusion
 # (label 2, its metal fraction from a grey image), a metal particle (label 3) and a hole
 # (label 0). The domain is the non-zero pixels; the label boundaries are embedded in the
 # mesh, so no element straddles two phases.
