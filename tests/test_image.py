@@ -8,9 +8,12 @@ import struct
 import zlib
 from pathlib import Path
 
+import imageio.v3 as iio
+import nrrd
 import numpy as np
 import pytest
 import shapely
+import tifffile
 
 from hetmesh.cli import main
 from hetmesh.errors import MaterialError
@@ -21,10 +24,6 @@ from hetmesh.io.model import load_model
 from hetmesh.material.image import (Image, channel_map, element_pixel_delta,
                                     image_field, linear_map, pixel_centres_in_triangles,
                                     read_image, table_map)
-
-tifffile = pytest.importorskip("tifffile")
-iio = pytest.importorskip("imageio.v3")
-nrrd = pytest.importorskip("nrrd")
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -5,8 +5,9 @@ A mask or a label image is a grid of pixels; its region boundaries run along pix
 *junctions* (pixel corners where three or more regions meet, or where a region boundary meets
 the image border), or closed loops, through the midpoints of the pixel edges (the contour
 marching squares draws between the centres of unlike pixels, within sqrt(2)/4 of a pixel of
-the staircase). Each chain is then simplified (Douglas-Peucker, ends kept) to within ``tol``
-pixels of that contour, half a pixel by default (Hausdorff distance). Where the simplified
+the staircase). Each chain is then simplified (greedy longest chords through its points
+averaged over 5, ends kept) to within ``tol`` pixels of that contour's points, half a pixel
+by default. Where the simplified
 chains would cross or touch each other, the tolerance is halved until they do not.
 
 Conventions (those of :class:`hetmesh.material.image.Image`): ``labels`` is ``(ny, nx)`` with
@@ -213,33 +214,84 @@ def _make(pos, verts, l, r, forward, vcorner, closed=False) -> list[Chain]:
 
 
 # ------------------------------------------------------------------------ simplification
-def simplify(points: np.ndarray, tol: float) -> np.ndarray:
-    """Douglas-Peucker: the subset of ``points`` (ends kept) such that every point lies
-    within ``tol`` of the simplified polyline."""
+def simplify(points: np.ndarray, tol: float, *, windows: tuple = (1, 4, 5)) -> np.ndarray:
+    """A polyline within ``tol`` of every one of ``points`` (ends kept): greedy longest
+    chords (each found by doubling, then bisecting), through the points themselves or
+    through their moving averages over 4 or 5 points (each averaged point then allowed
+    ``tol`` minus how far the averaging moved it), whichever needs the fewest vertices.
+
+    A digital line's edge midpoints zig-zag by up to 2/3 of a pixel with a period of a few
+    pixels; Douglas-Peucker splits at the extremes of the zig-zag and then needs a vertex
+    every pixel or two on most slopes. Greedy chords and averages over about one period
+    run along its middle instead.
+
+    >>> simplify(np.array([[0, 0], [1, 0.3], [2, 0], [3, 0.3], [4, 0]]), 0.5).tolist()
+    [[0.0, 0.0], [4.0, 0.0]]
+    """
     p = np.asarray(points, float)
-    n = len(p)
-    if n <= 2 or tol <= 0:
+    if len(p) <= 2 or tol <= 0:
         return p
-    keep = np.zeros(n, bool)
-    keep[[0, -1]] = True
-    stack = [(0, n - 1)]
-    while stack:
-        a, b = stack.pop()
-        if b - a < 2:
-            continue
-        q = p[a + 1:b]
-        d = p[b] - p[a]
-        L = float(np.hypot(*d))
-        if L > 0:
-            dist = np.abs((q[:, 0] - p[a, 0]) * d[1] - (q[:, 1] - p[a, 1]) * d[0]) / L
-        else:
-            dist = np.hypot(*(q - p[a]).T)
-        k = int(np.argmax(dist))
-        if dist[k] > tol:
-            m = a + 1 + k
-            keep[m] = True
-            stack += [(a, m), (m, b)]
-    return p[keep]
+    return min((_greedy(p, tol, w) for w in windows), key=len)
+
+
+def _greedy(p: np.ndarray, tol: float, window: int) -> np.ndarray:
+    n = len(p)
+    q = _smoothed(p, window)
+    allow = tol - np.hypot(*(q - p).T)
+    if (allow < 0).any():  # cannot happen for tol > window / 4; keep the points there
+        q = np.where((allow < 0)[:, None], p, q)
+        allow = np.where(allow < 0, tol, allow)
+    keep = [0]
+    i = 0
+    while i < n - 1:
+        good, step = i + 1, 1
+        while good < n - 1:
+            k = min(i + 2 * step, n - 1)
+            if _chord_ok(q, i, k, allow):
+                good, step = k, 2 * step
+                continue
+            lo, hi = good, k
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if _chord_ok(q, i, mid, allow):
+                    lo = mid
+                else:
+                    hi = mid
+            good = lo
+            break
+        keep.append(good)
+        i = good
+    return q[keep]
+
+
+def _smoothed(p: np.ndarray, window: int) -> np.ndarray:
+    """Moving average of ``window`` points along the polyline (an even window averages
+    the midpoints of consecutive points), ends fixed, windows shrinking near them."""
+    n = len(p)
+    if window < 2 or n < 3:
+        return p.copy()
+    if window % 2 == 0:  # average the segment midpoints over window - 1
+        m = np.vstack([p[:1], 0.5 * (p[:-1] + p[1:]), p[-1:]])
+        q = _smoothed(m, window - 1)
+        return np.vstack([p[:1], 0.5 * (q[1:-2] + q[2:-1]), p[-1:]]) if n > 2 else p.copy()
+    h = window // 2
+    c = np.vstack([np.zeros((1, 2)), np.cumsum(p, axis=0)])
+    idx = np.arange(n)
+    half = np.minimum(np.minimum(idx, n - 1 - idx), h)
+    return (c[idx + half + 1] - c[idx - half]) / (2 * half + 1)[:, None]
+
+
+def _chord_ok(p: np.ndarray, i: int, k: int, tol: np.ndarray) -> bool:
+    """Whether every point between ``p[i]`` and ``p[k]`` lies within its ``tol`` of that
+    chord (of the segment, so that a chord cannot cut across a turn back)."""
+    if k - i < 2:
+        return True
+    a, d = p[i], p[k] - p[i]
+    q = p[i + 1:k] - a
+    L2 = float(d @ d)
+    t = np.clip(q @ d / L2, 0.0, 1.0) if L2 > 0 else np.zeros(len(q))
+    r = q - t[:, None] * d
+    return bool((np.einsum("ij,ij->i", r, r) <= tol[i + 1:k] ** 2).all())
 
 
 def simplify_chains(chains: list[Chain], tol: float = DEFAULT_TOL) -> list[Chain]:
@@ -247,13 +299,36 @@ def simplify_chains(chains: list[Chain], tol: float = DEFAULT_TOL) -> list[Chain
     until the simplified chains neither cross nor touch except at shared ends."""
     t = float(tol)
     while True:
-        out = [Chain(simplify(c.points, t), c.left, c.right, c.start, c.end) for c in chains]
+        out = [Chain(_simplify_chain(c, t), c.left, c.right, c.start, c.end) for c in chains]
         if t <= 0 or _simple(out):
             if t < tol:
                 log.info("boundary simplification tolerance lowered to %.3g pixels to keep "
                          "the curves apart", t)
             return out
         t = t / 2 if t > 1e-3 else 0.0
+
+
+def _straight_run(p: np.ndarray) -> int:
+    """Index of the last point of the straight run that ``p`` starts with."""
+    if len(p) < 3:
+        return len(p) - 1
+    d = p[1] - p[0]
+    q = p[1:] - p[0]
+    ok = (np.abs(q[:, 0] * d[1] - q[:, 1] * d[0]) <= 1e-9) & (q @ d > 0)
+    return int(np.argmin(ok)) if not ok.all() else len(p) - 1
+
+
+def _simplify_chain(c: Chain, tol: float) -> np.ndarray:
+    """:func:`simplify`, keeping at a junction end the end of the straight pixel-edge run
+    that leaves it, so that curves meeting at a junction leave it at right angles (as the
+    pixel edges do) instead of at the small angles their simplified chords could make."""
+    p = c.points
+    lo = _straight_run(p) if c.start >= 0 else 0
+    hi = len(p) - 1 - (_straight_run(p[::-1]) if c.end >= 0 else 0)
+    if hi <= lo:
+        return simplify(p, tol)
+    return np.vstack([p[:1] if lo else p[:0], simplify(p[lo:hi + 1], tol),
+                      p[-1:] if hi < len(p) - 1 else p[:0]])
 
 
 def _simple(chains: list[Chain]) -> bool:

@@ -45,11 +45,13 @@ def parse_image_model(ctx, dtable, mtable):
     src = _image_sources(ctx, mtable)
     shape, geo = src["shape"], src["geometry"]
     labels = src.get("labels")
-    if how == "extent":
+    if how == "extent" and labels is None:
         lo, hi = geo.extent()
         domain = extent_domain(lo, hi)
         return domain, parse_image(ctx, mtable, domain, None, src)
-    if "mask" in t:
+    if how == "extent":  # the whole image, its label boundaries traced as interfaces
+        mask = np.ones(labels.shape, bool)
+    elif "mask" in t:
         mimg = _read(ctx, "domain.mask", t["mask"], mtable, shape)
         mask = _scalar(ctx, "domain.mask", mimg) != 0
     elif labels is not None:
@@ -170,6 +172,10 @@ def _image_sources(ctx, t) -> dict:
         if v.dtype.kind not in "ui":
             raise MaterialError(f"{lab.source}: a label image needs integer pixels, got "
                                 f"{v.dtype}")
+        if v.size and v.min() < 0:
+            j, i = np.argwhere(v < 0)[0]
+            raise MaterialError(f"{lab.source}: label {v[j, i]} at pixel ({i}, {j}): labels "
+                                f"must be >= 0")
         out["labels"], shape, out["geometry"] = v.astype(np.int64), lab.shape, lab
     f = t.get("file")
     if isinstance(f, Mapping):
