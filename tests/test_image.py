@@ -567,3 +567,38 @@ def test_model_keys_maps_channels_files_slices(tmp_path):
                                atol=1e-12)
     with pytest.raises(MaterialError, match="stack.tif: a 3-D volume of 3 slices"):
         load_model(write_model(tmp_path, two + 'file = "stack.tif"\n' + lin))
+
+
+def test_labels_on_the_image_extent_are_embedded_exactly(tmp_path):
+    j, i = np.mgrid[0:40, 0:60]
+    lab = np.where(i < 25, 1, np.where(j < 20, 2, 3)).astype(np.uint8)  # a T junction
+    iio.imwrite(tmp_path / "t.png", lab)
+    text = """
+[domain]
+image = "extent"
+[material]
+type = "image"
+constituents = ["a", "b"]
+labels = "t.png"
+[[material.phases]]
+label = 1
+composition = { b = 0 }
+[[material.phases]]
+label = 2
+composition = { b = 0.5 }
+[[material.phases]]
+label = 3
+composition = { b = 1 }
+"""
+    m = load_model(write_model(tmp_path, text))
+    assert m.domain.area == pytest.approx(60 * 40)
+    inter = [p for p in m.domain.interfaces if p.name.startswith("discontinuity")]
+    assert len(inter) == 3  # the T: one vertical boundary cut at the junction, one branch
+    pts = np.vstack([np.array([c.start, c.end]) for p in inter for c in p.curves])
+    # the straight label boundaries are traced straight: x = 25 and y = 20 (row 20 from
+    # the top of the picture is y = 40 - 20 = 20)
+    on = np.isclose(pts[:, 0], 25) | np.isclose(pts[:, 1], 20)
+    assert on.all()
+    # label 2 is in the top rows of the picture (y > 20), label 3 below
+    np.testing.assert_array_equal(m.material.region(np.array([[10, 10], [40, 30], [40, 10]])),
+                                  [0, 1, 2])
