@@ -39,7 +39,9 @@ def parse_image_model(ctx, dtable, mtable):
     if not isinstance(mtable, Mapping) or mtable.get("type") != "image":
         raise ctx.fail("domain.image", "a domain taken from an image needs [material] "
                                        "type = \"image\"")
-    tol = ctx.number(t.get("tolerance", DEFAULT_TOL), "domain.tolerance", positive=True)
+    tol = ctx.number(t.get("tolerance", DEFAULT_TOL), "domain.tolerance")
+    if not 0 <= tol <= 10:
+        raise ctx.fail("domain.tolerance", f"expected pixels in [0, 10], got {tol:g}")
     if "mask" in t and how != "mask":
         raise ctx.fail("domain.mask", "a mask file needs image = \"mask\"")
     src = _image_sources(ctx, mtable)
