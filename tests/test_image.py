@@ -99,6 +99,25 @@ def test_vti_reader(tmp_path, fmt):
     assert img.origin == (2.0, -1.0) and img.spacing == (0.5, 0.25)
 
 
+def test_vti_appended_raw(tmp_path):
+    a = ramp().astype("<f8")
+    ny, nx = a.shape
+    head = (f'<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" '
+            f'byte_order="LittleEndian" header_type="UInt64">\n<ImageData WholeExtent="0 '
+            f'{nx - 1} 0 {ny - 1} 0 0" Origin="1 2 0" Spacing="0.5 0.5 1">\n<Piece Extent='
+            f'"0 {nx - 1} 0 {ny - 1} 0 0"><PointData><DataArray type="Float64" Name="f" '
+            f'format="appended" offset="0"/></PointData></Piece>\n</ImageData>\n'
+            f'<AppendedData encoding="raw">\n_').encode()
+    blob = struct.pack("<Q", a.nbytes) + a.tobytes()
+    (tmp_path / "a.vti").write_bytes(head + blob + b"\n</AppendedData>\n</VTKFile>\n")
+    img = read_image(tmp_path / "a.vti")
+    np.testing.assert_array_equal(img.values, a)
+    assert img.origin == (1.0, 2.0)
+    (tmp_path / "t.vti").write_bytes(head + blob[:100] + b"\n</AppendedData>\n</VTKFile>\n")
+    with pytest.raises(MaterialError, match="t.vti: truncated data"):
+        read_image(tmp_path / "t.vti")
+
+
 def test_vti_cell_data_is_at_cell_centres(tmp_path):
     a = ramp().astype(np.float32)
     write_vti(tmp_path / "c.vti", a, (0.0, 0.0), (1.0, 2.0), "ascii", cell=True)

@@ -505,4 +505,3 @@ def _material(ctx: _Ctx, value, domain, parameters: dict) -> MaterialField:
         raise ctx.fail("material.type", f"unknown material type {kind!r} (expected one of: "
                                         f"{', '.join(MATERIAL_TYPES)})")
     return MATERIAL_TYPES[kind](ctx, dict(value), domain, parameters)
-
