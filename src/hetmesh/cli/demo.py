@@ -30,6 +30,9 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                    help="directory for the files, created if missing (default: ./hetmesh-demo)")
     p.add_argument("--threshold", "-d", type=float, default=0.05, metavar="D",
                    help="delta_0, 0 < D < 1 (default: 0.05)")
+    p.add_argument("--image", action="store_true",
+                   help="mesh a synthetic 16-bit TIFF with 2%% noise instead (written into DIR "
+                        "with its model file; docs/model-format.md, images)")
     p.add_argument("--quiet", "-q", action="store_true",
                    help="no progress bar and no table; errors only")
     p.set_defaults(run=run)
@@ -53,16 +56,23 @@ def run(args: argparse.Namespace) -> int:
     from ..plot import interface_markers, plot_delta_histogram, plot_mesh
     from ..uniform import uniform
 
-    with resources.as_file(resources.files("hetmesh") / "examples" / f"{EXAMPLE}.toml") as path:
-        model = load_model(path)
+    if args.image:
+        from ..material.image import write_examples
+
+        model = load_model(write_examples(out)["graded_part_noisy"])
+    else:
+        with resources.as_file(resources.files("hetmesh") / "examples" / f"{EXAMPLE}.toml") \
+                as path:
+            model = load_model(path)
+    name = model.name
     D = args.threshold
     adaptive, t_adaptive = run_pipeline(generate, model, D, {}, quiet=args.quiet, label="adaptive")
     uni, t_uniform = run_pipeline(uniform, model, D, {}, quiet=args.quiet, label="uniform")
 
     files = {
-        "adaptive mesh": write_mesh(adaptive.mesh, out / f"{EXAMPLE}.vtu"),
-        "uniform mesh": write_mesh(uni.mesh, out / f"{EXAMPLE}_uniform.vtu"),
-        "mesh picture": plot_mesh(adaptive.mesh, out / f"{EXAMPLE}.png",
+        "adaptive mesh": write_mesh(adaptive.mesh, out / f"{name}.vtu"),
+        "uniform mesh": write_mesh(uni.mesh, out / f"{name}_uniform.vtu"),
+        "mesh picture": plot_mesh(adaptive.mesh, out / f"{name}.png",
                                   interface_markers=interface_markers(model),
                                   units=model.units,
                                   constituents=model.material.constituents,
@@ -70,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
                                         f"{adaptive.mesh.n_elements} elements, "
                                         f"$\\delta_0$ = {D:g}"),
         "delta histogram": plot_delta_histogram(
-            {"adaptive": adaptive.mesh, "uniform": uni.mesh}, out / f"{EXAMPLE}_delta.png",
+            {"adaptive": adaptive.mesh, "uniform": uni.mesh}, out / f"{name}_delta.png",
             threshold=D, title=f"{model.name}: material variation $\\delta(T)$ of the elements"),
     }
     if not args.quiet:

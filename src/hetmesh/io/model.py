@@ -30,6 +30,7 @@ from ..geometry import Arc, Loop, Segment, make_domain
 from ..geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
 from ..material.hft import parse_hft
+from ..material.image.parse import parse_image, parse_image_model
 
 __all__ = ["Model", "load_model", "parse_model", "MATERIAL_TYPES", "MAX_FILE_BYTES"]
 
@@ -169,6 +170,7 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
     'model'
     """
     ctx = _Ctx(where)
+    ctx.base = source.parent if source is not None else Path(".")
     top = ctx.table(data, "", required=("domain", "material"),
                     optional=("model", "parameters", "fea"))
     info = ctx.table(top.get("model", {}), "model", optional=("name", "description", "units"))
@@ -176,8 +178,11 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
     description = ctx.string(info, "model", "description", default="")
     units = ctx.string(info, "model", "units", default="")
     parameters = _parameters(ctx, top.get("parameters", {}))
-    domain = _domain(ctx, top["domain"])
-    material = _material(ctx, top["material"], domain, parameters)
+    if isinstance(top["domain"], Mapping) and "image" in top["domain"]:
+        domain, material = parse_image_model(ctx, top["domain"], top["material"])
+    else:
+        domain = _domain(ctx, top["domain"])
+        material = _material(ctx, top["material"], domain, parameters)
     fea = (parse_fea(ctx, top["fea"], domain, material.constituents, units)
            if "fea" in top else None)
     model = Model(name=name, domain=domain, material=material, parameters=parameters,
@@ -489,6 +494,7 @@ def _analytic(ctx: _Ctx, table: dict, domain, parameters: dict) -> MaterialField
 #: ``parser(ctx, table, domain, parameters) -> MaterialField``.
 MATERIAL_TYPES: dict[str, Callable] = {"analytic": _analytic}
 MATERIAL_TYPES["hft"] = parse_hft  # feature trees (paper Sec. 3.3)
+MATERIAL_TYPES["image"] = parse_image  # images and voxel data (docs/model-format.md)
 
 
 def _material(ctx: _Ctx, value, domain, parameters: dict) -> MaterialField:

@@ -1,0 +1,46 @@
+"""Write the example images and the model files that read them, into this folder.
+
+    python examples/images/make_images.py            # then, for instance:
+    hetmesh mesh examples/images/graded_part_noisy.toml -d 0.05 -o part.vtu --plot part.png
+
+Nothing is downloaded; every image is computed (``hetmesh.material.image.synthetic``):
+
+* ``graded_part_clean.tif`` -- a 40 x 20 mm plate, 512 x 256 pixels, 16-bit grey: the metal
+  fraction rises from 0 at the bottom to 1 at the top across an 8 mm wide front that waves
+  around y = 10 mm (0.5 (1 + tanh((y - 10 - 2 sin(2 pi x / 40)) / 4))), grey = 65535 x metal;
+* ``graded_part.tif`` -- the same with 2 % grey-level noise (Gaussian, standard deviation
+  0.02 x 65535, seed 0), as a measured map would have;
+* ``two_phase_labels.png`` / ``two_phase_grey.png`` -- a label image (1 matrix, 2 a graded
+  round inclusion, 3 a metal particle, 0 a hole) and the grey image grading the inclusion.
+
+The model files (``graded_part.toml``, ``graded_part_noisy.toml``, ``two_phase.toml``) are
+also in this folder; this script rewrites them from the same text (hetmesh.material.image.
+synthetic.MODELS). Options: ``--out DIR``, ``--size NX NY``, ``--noise F``, ``--seed S``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from hetmesh.material.image.synthetic import write_examples
+
+
+def main(argv=None) -> int:
+    here = Path(__file__).resolve().parent
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=here, help="folder (default: this one)")
+    p.add_argument("--size", type=int, nargs=2, default=(512, 256), metavar=("NX", "NY"),
+                   help="pixels of the graded part (default: 512 256)")
+    p.add_argument("--noise", type=float, default=0.02,
+                   help="grey-level noise, fraction of the range (default: 0.02)")
+    p.add_argument("--seed", type=int, default=0)
+    a = p.parse_args(argv)
+    models = write_examples(a.out, shape=(a.size[1], a.size[0]), noise=a.noise, seed=a.seed)
+    for name, path in models.items():
+        print(f"wrote {path} (and the images it reads)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

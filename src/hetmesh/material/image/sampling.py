@@ -1,0 +1,115 @@
+"""Pixel sampling: delta(T) over every pixel centre an element covers, complemented by its
+vertices (an element may cover no pixel centre at all)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .field import ImageField
+
+__all__ = ["pixel_centres_in_triangles", "pixel_blocks", "element_pixel_delta"]
+
+
+# ---------------------------------------------------------------------- pixel sampling
+def pixel_centres_in_triangles(points: np.ndarray, triangles: np.ndarray, origin,
+                               spacing, shape, *, block: int = 1 << 19):
+    """The pixel centres each triangle covers.
+
+    Parameters
+    ----------
+    points : ``(N, 2)``; triangles : ``(M, 3)``
+    origin, spacing : ``(2,)`` centre of the first pixel and pixel size, x first
+    shape : ``(ny, nx)``
+    block : int
+        About how many candidate centres (bounding-box pixels) to test at once.
+
+    Returns
+    -------
+    element : ``(K,)`` int64
+        The triangle of each (triangle, pixel) pair, ascending.
+    pixel : ``(K,)`` int64
+        The flat index ``j * nx + i`` of the pixel centre (closed triangles: a centre on a
+        shared edge counts for both).
+
+    Examples
+    --------
+    >>> e, p = pixel_centres_in_triangles(np.array([[0., 0], [4, 0], [0, 4]]),
+    ...                                   np.array([[0, 1, 2]]), (0.5, 0.5), (1, 1), (4, 4))
+    >>> p.tolist()
+    [0, 1, 2, 3, 4, 5, 6, 8, 9, 12]
+    """
+    parts = list(pixel_blocks(points, triangles, origin, spacing, shape, block=block))
+    if not parts:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate([e for e, _ in parts]), np.concatenate([p for _, p in parts])
+
+
+def pixel_blocks(points, triangles, origin, spacing, shape, *, block: int = 1 << 19):
+    """:func:`pixel_centres_in_triangles` by blocks of triangles: yields ``(element,
+    pixel)`` pairs, each block testing about ``block`` candidate centres (a triangle whose
+    bounding box alone holds more is a block of its own), elements ascending overall."""
+    P = np.asarray(points, float)
+    T = np.asarray(triangles, np.int64)
+    o, s = np.asarray(origin, float), np.asarray(spacing, float)
+    ny, nx = (int(v) for v in shape)
+    u_all = (P - o) / s  # index units
+    lo = np.full((len(T), 2), 0, np.int64)
+    hi = np.full((len(T), 2), -1, np.int64)
+    for b in range(0, len(T), 1 << 16):  # bounding boxes in pixel indices
+        u = u_all[T[b:b + (1 << 16)]]
+        lo[b:b + (1 << 16)] = np.maximum(np.ceil(u.min(axis=1) - 1e-9), 0)
+        hi[b:b + (1 << 16)] = np.minimum(np.floor(u.max(axis=1) + 1e-9), [nx - 1, ny - 1])
+    cnt = np.maximum(hi - lo + 1, 0)
+    tot = cnt[:, 0] * cnt[:, 1]
+    ends = np.searchsorted(np.cumsum(tot), np.arange(1, 1 + tot.sum() // block + 1) * block,
+                           side="right")
+    bounds = np.unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
+    for b0, b1 in zip(bounds[:-1], bounds[1:]):
+        t = tot[b0:b1]
+        if not t.sum():
+            continue
+        e = np.repeat(np.arange(b0, b1), t)
+        k = np.arange(int(t.sum())) - np.repeat(np.cumsum(t) - t, t)
+        i = lo[e, 0] + k % cnt[e, 0]
+        j = lo[e, 1] + k // cnt[e, 0]
+        q = np.column_stack([i, j]).astype(float)
+        u = u_all[T[e]]
+        a, bb, c = u[:, 0], u[:, 1], u[:, 2]
+        d = _cross(bb - a, c - a)
+        eps = 1e-12 * np.abs(d)
+        sg = np.sign(d)
+        ins = ((_cross(bb - q, c - q) * sg >= -eps) & (_cross(c - q, a - q) * sg >= -eps)
+               & (_cross(a - q, bb - q) * sg >= -eps))
+        yield e[ins], j[ins] * nx + i[ins]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def element_pixel_delta(field: ImageField, points: np.ndarray, triangles: np.ndarray,
+                        vertex_composition: np.ndarray | None = None) -> np.ndarray:
+    """delta(T) ``(M,)`` over every pixel centre each element covers *and* its vertices.
+
+    The values at the pixel centres are the field's samples there (``field.samples``, the
+    mapped and smoothed pixels); an element that covers no pixel centre is judged by its
+    vertices alone (vertex interpolation complements the pixel sampling). delta is the
+    largest spread (max - min) of a constituent's fraction over those samples. Works by
+    blocks (:func:`pixel_blocks`), so memory stays bounded on large images.
+    """
+    P = np.asarray(points, float)
+    T = np.asarray(triangles, np.int64)
+    vc = field.composition(P) if vertex_composition is None else vertex_composition
+    corners = vc[T]  # (M, 3, m)
+    hi, lo = corners.max(axis=1), corners.min(axis=1)
+    flat = field.samples.reshape(len(field.constituents), -1)
+    origin = field.origin - field._offset
+    for e, pix in pixel_blocks(P, T, origin, field.spacing, field.shape):
+        if not len(e):
+            continue
+        vals = flat[:, pix].T  # (K, m)
+        first = np.flatnonzero(np.r_[True, e[1:] != e[:-1]])
+        el = e[first]
+        hi[el] = np.maximum(hi[el], np.maximum.reduceat(vals, first, axis=0))
+        lo[el] = np.minimum(lo[el], np.minimum.reduceat(vals, first, axis=0))
+    return (hi - lo).max(axis=1)

@@ -1,0 +1,175 @@
+"""Synthetic images for the examples, the demo and the benchmarks (nothing is downloaded).
+
+* :func:`graded_part`: a 40 x 20 mm plate whose metal fraction rises from the bottom edge to
+  the top along a wavy front, as a 16-bit grey image (0 = all ceramic, 65535 = all metal)
+  with optional Gaussian grey-level noise (``noise`` is its standard deviation as a fraction
+  of the grey range: 0.02 is "2 % noise", the scatter of a good EDS map or CT slice);
+* :func:`two_phase`: a label image of a matrix (label 1) with a round inclusion (label 2,
+  graded: its metal fraction follows a grey image), a small fully-metal particle (label 3)
+  and a hole (label 0: outside the domain when the domain is the mask).
+
+:func:`write_examples` writes them as TIFF/PNG files with the model files that use them
+(``examples/images/make_images.py`` calls it).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["graded_part", "two_phase", "write_examples", "MODELS", "PART_SIZE"]
+
+#: the physical size of the synthetic part (width, height), mm
+PART_SIZE = (40.0, 20.0)
+
+
+def _centres(shape: tuple[int, int], size=PART_SIZE) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel-centre coordinates ``(x, y)`` of an image stored top row first."""
+    ny, nx = shape
+    x = (np.arange(nx) + 0.5) * size[0] / nx
+    y = size[1] - (np.arange(ny) + 0.5) * size[1] / ny
+    return np.meshgrid(x, y)
+
+
+def graded_metal(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The noise-free metal fraction of the graded part: 0 at the bottom, 1 at the top, a
+    smooth (tanh) front around y = 10 + 2 sin(2 pi x / 40) mm, 8 mm wide."""
+    front = 10.0 + 2.0 * np.sin(2.0 * np.pi * x / PART_SIZE[0])
+    return 0.5 * (1.0 + np.tanh((y - front) / 4.0))
+
+
+def graded_part(shape: tuple[int, int] = (256, 512), noise: float = 0.02,
+                seed: int = 0, size: tuple[float, float] = PART_SIZE) -> np.ndarray:
+    """The graded part as a 16-bit image ``(ny, nx)``, top row first (as stored in a file),
+    with Gaussian grey-level noise of standard deviation ``noise`` x 65535 (clipped to the
+    16-bit range; ``seed`` fixes it). ``size``: the physical size it covers (a window of
+    the part from its lower-left corner).
+
+    >>> g = graded_part((32, 64), noise=0.0)
+    >>> g.dtype.name, g.shape, bool(g[0].mean() > g[-1].mean())
+    ('uint16', (32, 64), True)
+    """
+    x, y = _centres(shape, size)
+    f = graded_metal(x, y)
+    if noise > 0:
+        f = f + noise * np.random.default_rng(seed).standard_normal(f.shape)
+    return np.round(np.clip(f, 0.0, 1.0) * 65535).astype(np.uint16)
+
+
+def two_phase(shape: tuple[int, int] = (200, 400)) -> tuple[np.ndarray, np.ndarray]:
+    """``(labels uint8, grey uint8)``, top row first: labels 1 matrix, 2 a round inclusion of
+    radius 6 mm at (20, 10), 3 a particle of radius 3 mm at (8, 10), 0 a hole of radius 3 mm
+    at (33, 6); grey rises from 0 at x = 0 to 255 at x = 40 mm (the inclusion's gradient)."""
+    x, y = _centres(shape)
+    lab = np.ones(shape, np.uint8)
+    lab[(x - 20) ** 2 + (y - 10) ** 2 < 6 ** 2] = 2
+    lab[(x - 8) ** 2 + (y - 10) ** 2 < 3 ** 2] = 3
+    lab[(x - 33) ** 2 + (y - 6) ** 2 < 3 ** 2] = 0
+    grey = np.round(np.clip(x / PART_SIZE[0], 0, 1) * 255).astype(np.uint8)
+    return lab, grey
+
+
+#: the example model files, by name (the images they read are written next to them)
+MODELS = {
+    "graded_part": '''\
+# A graded plate measured as a 16-bit grey image (examples/images/make_images.py).
+# The image is 40 x 20 mm; grey 0 is all ceramic, 65535 all metal.
+[model]
+name = "graded_part"
+units = "mm"
+
+[domain]
+image = "extent"            # the domain is the image's rectangle
+
+[material]
+type = "image"
+constituents = ["ceramic", "metal"]
+file = "graded_part_clean.tif"
+bounds = [0, 0, 40, 20]     # the outer edges of the pixels, in mm
+map = { linear = [0, 65535], constituent = "metal" }
+''',
+    "graded_part_noisy": '''\
+# The same plate with 2 % grey-level noise, smoothed before meshing: a Gaussian of
+# standard deviation 0.25 mm (3.2 pixels) leaves 0.02 / (2 sqrt(pi) 3.2) = 0.0018 of noise,
+# well below delta_0, and blurs the 8 mm wide front by less than 1 %.
+[model]
+name = "graded_part_noisy"
+units = "mm"
+
+[domain]
+image = "extent"
+
+[material]
+type = "image"
+constituents = ["ceramic", "metal"]
+file = "graded_part.tif"
+bounds = [0, 0, 40, 20]
+map = { linear = [0, 65535], constituent = "metal" }
+smoothing = 0.25            # mm
+interpolation = "linear"
+''',
+    "two_phase": '''\
+# A two-phase part from a label image: a matrix (label 1) with a graded round inclusion
+# (label 2, its metal fraction from a grey image), a metal particle (label 3) and a hole
+# (label 0). The domain is the non-zero pixels; the label boundaries are embedded in the
+# mesh, so no element straddles two phases.
+[model]
+name = "two_phase"
+units = "mm"
+
+[domain]
+image = "mask"              # label 0 is outside: the hole
+
+[material]
+type = "image"
+constituents = ["matrix", "metal"]
+labels = "two_phase_labels.png"
+file = "two_phase_grey.png"
+spacing = 0.1               # mm per pixel
+
+[[material.phases]]
+label = 1
+name = "matrix"
+composition = { metal = 0.0 }
+
+[[material.phases]]
+label = 2
+name = "inclusion"
+map = { linear = [0, 255], constituent = "metal" }
+
+[[material.phases]]
+label = 3
+name = "particle"
+composition = { metal = 1.0 }
+''',
+}
+
+
+def write_examples(folder: str | Path, *, shape: tuple[int, int] = (256, 512),
+                   noise: float = 0.02, seed: int = 0) -> dict[str, Path]:
+    """Write the example images and :data:`MODELS` into ``folder`` (created if missing);
+    returns the model files by name. Files are written atomically."""
+    import imageio.v3 as iio
+    import tifffile
+
+    from ...io.atomic import atomic_path
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    lab, grey = two_phase((shape[0] * 200 // 256, shape[1] * 400 // 512))
+    images = {"graded_part.tif": graded_part(shape, noise, seed),
+              "graded_part_clean.tif": graded_part(shape, 0.0, seed),
+              "two_phase_labels.png": lab, "two_phase_grey.png": grey}
+    for name, arr in images.items():
+        with atomic_path(out / name) as tmp:
+            if name.endswith(".tif"):
+                tifffile.imwrite(tmp, arr)
+            else:
+                iio.imwrite(tmp, arr, extension=".png")
+    models = {}
+    for name, text in MODELS.items():
+        models[name] = out / f"{name}.toml"
+        with atomic_path(models[name]) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+    return models
