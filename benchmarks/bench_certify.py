@@ -1,7 +1,7 @@
 """Certified against vertex and dense sampling: elements, time, and the true variation.
 
 Meshes narrow Gaussian bumps ``f = exp(-((x - a)**2 + (y - b)**2)/w)`` on the unit square
-at 20 seeded random centres (plus the three centres of the issue list, e.g. (0.55, 0.91))
+at 20 seeded random centres (plus (0.55, 0.91), the centre tests/test_certify.py uses)
 and three widths ``w``, at delta_0 = 0.1, with each sampling, and checks every mesh
 independently of hetmesh's field code: the true variation of a radial bump over a triangle
 is ``f(the triangle's point nearest the centre) - f(its farthest corner)``, computed here in

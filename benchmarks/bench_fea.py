@@ -6,7 +6,7 @@
 
 Measures, never asserts. The study is the library's `hetmesh.fea.study` (the one `hetmesh
 reproduce` renders as its Table 7 section); this script only prints its result as tables and
-times the solver. The model is examples/fgm_plate.toml with its [fea] table (CASES.md
+times the solver. The model is examples/fgm_plate.toml with its [fea] table (docs/cases.md,
 section 5): steady conduction, then plane-strain thermoelasticity, linear rule of mixtures,
 quadratic elements, probes P1..P6 (B, C, D, E, F, G) and Q1..Q6 (inside the field).
 
@@ -19,7 +19,7 @@ Tables
       error against the reference over P1..P6, over Q1..Q6 and over all twelve.
   F3. Elements each family needs to bring every probe within 0.5 % of the reference: the
       first mesh after which all later ones stay within, interpolated in log-log with the
-      mesh before it; the reduction 1 - N_adaptive / N_uniform (issue target >= 40 %, paper
+      mesh before it; the reduction 1 - N_adaptive / N_uniform (our target >= 40 %, paper
       32 %), for the P probes, the Q probes and all.
   F4. Speed: thermal + elastic solve of a ~100,000-element mesh (median of 3; target < 10 s,
       measured for the library default, linear elements), linear and quadratic elements.
@@ -94,7 +94,7 @@ def table_families(s) -> None:
                 ["mesh", "param", "Ne", *P_NAMES, "err P %", "err Q %", "err all %", "mesh s",
                  "solve s"], rows,
                 notes=["paper rows: COMSOL on the paper's meshes (its geometry, which ours "
-                       "reconstructs; see CASES.md 5)"])
+                       "reconstructs; see docs/cases.md, section 5)"])
 
 
 def table_needed(s) -> None:

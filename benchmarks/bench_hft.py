@@ -111,7 +111,7 @@ def table_cases(repeats: int) -> dict:
                "Tables 3 and 5.",
                "targets: δmax < δ0, cross = 0; adaptive also q_min >= 0.5, q_avg >= 0.93, "
                "δavg/δ0 >= 0.65, ratio <= paper's (0.26 ring 0.05, 0.15 complex, 0.08 plate).",
-               "geometries are reconstructions (CASES.md; see each example file)."])
+               "geometries are reconstructions (docs/cases.md; see each example file)."])
     return {"rows": out, "repeats": repeats}
 
 

@@ -1,4 +1,4 @@
-"""Shared helpers: the invariants every mesh hetmesh writes must satisfy (DESIGN.md)."""
+"""Shared helpers: the invariants every mesh hetmesh writes must satisfy."""
 
 from __future__ import annotations
 

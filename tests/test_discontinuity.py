@@ -36,7 +36,7 @@ def _samples(path, n=200):
 
 def _parabola_residual(pts, x_apex, x_end):
     """|y - ((x_apex - x)^2 - 64)/16|: the medial curve between a groove of radius 8 centred
-    at (x_apex, 0) and the bottom line, CASES.md section 5."""
+    at (x_apex, 0) and the bottom line (docs/cases.md, section 5)."""
     return np.abs(pts[:, 1] - ((x_apex - pts[:, 0]) ** 2 - 64.0) / 16.0)
 
 

@@ -444,7 +444,8 @@ def test_fgm_plate_end_to_end(plate):
         assert r.probes[name]["temperature"] == pytest.approx(1173.15, abs=1e-6)
     for name in ("P4", "P6"):
         assert r.probes[name]["temperature"] == pytest.approx(873.15, abs=1e-6)
-    # at a traction-free corner von Mises tends to |sigma_zz| = E alpha dT (CASES.md 5)
+    # at a traction-free corner von Mises tends to |sigma_zz| = E alpha dT
+    # (docs/cases.md, section 5)
     assert r.probes["P1"]["von_mises"] == pytest.approx(393e9 * 7.4e-6 * 900, rel=0.1)
     # the hot source stresses more than the cooler one (paper Table 7: P1..P3 > P4..P6)
     assert r.probes["P3"]["von_mises"] > r.probes["P6"]["von_mises"]

@@ -5,6 +5,7 @@ differences, NaN safety, and the model-file errors."""
 from __future__ import annotations
 
 import math
+import re
 import time
 import tomllib
 from pathlib import Path
@@ -23,6 +24,7 @@ EXAMPLES = Path(hetmesh.__file__).resolve().parent / "examples"
 PLATE = EXAMPLES / "fgm_plate.toml"
 RING = EXAMPLES / "hft_ring.toml"
 COMPLEX = EXAMPLES / "hft_complex.toml"
+CASES_DOC = Path(__file__).resolve().parents[1] / "docs" / "cases.md"
 
 
 @pytest.fixture(scope="module")
@@ -38,11 +40,28 @@ def ring():
 @pytest.mark.parametrize("path", [RING, COMPLEX, PLATE], ids=lambda p: p.stem)
 def test_examples_say_their_geometry_is_reconstructed(path):
     text = path.read_text(encoding="utf-8")
-    assert "RECONSTRUCTION (CASES.md section" in text
+    assert "RECONSTRUCTION (docs/cases.md, section" in text
     model = load_model(path)
     assert model.name == path.stem and model.units == "mm"
     assert hetmesh.example_path(path.stem).resolve() == path.resolve()
 
+
+
+@pytest.mark.skipif(not CASES_DOC.exists(), reason="docs/cases.md not next to the tests")
+def test_cited_sections_of_docs_cases_exist():
+    """Every "docs/cases.md, section N" cited in the examples and the sources names a
+    section of that file about the model that cites it."""
+    text = CASES_DOC.read_text(encoding="utf-8")
+    headings = {int(n): name for n, name in re.findall(r"^## (\d+)\. (?:`(\w+)`)?", text, re.M)}
+    src = Path(hetmesh.__file__).resolve().parent
+    cited = 0
+    for path in [*EXAMPLES.glob("*.toml"), *src.rglob("*.py")]:
+        for n in re.findall(r"docs/cases\.md, section (\d+)", path.read_text(encoding="utf-8")):
+            assert int(n) in headings, (path.name, n)
+            if path.suffix == ".toml":
+                assert headings[int(n)] == path.stem, (path.name, n, headings[int(n)])
+            cited += 1
+    assert cited >= 6
 
 # ------------------------------------------------------------------ fgm_plate by hand
 
@@ -60,7 +79,7 @@ def _bottom_samples(n=200_001):
 
 
 def _plate_by_hand(points):
-    """CASES.md section 5: ceramic = W M_b + (1 - W) M_t, W = exp(-5 d_b/(d_b + d_t))."""
+    """docs/cases.md, section 5: ceramic = W M_b + (1 - W) M_t, W = exp(-5 d_b/(d_b + d_t))."""
     curve, comp = _bottom_samples()
     out = []
     for p in points:
@@ -219,7 +238,7 @@ def _rounded_rectangle_distance(p):
 
 
 def _complex_by_hand(p):
-    """CASES.md section 4: f = W M_A + (1 - W) M_b, W = (d_b/(d_int + d_b))^3 inside A
+    """docs/cases.md, section 4: f = W M_A + (1 - W) M_b, W = (d_b/(d_int + d_b))^3 inside A
     (M_b = M_C = 1, d_b to C), ^2 outside (M_b = M_B = 0, d_b to B)."""
     rho = _stadium_axis_distance(p)
     inner = rho < 30.0

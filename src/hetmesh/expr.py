@@ -1,7 +1,7 @@
 """Safe compiler for user formulas, with a symbolic derivative.
 
-Model files are untrusted (DESIGN.md, "Safety of user formulas"): a formula never reaches
-``eval``, ``exec``, ``compile``, ``sympify`` or ``numexpr``. The text is length-capped, parsed
+Model files are untrusted input: a formula never reaches ``eval``, ``exec``, ``compile``,
+``sympify``, ``lambdify`` or ``numexpr``. The text is length-capped, parsed
 with ``ast.parse(text, mode="eval")``, checked for node count and nesting depth, and walked
 with an allow-list into a small expression tree:
 

@@ -1,7 +1,9 @@
 """The triangle mesh: a small immutable dataclass (scikit-fem's ``Mesh`` is the model).
 
-Conventions (DESIGN.md): points ``(N, 2)`` float64, triangles ``(M, 3)`` int32 counter-clockwise,
-``regions`` ``(M,)`` int32, constrained edges ``(K, 2)`` int32 with ``edge_markers`` ``(K,)``.
+Conventions: points ``(N, 2)`` float64, triangles ``(M, 3)`` int32 counter-clockwise (the
+layout of meshio, scipy and matplotlib; scikit-fem's transposed ``(2, N)`` / ``(3, M)`` only
+where it is called), ``regions`` ``(M,)`` int32, constrained edges ``(K, 2)`` int32 with
+``edge_markers`` ``(K,)``.
 Transformations return new objects; derived topology is computed on first use and cached.
 """
 

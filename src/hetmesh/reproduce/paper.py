@@ -1,7 +1,7 @@
 """The paper's own numbers (Tables 1, 3, 5 and 7), the only numbers a report does not compute.
 
 Each row is ``(Np, Ne, q_min, q_avg, delta_min, delta_avg)`` exactly as printed, but for the
-misprints listed in :data:`NOTES` (CASES.md, "Known misprints").
+misprints listed in :data:`NOTES` (docs/cases.md, section 6, "Known misprints in the paper").
 """
 
 from __future__ import annotations
@@ -42,8 +42,10 @@ class Case:
 
 
 NOTES = {
-    "t1-uniform-0.1": "the paper prints delta_avg = 0.356, a misprint of 0.0356 (CASES.md)",
-    "t3-uniform-0.1": "the paper's q_min/q_avg repeat its adaptive row (a misprint, CASES.md)",
+    "t1-uniform-0.1": ("the paper prints delta_avg = 0.356, a misprint of 0.0356 "
+                       "(docs/cases.md, section 6)"),
+    "t3-uniform-0.1": ("the paper's q_min/q_avg repeat its adaptive row (a misprint, "
+                       "docs/cases.md, section 6)"),
 }
 
 #: the columns each note concerns

@@ -74,8 +74,9 @@ def _header(report) -> list[str]:
         "Every number in this report was computed by this run, except the columns headed "
         "**paper**, which are the paper's own values (its Tables 1, 3, 5 and 7). The paper "
         "gives no figure dimensions: the models' geometries are reconstructions (see each "
-        "example file and CASES.md), so the paper's element counts are a reference, not a "
-        "target; its *ratios* adaptive/uniform are the comparable quantity.",
+        "example file and docs/cases.md in hetmesh's repository), so the paper's element "
+        "counts are a reference, not a target; its *ratios* adaptive/uniform are the "
+        "comparable quantity.",
         "",
         "Definitions. *adaptive*: `hetmesh.generate(model, delta_0)` with default options; "
         "*uniform*: `hetmesh.uniform(model, delta_0)`, the coarsest uniform quality mesh with "
@@ -374,7 +375,8 @@ def _fea_section(report) -> list[str]:
              f"{_get(study, 'order', default='?')}): a fine uniform reference mesh, then "
              "uniform meshes (edge h) and adaptive meshes (`hetmesh.generate` at δ0) of "
              "increasing size. Von Mises stress at the probes P1..P6 (GPa) and the largest "
-             "relative error against the reference over P1..P6 and over Q1..Q6 (CASES.md 5); "
+             "relative error against the reference over P1..P6 and over Q1..Q6 (the test "
+             "points of docs/cases.md, section 5); "
              "rows labelled *paper* are the paper's Table 7 (its meshes, its geometry).")
     paper_ref = PAPER_TABLE7.get(("uniform", 4600))
     ratios = [_get(ref_vm, p, default=math.nan) / 1e9 / v for p, v in zip(probes, paper_ref or ())]
