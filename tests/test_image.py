@@ -621,3 +621,129 @@ composition = { b = 1 }
     # label 2 is in the top rows of the picture (y > 20), label 3 below
     np.testing.assert_array_equal(m.material.region(np.array([[10, 10], [40, 30], [40, 10]])),
                                   [0, 1, 2])
+
+
+# ---------------------------------------------------------------- sampling = "pixels"
+STRIPE = """
+[domain]
+image = "extent"
+[material]
+type = "image"
+constituents = ["a", "b"]
+file = "stripe.npy"
+first_row = "bottom"
+bounds = [0, 0, 4, 0.5]
+map = { linear = [0, 1], constituent = "b" }
+"""
+
+
+def stripe_image() -> np.ndarray:
+    """50 x 400 pixels of 0.01: a ramp in y (0.3 to 0.6) and, on column 202, a stripe one
+    pixel wide, 0.08 higher: narrower than the vertex spacing, and between the points of the
+    mesher's 160-cell background grid (x = 200.75 and 203.25 in pixel units)."""
+    j, _ = np.mgrid[0:50, 0:400]
+    a = 0.3 + 0.3 * (j + 0.5) / 50
+    a[:, 202] += 0.08
+    return a
+
+
+def pixel_range(values: np.ndarray, points: np.ndarray, triangles: np.ndarray,
+                spacing: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """The smallest and largest pixel value at the pixel centres each closed triangle covers
+    (barycentric coordinates, one triangle at a time; +inf and -inf where it covers none)."""
+    ny, nx = values.shape
+    lo, hi = np.full(len(triangles), np.inf), np.full(len(triangles), -np.inf)
+    for k, t in enumerate(triangles):
+        X = points[t]
+        i0, j0 = np.floor(X.min(axis=0) / spacing - 0.5).astype(int)
+        i1, j1 = np.ceil(X.max(axis=0) / spacing - 0.5).astype(int)
+        jj, ii = np.mgrid[max(j0, 0):min(j1, ny - 1) + 1, max(i0, 0):min(i1, nx - 1) + 1]
+        c = np.column_stack([(ii.ravel() + 0.5) * spacing, (jj.ravel() + 0.5) * spacing])
+        lam = np.linalg.solve(np.vstack([X.T, np.ones(3)]),
+                              np.vstack([c.T, np.ones(len(c))]))
+        inside = (lam >= -1e-9).all(axis=0)
+        if inside.any():
+            v = values[jj.ravel()[inside], ii.ravel()[inside]]
+            lo[k], hi[k] = v.min(), v.max()
+    return lo, hi
+
+
+def pixel_variation(values, points, triangles) -> np.ndarray:
+    """max - min over the pixel centres each triangle covers (0 where none)."""
+    lo, hi = pixel_range(values, points, triangles)
+    return np.where(hi >= lo, hi - lo, 0.0)
+
+
+@pytest.fixture
+def stripe(tmp_path):
+    np.save(tmp_path / "stripe.npy", stripe_image())
+    return write_model(tmp_path, STRIPE)
+
+
+def test_pixel_sampling_sees_a_stripe_vertices_miss(stripe):
+    import hetmesh
+
+    m = load_model(stripe)
+    a = stripe_image()
+    seen = {}
+    for sampling in ("vertices", "pixels"):
+        r = hetmesh.generate(m, 0.1, sampling=sampling, method="layers")
+        assert r.stats.delta_max < 0.1 and r.mesh.problems() == []
+        seen[sampling] = pixel_variation(a, r.mesh.points, r.mesh.triangles)
+        if sampling == "pixels":  # the mesh's delta covers the pixels and the vertices
+            assert (r.mesh.cell_data["delta"] >= seen[sampling] - 1e-12).all()
+            assert r.options["sampling"] == "pixels"
+    assert seen["vertices"].max() >= 0.1  # an element straddles the stripe unseen
+    assert seen["pixels"].max() < 0.1
+
+
+def test_pixel_sampling_statistics_and_frame(stripe):
+    """mesh_statistics and element_delta through the local frame give the field's own
+    pixel_delta: the elements reach the field in its coordinates."""
+    import hetmesh
+    from hetmesh.frame import local_field, local_frame
+    from hetmesh.metrics import element_delta
+
+    m = load_model(stripe)
+    P = np.array([[1.9, 0.0], [2.1, 0.0], [2.0, 0.3], [2.0, 0.5]])
+    T = np.array([[0, 1, 2], [1, 3, 2]])
+    mesh = hetmesh.Mesh(P, T)
+    d = hetmesh.mesh_statistics(mesh, m, sampling="pixels")
+    vb = m.material.composition(P)[:, 1][T]  # the vertices, with the pixel centres
+    lo, hi = pixel_range(stripe_image(), P, T)
+    want = np.maximum(hi, vb.max(axis=1)) - np.minimum(lo, vb.min(axis=1))
+    assert np.isfinite(lo).all() and want[0] > np.ptp(vb[0]) + 0.02  # the stripe counts
+    assert d.delta_max == pytest.approx(want.max(), abs=1e-12)
+    frame = local_frame(m.domain.bounds)
+    loc = element_delta(local_field(m.material, frame), frame.to_local(P), T, "pixels")
+    assert np.array_equal(loc, m.material.pixel_delta(P, T))
+
+
+def test_pixel_sampling_cli(stripe, capsys):
+    from hetmesh.io.export import read_mesh
+
+    out = stripe.parent / "out.vtu"
+    code = main(["mesh", str(stripe), "-d", "0.1", "--sampling", "pixels", "--method",
+                 "layers", "--quiet", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    mesh = read_mesh(out)
+    assert pixel_variation(stripe_image(), mesh.points, mesh.triangles).max() < 0.1
+    code = main(["stats", str(out), "-m", str(stripe), "--sampling", "pixels", "--json"])
+    assert code == 0
+
+
+def test_pixel_sampling_needs_an_image(tmp_path, capsys):
+    import hetmesh
+    from hetmesh.errors import OptionError
+
+    model = Path(__file__).resolve().parents[1] / "examples" / "unit_square.toml"
+    if not model.exists():
+        pytest.skip("examples/ not next to the tests")
+    out = tmp_path / "out.vtu"
+    code = main(["mesh", str(model), "-d", "0.1", "--sampling", "pixels", "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and not out.exists()
+    assert "--sampling pixels needs a material from an image" in err[0]
+    assert "(formula) has no pixels" in err[0]
+    with pytest.raises(OptionError, match="sampling pixels needs a material from an image"):
+        hetmesh.generate(load_model(model), 0.1, sampling="pixels")

@@ -45,7 +45,7 @@ from .mesh import Mesh, any_corner, edge_keys
 from .optimize import optimize as optimize_mesh
 from .parallel import block_concat
 from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
-                      check_options)
+                      check_options, check_sampling)
 from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
                       quality, quality_and_angle, side_lengths, statistics, triangle_angles)
 from .refine import (Context, WorkSet, add_free_points, lineage, workset_from_pslg,
@@ -729,8 +729,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         than twice it are exempt.
     max_size : largest element edge (default: domain diameter / 8); floors rho.
     max_elements : element budget, checked against an a-priori estimate and while refining.
-    sampling : "vertices" (the paper's Eqs. 14-15) or "dense" (also a lattice inside
-        every element).
+    sampling : "vertices" (the paper's Eqs. 14-15), "dense" (also a lattice inside
+        every element), "certified" (an upper bound over the element) or "pixels" (image
+        fields: also every pixel centre the element covers).
     method : "auto" (default), "layers" (nodes on iso-composition curves) or "cvt" (the
         paper's CVT start). "auto" meshes from the layers placement and, where the model is
         small (a-priori estimate up to 50,000 elements), from the CVT placement too (at 0.9
@@ -768,6 +769,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
                               seed=seed, chord_tol=chord_tol, row_spacing=row_spacing)
     if method not in METHODS:
         raise OptionError(f"method {method!r} is not one of {', '.join(METHODS)}")
+    check_sampling(model.material, sampling)
     timings: dict = {}
     t0 = time.perf_counter()
     model = embed_discontinuities(model)

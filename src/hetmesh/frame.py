@@ -77,6 +77,8 @@ class _LocalField:
             self.region = self._region
             self.n_regions = base.n_regions
             self.region_names = getattr(base, "region_names", None)
+        if callable(getattr(base, "pixel_delta", None)):
+            self.pixel_delta = self._pixel_delta
 
     def composition(self, points, **kw) -> np.ndarray:
         return self.base.composition(self.frame.to_user(points), **kw)
@@ -87,10 +89,15 @@ class _LocalField:
     def _region(self, points) -> np.ndarray:
         return self.base.region(self.frame.to_user(points))
 
+    def _pixel_delta(self, points, triangles, **kw) -> np.ndarray:
+        # the pixel centres are in the field's (user) coordinates: so must the elements be
+        return self.base.pixel_delta(self.frame.to_user(points), triangles, **kw)
+
 
 def local_field(field, frame: LocalFrame):
     """``field`` seen in local coordinates: ``composition(p) = field.composition(to_user(p))``
     and ``gradient(p) = scale * field.gradient(to_user(p))`` (the chain rule). Piecewise
-    fields keep ``region``, ``n_regions`` and ``region_names``; keywords such as
+    fields keep ``region``, ``n_regions`` and ``region_names``, image fields ``pixel_delta``
+    (elements given in local coordinates, passed on in user coordinates); keywords such as
     ``region=`` pass through."""
     return _LocalField(field, frame)

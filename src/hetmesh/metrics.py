@@ -181,6 +181,8 @@ def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: st
     """delta(T) of every element, from the vertices (Eqs. 14-15), with ``sampling="dense"``
     also from a lattice inside it, with ``sampling="certified"`` an upper bound on its
     variation over the whole element (:func:`hetmesh.certify.certified_delta`);
+    with ``sampling="pixels"`` also from every pixel centre it covers (``field.pixel_delta``:
+    image fields only, :func:`hetmesh.options.check_sampling`);
     ``composition`` at the points if already known; ``threshold`` (delta_0, optional) lets
     the certified bound stop refining an element once it is decided against delta_0.
 
@@ -198,6 +200,11 @@ def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: st
         from .certify import certified_delta
         delta = np.maximum(delta, certified_delta(field, points, triangles, regions=regions,
                                                       threshold=threshold))
+    elif sampling == "pixels":
+        from .options import check_sampling
+        check_sampling(field, sampling)
+        delta = np.maximum(delta, field.pixel_delta(points, triangles, regions=regions,
+                                                    composition=comp))
     return delta
 
 

@@ -13,7 +13,8 @@ from typing import Mapping
 from .errors import OptionError
 
 __all__ = ["check_options", "DEFAULT_MAX_ELEMENTS", "DEFAULT_CHORD_TOL", "MIN_CHORD_TOL",
-           "MAX_CHORD_TOL", "DEFAULT_ROW_SPACING", "ROW_SPACING_RANGE", "SAMPLINGS", "LABELS"]
+           "MAX_CHORD_TOL", "DEFAULT_ROW_SPACING", "ROW_SPACING_RANGE", "SAMPLINGS", "LABELS",
+           "check_sampling"]
 
 DEFAULT_MAX_ELEMENTS = 5_000_000
 #: the largest distance between a curved boundary or interface and its chords (its edges in
@@ -28,7 +29,10 @@ MIN_CHORD_TOL, MAX_CHORD_TOL = 1e-7, 0.05
 #: spends on shape (q_avg +0.01 to +0.015 on the examples, for 15-35 % more elements)
 DEFAULT_ROW_SPACING = 0.85
 ROW_SPACING_RANGE = (0.3, 0.99)
-SAMPLINGS = ("vertices", "dense", "certified")
+#: how delta(T) is measured: at the vertices (the paper's Eqs. 14-15), also on a lattice inside
+#: every element, as a certified upper bound, or (image fields) also at every pixel centre
+#: an element covers
+SAMPLINGS = ("vertices", "dense", "certified", "pixels")
 LABELS = {"threshold": "threshold", "min_angle": "min angle", "max_elements": "max elements",
           "max_size": "max size", "sampling": "sampling", "min_quality": "min quality",
           "seed": "seed", "chord_tol": "chord tolerance", "row_spacing": "row spacing"}
@@ -87,3 +91,24 @@ def check_options(threshold, *, min_angle: float = 30.0,
         raise OptionError(f"{label['row_spacing']} {rs:g} is outside [{lo:g}, {hi:g}] (a "
                           "fraction of the threshold)")
     return thr
+
+#: how :func:`check_sampling` names the fields without pixels
+_KINDS = {"AnalyticField": "formula", "CallableField": "Python function",
+          "HFTField": "feature tree"}
+
+
+def check_sampling(field, sampling: str, names: Mapping[str, str] | None = None) -> None:
+    """Raise :class:`OptionError` unless ``field`` supports ``sampling``: ``"pixels"`` needs
+    a field sampled on pixels (one with a ``pixel_delta`` method: an image or label image).
+
+    >>> check_sampling(object(), "pixels", names={"sampling": "--sampling"})
+    Traceback (most recent call last):
+    ...
+    hetmesh.errors.OptionError: --sampling pixels needs a material from an image ([material] type = "image"); this material (object) has no pixels
+    """
+    if sampling == "pixels" and not callable(getattr(field, "pixel_delta", None)):
+        label = {**LABELS, **(names or {})}["sampling"]
+        user = getattr(field, "base", field) if type(field).__name__ == "_LocalField" else field
+        kind = _KINDS.get(type(user).__name__, type(user).__name__)
+        raise OptionError(f"{label} pixels needs a material from an image ([material] type = "
+                          f"\"image\"); this material ({kind}) has no pixels")

@@ -18,7 +18,7 @@ from rich.console import Console
 
 from ..errors import OutputError
 from ..io.jsondoc import jsonable
-from ..options import SAMPLINGS, check_options
+from ..options import SAMPLINGS, check_options, check_sampling
 from .progress import progress_reporter
 
 __all__ = [
@@ -77,7 +77,9 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "sees most composition peaks between vertices, or 'certified': "
                         "everywhere inside every element, proven by interval arithmetic on "
                         "the formulas (a Lipschitz bound for feature trees; dense sampling, "
-                        "with a warning, for other materials) (default: vertices); the "
+                        "with a warning, for other materials), or 'pixels' (image "
+                        "materials): also at every pixel centre in every element "
+                        "(default: vertices); the "
                         "statistics show the lattice's delta_max_dense either way")
     p.add_argument("--chord-tol", type=float, metavar="C",
                    help="largest distance between a curved boundary or interface and any of "
@@ -287,6 +289,7 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
     check_model_path(args.model)
     func = load_pipeline()
     model = load_model(args.model)
+    check_sampling(model.material, kwargs.get("sampling", "vertices"), names=FLAGS)
     result, seconds = run_pipeline(func, model, args.threshold, kwargs, quiet=args.quiet,
                                    label=model.name)
     from .stats import with_bounds

@@ -166,6 +166,9 @@ def run(args: argparse.Namespace) -> int:
 
     check_model_path(args.model)
     model = load_model(args.model)
+    from ..options import check_sampling
+
+    check_sampling(model.material, args.sampling, names={"sampling": "--sampling"})
     mesh = read_mesh(args.mesh)
     check_mesh_of_model(mesh, model, args.mesh)
     if args.threshold is not None:

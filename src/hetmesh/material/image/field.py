@@ -116,12 +116,16 @@ class ImageField:
         """Gradients ``(N, m, d)`` of the interpolant (exact)."""
         return self.evaluate(points)[1].copy()
 
-    def pixel_delta(self, points, triangles, regions=None) -> np.ndarray:
+    def pixel_delta(self, points, triangles, regions=None, composition=None) -> np.ndarray:
         """delta(T) over every pixel centre each element covers and its vertices
-        (:func:`~hetmesh.material.image.element_pixel_delta`); ``regions`` is ignored."""
+        (:func:`~hetmesh.material.image.element_pixel_delta`); ``composition`` ``(N, m)``:
+        the fractions at ``points`` if known; ``regions`` is ignored."""
         from .sampling import element_pixel_delta
 
-        return element_pixel_delta(self, points, triangles)
+        vc = composition
+        if vc is not None and (np.ndim(vc) != 2 or len(vc) != len(points)):
+            vc = None
+        return element_pixel_delta(self, points, triangles, vc)
 
     def evaluate(self, points) -> tuple[np.ndarray, np.ndarray]:
         """``(composition (N, m), gradient (N, m, d))``, cached for the last points."""
@@ -303,10 +307,11 @@ class LabelField:
         """Gradients ``(N, m, 2)`` (zero in a constant phase)."""
         return self._evaluate(points, region)[1]
 
-    def pixel_delta(self, points, triangles, regions=None) -> np.ndarray:
+    def pixel_delta(self, points, triangles, regions=None, composition=None) -> np.ndarray:
         """delta(T) over the vertices of each element (in its own phase, ``regions``: its
         phase, default that of its centroid) and, in a graded phase, every pixel centre it
-        covers (its elements lie inside the phase, so those pixels are the phase's)."""
+        covers (its elements lie inside the phase, so those pixels are the phase's).
+        ``composition`` is ignored: a vertex on a phase boundary has one value per phase."""
         from .sampling import element_pixel_delta
 
         P = np.asarray(points, float)

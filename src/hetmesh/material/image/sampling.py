@@ -65,26 +65,46 @@ def pixel_blocks(points, triangles, origin, spacing, shape, *, block: int = 1 <<
                            side="right")
     bounds = np.unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
     for b0, b1 in zip(bounds[:-1], bounds[1:]):
-        t = tot[b0:b1]
-        if not t.sum():
+        if not tot[b0:b1].sum():
             continue
-        e = np.repeat(np.arange(b0, b1), t)
-        k = np.arange(int(t.sum())) - np.repeat(np.cumsum(t) - t, t)
-        i = lo[e, 0] + k % cnt[e, 0]
-        j = lo[e, 1] + k // cnt[e, 0]
-        q = np.column_stack([i, j]).astype(float)
-        u = u_all[T[e]]
-        a, bb, c = u[:, 0], u[:, 1], u[:, 2]
-        d = _cross(bb - a, c - a)
-        eps = 1e-12 * np.abs(d)
-        sg = np.sign(d)
-        ins = ((_cross(bb - q, c - q) * sg >= -eps) & (_cross(c - q, a - q) * sg >= -eps)
-               & (_cross(a - q, bb - q) * sg >= -eps))
-        yield e[ins], j[ins] * nx + i[ins]
+        # scanlines: every (element, pixel row) pair, the element's x-interval on that row
+        rows = cnt[b0:b1, 1]
+        er = np.repeat(np.arange(b0, b1), rows)
+        jr = lo[er, 1] + np.arange(len(er)) - np.repeat(np.cumsum(rows) - rows, rows)
+        xl, xr = _row_span(u_all[T[er]], jr.astype(float))
+        empty = ~(xl <= xr)
+        xl[empty], xr[empty] = 1.0, 0.0
+        i0 = np.maximum(np.ceil(xl - _EPS), 0).astype(np.int64)
+        n = np.maximum(np.minimum(np.floor(xr + _EPS), nx - 1).astype(np.int64) - i0 + 1, 0)
+        e = np.repeat(er, n)
+        i = np.repeat(i0, n) + np.arange(len(e)) - np.repeat(np.cumsum(n) - n, n)
+        yield e, np.repeat(jr, n) * nx + i
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+#: how far (in pixels) a pixel centre may lie outside a triangle and still count as covered
+_EPS = 1e-9
+
+
+def _row_span(u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The x-interval ``[xl, xr]`` of the closed triangles ``u (R, 3, 2)`` on the lines
+    ``y (R,)`` (empty, ``xl > xr``, where a line misses its triangle by more than
+    :data:`_EPS`)."""
+    xl = np.full(len(y), np.inf)
+    xr = np.full(len(y), -np.inf)
+    for k in range(3):
+        a, b = u[:, k], u[:, (k + 1) % 3]
+        ya, yb = a[:, 1], b[:, 1]
+        hit = (np.minimum(ya, yb) - _EPS <= y) & (y <= np.maximum(ya, yb) + _EPS)
+        dy = yb - ya
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.clip(np.where(dy != 0, (y - ya) / dy, 0.0), 0.0, 1.0)
+        x = a[:, 0] + t * (b[:, 0] - a[:, 0])
+        flat = dy == 0  # a horizontal edge on the line: both ends
+        xlo = np.where(flat, np.minimum(a[:, 0], b[:, 0]), x)
+        xhi = np.where(flat, np.maximum(a[:, 0], b[:, 0]), x)
+        xl = np.where(hit, np.minimum(xl, xlo), xl)
+        xr = np.where(hit, np.maximum(xr, xhi), xr)
+    return xl, xr
 
 
 def element_pixel_delta(field: ImageField, points: np.ndarray, triangles: np.ndarray,
