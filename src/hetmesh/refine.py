@@ -339,6 +339,10 @@ def add_free_points(ws: WorkSet, pts: np.ndarray, level: np.ndarray | None = Non
     return n0 + np.arange(k)
 
 
+#: the smallest distance :func:`thin_candidates_mask` lets a new point have to any other
+MIN_SEPARATION = 1e-12
+
+
 def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
                          clash_dist: np.ndarray | None = None) -> np.ndarray:
     """Which candidates to keep: away from existing points (``min_dist``) and from each other.
@@ -352,8 +356,21 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     out = np.zeros(len(cand), bool)
     if len(cand) == 0:
         return out
+    # never a point on top of another, whatever the spacing (a zero or nan step where the
+    # composition is flat or noisy would let exact duplicates through, which the kernel
+    # refuses): distances are floored at MIN_SEPARATION (the local frame's diameter is ~1)
+    min_dist = np.maximum(np.nan_to_num(np.broadcast_to(min_dist, (len(cand),)), nan=0.0),
+                          MIN_SEPARATION)
+    clash_dist = np.maximum(np.nan_to_num(np.broadcast_to(clash_dist, (len(cand),)), nan=0.0),
+                            MIN_SEPARATION)
+    # exact copies first: the clash test below looks at a few nearest candidates only, and
+    # a point traced many times over (rows that collapse onto one point of a noisy field)
+    # would hide its earlier copies from it
+    _, first = np.unique(cand, axis=0, return_index=True)
+    unique = np.zeros(len(cand), bool)
+    unique[first] = True
     d = nearest_distance(ws.P, cand, float(np.max(min_dist)))
-    keep = np.flatnonzero(d > min_dist)
+    keep = np.flatnonzero((d > min_dist) & unique)
     cand, md = cand[keep], clash_dist[keep]
     if len(cand) < 2:
         out[keep] = True
