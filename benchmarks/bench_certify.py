@@ -28,18 +28,8 @@ import numpy as np
 from hetmesh import generate
 from hetmesh.errors import HetmeshError
 from hetmesh.io.model import load_model
+from hetmesh.testing import bump_toml
 
-BUMP = """
-[model]
-name = "bump"
-[domain.outer]
-start = [0, 0]
-path = [ {{ to = [1, 0] }}, {{ to = [1, 1] }}, {{ to = [0, 1] }}, {{ to = [0, 0] }} ]
-[material]
-constituents = ["ceramic", "metal"]
-[material.composition]
-metal = "exp(-((x - {a!r})**2 + (y - {b!r})**2)/{w!r})"
-"""
 WIDTHS = (4e-4, 1e-4, 2.5e-5)
 SAMPLINGS = ("vertices", "dense", "certified")
 EXTRA = [(0.55, 0.91)]
@@ -106,7 +96,7 @@ def run_bumps(cs, widths, threshold: float, tmp: Path) -> None:
             n_el, times, above, worst, worst_lat, errors = [], [], 0, 0.0, 0.0, 0
             for a, b in cs:
                 path = tmp / "bump.toml"
-                path.write_text(BUMP.format(a=a, b=b, w=w))
+                path.write_text(bump_toml(a, b, w))
                 model = load_model(path)
                 t0 = time.perf_counter()
                 try:

@@ -557,6 +557,18 @@ def big_gmsh(ne_target: int, repeats: int):
     return gm, cal
 
 
+
+def _subprocess_summary(runs: list[dict]):
+    """``(stats of the last run, median wall, median cpu, peak RSS, phase medians as text)``
+    of repeated worker-subprocess runs (tables 3b and 4)."""
+    st = runs[-1]["stats"]
+    wall = median([r["wall"] for r in runs])
+    cpu = median([r["cpu"] for r in runs])
+    rss = max(r["maxrss_mb"] for r in runs)
+    ph = {k: median([r["timings"][k] for r in runs]) for k in runs[0]["timings"]}
+    phs = " ".join(f"{k} {v:.1f}" for k, v in ph.items() if k != "total")
+    return st, wall, cpu, rss, phs
+
 def speed_big(repeats: int) -> dict:
     out = {}
     print(f"\n[1M run] hetmesh unit_square δ0={BIG_THRESHOLD} (subprocess, {repeats} run(s)) ...",
@@ -583,12 +595,7 @@ def speed_big(repeats: int) -> dict:
     rows = []
 
     def row(name, runs, extra):
-        st = runs[-1]["stats"]
-        wall = median([r["wall"] for r in runs])
-        cpu = median([r["cpu"] for r in runs])
-        rss = max(r["maxrss_mb"] for r in runs)
-        ph = {k: median([r["timings"][k] for r in runs]) for k in runs[0]["timings"]}
-        phs = " ".join(f"{k} {v:.1f}" for k, v in ph.items() if k != "total")
+        st, wall, cpu, rss, phs = _subprocess_summary(runs)
         rows.append([name, fmt(st["n_elements"]), fmt(st["n_points"]), fmt(wall, ".1f"),
                      fmt(cpu, ".1f"), fmt(1e6 * wall / st["n_elements"], ".1f"),
                      fmt(rss, ",.0f"), fmt(st["delta_max"], ".5f"), fmt(st["q_min"]),
@@ -652,12 +659,7 @@ def speed_huge(big: dict | None, repeats: int) -> dict:
     out["one"], out["huge"] = one, huge
 
     def row(name, runs):
-        st = runs[-1]["stats"]
-        wall = median([r["wall"] for r in runs])
-        cpu = median([r["cpu"] for r in runs])
-        rss = max(r["maxrss_mb"] for r in runs)
-        ph = {k: median([r["timings"][k] for r in runs]) for k in runs[0]["timings"]}
-        phs = " ".join(f"{k} {v:.1f}" for k, v in ph.items() if k != "total")
+        st, wall, cpu, rss, phs = _subprocess_summary(runs)
         per = 1e6 * wall / st["n_elements"]
         rows.append([name, fmt(st["n_elements"]), fmt(st["n_points"]), fmt(wall, ".1f"),
                      fmt(cpu, ".1f"), fmt(per, ".1f"), fmt(rss, ",.0f"),

@@ -36,7 +36,7 @@ from bench_core import ROOT, environment, median, print_table  # noqa: E402
 def agreement(model, mesh, workdir: Path, width: float) -> dict:
     import hetmesh.fea
     from hetmesh.fea.analysis import locate, von_mises
-    from hetmesh.io.deck import read_frd, write_deck
+    from hetmesh.io.deck import frd_nodal, read_frd, write_deck
 
     report = write_deck(mesh, model, workdir, "calculix", bin_width=width)
     t0 = time.perf_counter()
@@ -49,10 +49,7 @@ def agreement(model, mesh, workdir: Path, width: float) -> dict:
     n = mesh.n_points
 
     def nodal(block):
-        ids, v = frd[block]
-        out = np.full((ids.max() + 1, v.shape[1]), np.nan)
-        out[ids] = v
-        return out[1:n + 1]
+        return frd_nodal(frd, block, n)
 
     T = nodal("NDTEMP")[:, 0]
     s = nodal("STRESS")

@@ -113,18 +113,9 @@ def test_callable_fields_fall_back_to_dense_sampling_with_a_warning():
 
 def _bump_model(tmp_path, a, b, w):
     from hetmesh.io.model import load_model
+    from hetmesh.testing import bump_toml
     path = tmp_path / "bump.toml"
-    path.write_text(f"""
-[model]
-name = "bump"
-[domain.outer]
-start = [0, 0]
-path = [ {{ to = [1, 0] }}, {{ to = [1, 1] }}, {{ to = [0, 1] }}, {{ to = [0, 0] }} ]
-[material]
-constituents = ["ceramic", "metal"]
-[material.composition]
-metal = "exp(-((x - {a!r})**2 + (y - {b!r})**2)/{w!r})"
-""")
+    path.write_text(bump_toml(a, b, w))
     return load_model(path)
 
 

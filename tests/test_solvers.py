@@ -287,7 +287,7 @@ def test_calculix_runs_hetmesh_deck_and_agrees_with_hetmesh_fea(tmp_path, plate)
     ccx = need_ccx()
     fea = pytest.importorskip("hetmesh.fea")
     from hetmesh.fea.analysis import locate, von_mises
-    from hetmesh.io.deck import read_frd, write_deck
+    from hetmesh.io.deck import frd_nodal, read_frd, write_deck
 
     model, mesh = plate
     report = write_deck(mesh, model, tmp_path, "calculix", bin_width=0.1 / 4)
@@ -304,10 +304,7 @@ def test_calculix_runs_hetmesh_deck_and_agrees_with_hetmesh_fea(tmp_path, plate)
     n = mesh.n_points
 
     def nodal(block):
-        ids, v = frd[block]
-        out = np.full((ids.max() + 1, v.shape[1]), np.nan)
-        out[ids] = v
-        return out[1:n + 1]
+        return frd_nodal(frd, block, n)
 
     T = nodal("NDTEMP")[:, 0]
     span = np.ptp(ours.temperature)

@@ -363,32 +363,43 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
                           MIN_SEPARATION)
     clash_dist = np.maximum(np.nan_to_num(np.broadcast_to(clash_dist, (len(cand),)), nan=0.0),
                             MIN_SEPARATION)
-    # exact copies first: the clash test below looks at a few nearest candidates only, and
-    # a point traced many times over (rows that collapse onto one point of a noisy field)
-    # would hide its earlier copies from it
-    _, first = np.unique(cand, axis=0, return_index=True)
-    unique = np.zeros(len(cand), bool)
-    unique[first] = True
     d = nearest_distance(ws.P, cand, float(np.max(min_dist)))
-    keep = np.flatnonzero((d > min_dist) & unique)
+    keep = np.flatnonzero(d > min_dist)
     cand, md = cand[keep], clash_dist[keep]
     if len(cand) < 2:
         out[keep] = True
         return out
     # a candidate yields to an earlier one within either's distance, among its k nearest
     # (deterministic); only those with another candidate within the largest distance can
-    tree = cKDTree(cand)
-    if np.isfinite(md).all():
-        near = np.flatnonzero(tree.query_ball_point(cand, r=md, return_length=True,
-                                                    workers=-1) > 1)
-    else:
-        near = np.arange(len(cand))
+    tree, near = _near_candidates(cand, md)
+    # exact copies go first: the clash test looks at a few nearest candidates only, and a
+    # point traced many times over (rows that collapse onto one point of a noisy field)
+    # would hide its earlier copies from it. Copies are among the near ones (distance 0).
+    if len(near) > 1:
+        _, first = np.unique(cand[near], axis=0, return_index=True)
+        if len(first) < len(near):
+            copy = np.ones(len(cand), bool)
+            copy[near] = False
+            copy[near[first]] = True  # True: not a later copy
+            keep, cand, md = keep[copy], cand[copy], md[copy]
+            tree, near = _near_candidates(cand, md)
     clash = np.zeros(len(cand), bool)
     if len(near):
         d, j = tree.query(cand[near], k=min(6, len(cand)), workers=-1)
         clash[near] = ((j < near[:, None]) & (d < np.minimum(md[near, None], md[j]))).any(axis=1)
     out[keep[~clash]] = True
     return out
+
+
+def _near_candidates(cand: np.ndarray, md: np.ndarray):
+    """A k-d tree of ``cand`` and the candidates with another one within their ``md``."""
+    tree = cKDTree(cand)
+    if np.isfinite(md).all():
+        near = np.flatnonzero(tree.query_ball_point(cand, r=md, return_length=True,
+                                                    workers=-1) > 1)
+    else:
+        near = np.arange(len(cand))
+    return tree, near
 
 
 def nearest_distance(points: np.ndarray, query: np.ndarray, reach: float) -> np.ndarray:

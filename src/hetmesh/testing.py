@@ -68,7 +68,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["RandomModel", "random_model", "robust_suite", "independent_check", "estimate",
-           "FAMILIES", "ELEMENT_BUDGET", "MIN_CORNER_DEG"]
+           "bump_toml", "FAMILIES", "ELEMENT_BUDGET", "MIN_CORNER_DEG"]
 
 #: The material families, in the order ``random_model`` assigns them (``seed % 7``).
 FAMILIES = ("gentle", "tanh", "power", "sfgm", "gaussian", "sines", "kink")
@@ -1152,3 +1152,18 @@ def _gap_of(th: np.ndarray, angle: float) -> int:
     rel = (angle - th[0]) % (2 * math.pi)
     return int(np.searchsorted(th - th[0], rel, side="right") - 1) % len(th)
 
+
+def bump_toml(a: float, b: float, w: float) -> str:
+    """Model text of the unit square with a narrow Gaussian bump of metal centred at (a, b),
+    ``metal = exp(-((x - a)**2 + (y - b)**2)/w)``: a peak that vertex sampling can miss."""
+    return f"""
+[model]
+name = "bump"
+[domain.outer]
+start = [0, 0]
+path = [ {{ to = [1, 0] }}, {{ to = [1, 1] }}, {{ to = [0, 1] }}, {{ to = [0, 0] }} ]
+[material]
+constituents = ["ceramic", "metal"]
+[material.composition]
+metal = "exp(-((x - {a!r})**2 + (y - {b!r})**2)/{w!r})"
+"""

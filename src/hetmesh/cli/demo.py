@@ -9,7 +9,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from ..errors import OutputError
+from ..io.atomic import output_dir
 from .mesh import check_threshold, check_writable_dir, run_pipeline
 
 __all__ = ["add_parser", "run", "EXAMPLE"]
@@ -41,13 +41,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 def run(args: argparse.Namespace) -> int:
     check_threshold(args.threshold)
-    out: Path = args.out
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"--out {out} is not a directory")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"--out {out}: cannot create the directory ({exc.strerror})") from None
+    out: Path = output_dir(args.out)
     check_writable_dir(out, f"--out {out}")
 
     from ..adapt import generate

@@ -13,6 +13,7 @@ from rich.console import Console
 from ..errors import OutputError
 from .mesh import check_writable_dir
 from .progress import progress_reporter
+from .sweep import worker_count
 
 __all__ = ["add_parser", "run", "summary_table"]
 
@@ -22,16 +23,6 @@ def _cases(text: str) -> list[str]:
 
 
 _cases.__name__ = "case list"
-
-
-def _workers(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise ValueError(text)
-    return value
-
-
-_workers.__name__ = "worker count"
 
 
 def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
@@ -56,7 +47,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                    help="one coarse threshold per model and no peers (under a minute)")
     p.add_argument("--no-peers", action="store_true", help="skip the Gmsh/Triangle section")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", "-j", type=_workers, default=None, metavar="N",
+    where.add_argument("--workers", "-j", type=worker_count, default=None, metavar="N",
                        help="run the models and the FEA study's meshes on a local Dask "
                             "cluster of N worker processes (default: in this process)")
     where.add_argument("--scheduler", metavar="ADDRESS", default=None,

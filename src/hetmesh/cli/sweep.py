@@ -14,19 +14,20 @@ from rich.console import Console
 from ..errors import OutputError
 from .mesh import check_writable_dir
 
-__all__ = ["add_parser", "run", "sweep_progress"]
+__all__ = ["add_parser", "run", "sweep_progress", "worker_count"]
 
 log = logging.getLogger(__name__)
 
 
-def _workers(text: str) -> int:
+def worker_count(text: str) -> int:
+    """argparse type of ``--workers`` (here and in ``hetmesh reproduce``): an integer >= 1."""
     value = int(text)
     if value < 1:
         raise ValueError(text)
     return value
 
 
-_workers.__name__ = "worker count"
+worker_count.__name__ = "worker count"
 
 
 def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.ArgumentParser:
@@ -43,7 +44,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
     )
     p.add_argument("study", type=Path, metavar="STUDY", help="study file (TOML)")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", "-j", type=_workers, default=None, metavar="N",
+    where.add_argument("--workers", "-j", type=worker_count, default=None, metavar="N",
                        help="worker processes of the local Dask cluster (default: one per core)")
     where.add_argument("--scheduler", metavar="ADDRESS", default=None,
                        help="address of a running Dask scheduler (tcp://host:8786) or its "

@@ -30,7 +30,7 @@ from typing import IO, Iterator
 
 from ..errors import OptionError, OutputError
 
-__all__ = ["atomic_path", "atomic_write", "STALE_AGE", "TERMINATED"]
+__all__ = ["atomic_path", "atomic_write", "output_dir", "STALE_AGE", "TERMINATED"]
 
 log = logging.getLogger(__name__)
 
@@ -231,3 +231,18 @@ def _discard(tmp: Path) -> None:
 def _reason(exc: OSError) -> str:
     """A short reason for an OSError, without repeating the path."""
     return (exc.strerror or str(exc)).lower().rstrip(".")
+
+
+def output_dir(out: Path, sub: str | None = None) -> Path:
+    """Create the output directory ``out`` (and ``out/sub``) if missing; ``out``.
+
+    Raises :class:`OutputError` naming ``--out`` when ``out`` is a file or cannot be created.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"--out {out} is not a directory")
+    try:
+        (out / sub if sub else out).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"--out {out}: cannot create the directory ({exc.strerror})") from None
+    return out

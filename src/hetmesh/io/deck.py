@@ -43,7 +43,7 @@ from . import abaqus
 from .atomic import atomic_write
 from .material import MaterialBins, bin_material, element_material, material_config, with_material
 
-__all__ = ["TARGETS", "DeckReport", "write_deck", "condition_nodes", "read_frd",
+__all__ = ["TARGETS", "DeckReport", "write_deck", "condition_nodes", "read_frd", "frd_nodal",
            "name_from_model"]
 
 log = logging.getLogger(__name__)
@@ -280,3 +280,12 @@ def read_frd(path: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
                 out[name] = (np.array(ids, np.int64), np.array(rows, np.float64))
                 name = None
     return out
+
+
+def frd_nodal(frd: dict, block: str, n: int) -> np.ndarray:
+    """The values ``(n, C)`` of result ``block`` of :func:`read_frd`'s output at nodes 1..n
+    (the mesh's nodes in order; nan where the file has none)."""
+    ids, v = frd[block]
+    out = np.full((ids.max() + 1, v.shape[1]), np.nan)
+    out[ids] = v
+    return out[1:n + 1]

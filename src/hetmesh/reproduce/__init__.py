@@ -37,7 +37,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from ..errors import HetmeshError, OptionError, OutputError
+from ..errors import HetmeshError, OptionError
+from ..io.atomic import output_dir
 from .paper import CASES, Case
 from .runs import CaseRun, draw_figures, mesh_pair, run_peer, uniform_like, MeshRun
 
@@ -108,16 +109,6 @@ def _environment(command: str | None) -> dict:
             "command": command or ""}
 
 
-def _prepare_out(out: Path) -> Path:
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"--out {out} is not a directory")
-    try:
-        (out / "figures").mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"--out {out}: cannot create the directory ({exc.strerror})") from None
-    return out
-
-
 def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | None = None,
         quick: bool = False, peers: bool | None = None, fea: bool | None = None,
         progress: Progress | None = None, command: str | None = None,
@@ -164,7 +155,7 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
 
     t_start = time.perf_counter()
     pairs = plan(cases, quick)
-    out = _prepare_out(Path(out))
+    out = output_dir(Path(out), "figures")
     names = list(dict.fromkeys(c.name for c, _ in pairs))
     run_peers = (not quick) if peers is None else bool(peers)
     versions = peer_module.available()

@@ -23,9 +23,10 @@ import logging
 import os
 import time
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Callable, Mapping
 
-from ..errors import OptionError, OutputError
+from ..errors import OptionError
+from ..io.atomic import output_dir
 from .engine import LOST, Counts, dashboard_link, map_runs, open_client
 from .keys import content_key, text_digest
 from .run import BASE_COLUMNS, failed_row, run_one
@@ -100,7 +101,7 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
     if client is not None and (workers is not None or scheduler is not None or serial):
         raise OptionError("sweep: give a client, or workers/scheduler/serial, not both")
     study = _as_study(study)
-    out_dir = _prepare_out(Path(out)) if out is not None else None
+    out_dir = output_dir(Path(out)) if out is not None else None
     specs = study.specs
     counts = Counts(total=len(specs))
     rows: dict[str, dict] = {}
@@ -161,13 +162,3 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
         plot_summary(frame, out_dir / "summary.png", title=f"study {study.name}: "
                      f"{len(frame)} runs, {int((frame['status'] != 'ok').sum())} failed")
     return frame
-
-
-def _prepare_out(out: Path) -> Path:
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"--out {out} is not a directory")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"--out {out}: cannot create the directory ({exc.strerror})") from None
-    return out
