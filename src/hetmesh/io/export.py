@@ -432,6 +432,6 @@ def read_mesh(path: str | Path) -> Mesh:
     cell_data = {k: _gather(m, k, tri) for k in m.cell_data
                  if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
     point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}
-    return Mesh(np.asarray(m.points, np.float64)[:, :2], triangles, regions=regions, edges=edges,
-                edge_markers=markers, point_data=point_data, cell_data=cell_data,
+    return Mesh(np.asarray(m.points, np.float64)[:, :2], triangles, regions=regions, facets=edges,
+                facet_markers=markers, point_data=point_data, cell_data=cell_data,
                 marker_names=names, named_points=named)
