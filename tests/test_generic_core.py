@@ -155,3 +155,25 @@ def test_density_takes_the_dimension():
     g = np.array([0.0, 2.0])
     assert density(g, 1.0, 0.5).tolist() == [0.5 ** 4, 16.0]
     assert density(g, 1.0, 0.5, dim=3).tolist() == [0.5 ** 5, 32.0]
+
+
+def test_tet_mesh_written_and_read_through_meshio(tmp_path):
+    import meshio
+
+    m = cube_mesh()
+    m = Mesh(m.points, m.cells, facets=m.boundary_facets,
+             facet_markers=np.ones(len(m.boundary_facets), int),
+             point_data={"metal": (1 - m.points[:, 2]) ** 2})
+    m.write(tmp_path / "c.vtu")
+    back = meshio.read(tmp_path / "c.vtu")
+    assert np.array_equal(back.cells_dict["tetra"], m.cells)
+    assert np.array_equal(back.cells_dict["triangle"], m.facets)
+    assert np.allclose(back.point_data["metal"], m.point_data["metal"])
+
+
+def test_formats_that_take_2d_only_say_so(tmp_path):
+    from hetmesh.errors import OutputError
+
+    with pytest.raises(OutputError, match=r"takes 2D meshes, this one is 3D \(formats for 3D"):
+        cube_mesh().write(tmp_path / "c.msh")
+    assert not (tmp_path / "c.msh").exists()
