@@ -63,6 +63,9 @@ class ImageField:
     steps and size fields see the same field as the delta checks.
     """
 
+    #: the dimension of the points the field takes (a 2D image)
+    dim = 2
+
     def __init__(self, fractions: np.ndarray, image: Image, constituents: Sequence[str], *,
                  interpolation: str = "linear", smoothing: float = 0.0):
         if interpolation not in INTERPOLATIONS:
@@ -241,7 +244,7 @@ class LabelField:
     ----------
     regions : callable ``points (N, 2) -> (N,) int``
         The subregion of each point (phase index into ``phases``), normally the traced,
-        simplified label polygons (:func:`hetmesh.geometry.trace.region_lookup`).
+        simplified label polygons (:func:`hetmesh.tri.geometry.trace.region_lookup`).
     phases : list
         Per subregion, either a composition ``(m,)`` (a constant phase) or an
         :class:`ImageField` (a graded phase, its pixels outside the phase filled with the
@@ -249,6 +252,9 @@ class LabelField:
     names : list of str
         The subregion names (``"label 3"``).
     """
+
+    #: the dimension of the points the field takes (a 2D image)
+    dim = 2
 
     def __init__(self, regions, phases: list, names: list[str],
                  constituents: Sequence[str], source: str = "labels"):
