@@ -36,14 +36,14 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import cg
 
 from ..errors import FEAError
 from .linsolve import rigid_modes, solve_spd
 
 __all__ = ["STRESS_NAMES_3D", "TetSpace", "tet_space", "node_pattern", "conduction_matrix",
            "elasticity_matrix", "thermal_load", "pressure_load", "surface_dofs",
-           "boundary_faces", "stresses_3d", "von_mises_3d", "recover_3d", "locate_tet",
+           "boundary_faces", "stresses_3d", "von_mises_3d", "recover_3d", "cg_columns",
+           "locate_tet",
            "rigid_rank_3d", "SolidResult", "solve_tets", "Displacement"]
 
 log = logging.getLogger(__name__)
@@ -280,10 +280,11 @@ def _pieces(t: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def recover_3d(copies: np.ndarray, ncopy: int, dx: np.ndarray, phi: np.ndarray,
-               values: np.ndarray) -> np.ndarray:
+               values: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
     """L2 projection of quadrature values ``(M, Q, C)`` onto continuous P1 on the vertex
     copies ``copies (M, 4)``; ``phi (4, Q)`` the P1 basis at the quadrature points, ``dx``
-    ``(M, Q)``. Consistent mass, Jacobi-preconditioned CG."""
+    ``(M, Q)``. Consistent mass; all components at once by Jacobi-preconditioned CG
+    (:func:`cg_columns`)."""
     vol = dx.sum(axis=1)
     M4 = (np.ones((4, 4)) + np.eye(4)) / 20.0
     rows = np.repeat(copies, 4, axis=1).ravel()
@@ -292,17 +293,37 @@ def recover_3d(copies: np.ndarray, ncopy: int, dx: np.ndarray, phi: np.ndarray,
                          shape=(ncopy, ncopy))
     C = values.shape[-1]
     local = np.einsum("mq,iq,mqc->mic", dx, phi, values)
-    diag = mass.diagonal()
-    pre = sp.diags(1.0 / diag)
-    out = np.empty((ncopy, C))
-    for c in range(C):  # six components, not a loop over elements
-        rhs = np.bincount(copies.ravel(), weights=local[..., c].ravel(), minlength=ncopy)
-        x, info = cg(mass, rhs, x0=rhs / diag / 2.0, rtol=1e-12, atol=0.0, maxiter=2000,
-                     M=pre)
-        if info != 0:
-            log.warning("stress recovery: CG did not converge (info %d)", info)
-        out[:, c] = x
-    return out
+    rhs = np.column_stack([np.bincount(copies.ravel(), weights=local[..., c].ravel(),
+                                       minlength=ncopy) for c in range(C)])
+    return cg_columns(mass, rhs, mass.diagonal(), rtol)
+
+
+def cg_columns(A: sp.spmatrix, B: np.ndarray, diag: np.ndarray, rtol: float = 1e-10,
+               maxiter: int = 1000) -> np.ndarray:
+    """Solve ``A X = B`` for every column of ``B`` ``(n, C)`` by Jacobi-preconditioned
+    conjugate gradients run side by side (one sparse product per iteration for all
+    columns); ``A`` symmetric positive definite and well conditioned (a mass matrix)."""
+    X = B / diag[:, None]
+    R = B - A @ X
+    Z = R / diag[:, None]
+    D = Z.copy()
+    rz = (R * Z).sum(axis=0)
+    goal = rtol * np.linalg.norm(B, axis=0)
+    for _ in range(maxiter):
+        if (np.linalg.norm(R, axis=0) <= goal).all():
+            return X
+        AD = A @ D
+        dad = (D * AD).sum(axis=0)
+        alpha = np.divide(rz, dad, out=np.zeros_like(rz), where=dad != 0)
+        X += alpha * D
+        R -= alpha * AD
+        Z = R / diag[:, None]
+        rz_new = (R * Z).sum(axis=0)
+        beta = np.divide(rz_new, rz, out=np.zeros_like(rz), where=rz != 0)
+        D = Z + beta * D
+        rz = rz_new
+    log.warning("stress recovery: CG did not converge in %d iterations", maxiter)
+    return X
 
 
 # ------------------------------------------------------------------------------- probes

@@ -34,7 +34,8 @@ from .mixing import mix_linear
 from .radial import RadialSolution, cylinder, sphere
 from .solid import Displacement, solve_tets
 
-__all__ = ["prisms_to_tets", "annulus_tets", "shell_octant_tets", "AL2O3", "NI",
+__all__ = ["prisms_to_tets", "annulus_tets", "shell_octant_tets", "annulus_mesh",
+           "graded_field", "case_config", "CYLINDER_FACES", "AL2O3", "NI",
            "graded_profiles", "graded_material", "CASES", "reference", "run_case",
            "convergence", "case_mesh", "RADII", "LENGTH", "PRESSURE", "T_INNER", "T_OUTER",
            "T_REF"]
@@ -125,6 +126,62 @@ def shell_octant_tets(a: float, b: float, nr: int, ns: int) -> tuple[np.ndarray,
     P = np.vstack([unit * rk for rk in r])
     T = prisms_to_tets(*_layers(unit, tris, nr))
     return P, _orient(P, T)
+
+
+#: the named faces of :func:`annulus_mesh` (marker = index + 1)
+CYLINDER_FACES = ("inner", "outer", "bottom", "top", "y0", "x0")
+
+
+def annulus_mesh(a: float, b: float, length: float, nr: int, nt: int, nz: int):
+    """:func:`annulus_tets` of a quarter tube as a :class:`~hetmesh.mesh.Mesh` whose boundary
+    triangles are named facets: ``inner`` (r = a), ``outer`` (r = b), ``bottom`` (z = 0),
+    ``top`` (z = length), ``y0`` (the plane y = 0) and ``x0`` (x = 0)."""
+    from ..mesh import Mesh
+
+    P, T = annulus_tets(a, b, length, nr, nt, nz)
+    m = Mesh(P, T)
+    tri = np.asarray(m.boundary_facets)
+    c = P[tri]                                            # (K, 3, 3)
+    tol = 1e-9 * b
+    r = np.hypot(c[..., 0], c[..., 1])
+    tests = [np.abs(r - a) <= tol, np.abs(r - b) <= tol, np.abs(c[..., 2]) <= tol,
+             np.abs(c[..., 2] - length) <= tol, np.abs(c[..., 1]) <= tol,
+             np.abs(c[..., 0]) <= tol]
+    marker = np.zeros(len(tri), dtype=np.int32)
+    for i, on in enumerate(tests):
+        marker[(marker == 0) & on.all(axis=1)] = i + 1
+    return Mesh(P, T, facets=tri, facet_markers=marker,
+                marker_names={i + 1: n for i, n in enumerate(CYLINDER_FACES)})
+
+
+def graded_field():
+    """The cylinder's material as an :class:`~hetmesh.material.AnalyticField` in x, y, z
+    (metal fraction ``((r - 10) / 10)^2``, ``r`` the distance from the z axis)."""
+    from ..material.analytic import AnalyticField
+
+    a, b = RADII
+    return AnalyticField({"metal": f"((sqrt(x**2 + y**2) - {a!r}) / {b - a!r})**2"},
+                         ["ceramic", "metal"], dim=3)
+
+
+def case_config(case: str, order: int = 2):
+    """The ``[fea]`` settings of the cylinder cases (``pressure`` or ``thermal``) on the
+    faces of :func:`annulus_mesh`, as a model file would give them."""
+    from .config3d import (DisplacementBC3D, FEAConfig3D, PressureBC, Selection,
+                           TemperatureBC3D)
+
+    if case not in ("pressure", "thermal"):
+        raise ValueError(f"unknown cylinder case {case!r}")
+    disp = (DisplacementBC3D(Selection(faces=("bottom", "top")), None, None, 0.0),
+            DisplacementBC3D(Selection(faces=("y0",)), None, 0.0, None),
+            DisplacementBC3D(Selection(faces=("x0",)), 0.0, None, None))
+    temps = (TemperatureBC3D(Selection(faces=("inner",)), T_INNER),
+             TemperatureBC3D(Selection(faces=("outer",)), T_OUTER)) \
+        if case == "thermal" else ()
+    press = (PressureBC(Selection(faces=("inner",)), PRESSURE),) if case == "pressure" else ()
+    return FEAConfig3D(properties={"ceramic": AL2O3, "metal": NI}, temperature=temps,
+                       displacement=disp, pressure=press, probes=case_probes(case),
+                       reference_temperature=T_REF, length_scale=1e-3, order=order)
 
 
 def case_mesh(case: str, n: int) -> tuple[np.ndarray, np.ndarray]:
