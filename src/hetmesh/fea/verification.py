@@ -38,7 +38,7 @@ __all__ = ["prisms_to_tets", "annulus_tets", "shell_octant_tets", "annulus_mesh"
            "graded_field", "case_config", "CYLINDER_FACES", "AL2O3", "NI",
            "graded_profiles", "graded_material", "CASES", "reference", "run_case",
            "convergence", "case_mesh", "RADII", "LENGTH", "PRESSURE", "T_INNER", "T_OUTER",
-           "T_REF"]
+           "T_REF", "extrude", "plane_strain_check"]
 
 #: the constituents' properties (paper Table 6; SI units)
 AL2O3 = Properties(conductivity=35.0, youngs_modulus=393e9, poisson_ratio=0.25,
@@ -354,3 +354,82 @@ def convergence(runs: list[CaseRun], key: str | None = None) -> float:
     else:
         e = np.array([max(v[key] for v in r.errors.values()) for r in runs])
     return float(np.polyfit(np.log(h), np.log(e), 1)[0])
+
+
+# ----------------------------------------------------------------- a 2-D model extruded
+
+def extrude(P2: np.ndarray, T2: np.ndarray, z0: float, z1: float, layers: int
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A triangle mesh swept from ``z0`` to ``z1`` in ``layers`` prism layers, each prism cut
+    into three tetrahedra (:func:`prisms_to_tets`). Returns ``(points (N, 3), tets (M, 4),
+    node2d (N,), tri2d (M,))``: the 2-D node of every point and the 2-D triangle of every
+    tetrahedron."""
+    z = np.linspace(z0, z1, layers + 1)
+    n = len(P2)
+    P = np.vstack([np.column_stack([P2, np.full(n, zk)]) for zk in z])
+    bottom, top = _layers(P2, np.asarray(T2, dtype=np.int64), layers)
+    T = prisms_to_tets(bottom, top)
+    tri = np.tile(np.arange(len(T2)), 3 * layers)
+    keep = _orient(P, T)
+    return P, keep, np.tile(np.arange(n), layers + 1), tri
+
+
+def plane_strain_check(model, mesh2d, *, thickness: float = 1.0, layers: int = 1,
+                       solver: str = "auto") -> dict[str, Any]:
+    """A 2-D model with an ``[fea]`` table (plane strain) solved in 3-D on its mesh extruded
+    by ``thickness`` (``u_z = 0`` on both end faces; the point conditions held along their
+    vertical lines; the temperatures on the swept curves), against the 2-D solution on the
+    same mesh. Returns ``{"2d": FEAResult, "3d": SolidResult, "probes": name -> {"vm_2d",
+    "vm_3d", "difference"}}`` with ``difference`` the largest of the six stress components'
+    differences relative to the 2-D von Mises stress, probes at mid-thickness."""
+    from ..material.field import element_subregions, has_subregions
+    from .analysis import displacement_nodes, solve, temperature_nodes
+    from .mixing import mix
+
+    cfg = model.fea
+    if cfg is None or cfg.plane != "strain":
+        raise ValueError("plane_strain_check needs a model with a plane-strain [fea] table")
+    r2 = solve(mesh2d, model)
+    P2, T2 = np.asarray(mesh2d.points), np.asarray(mesh2d.triangles)
+    P, T, node2d, tri2d = extrude(P2, T2, 0.0, thickness, layers)
+    field_ = model.material
+
+    def lift(nodes2d):
+        m2 = np.zeros(len(P2), dtype=bool)
+        m2[nodes2d] = True
+        return m2[node2d]
+
+    temps = [(lift(nodes), v) for nodes, v in temperature_nodes(mesh2d, model.domain, cfg)]
+    disp = [Displacement(lift(nodes), bc.ux, bc.uy, None, label=bc.label)
+            for nodes, bc in displacement_nodes(mesh2d, model.domain, cfg)]
+    ends = np.isclose(P[:, 2], 0.0) | np.isclose(P[:, 2], thickness)
+    disp.append(Displacement(ends, uz=0.0, label="ends"))
+    sub2 = element_subregions(field_, P2, T2) if has_subregions(field_) else None
+    sub = sub2[tri2d] if sub2 is not None else None
+    cons = list(field_.constituents)
+    matrix = cons.index(cfg.matrix) if cfg.matrix is not None else 0
+    table = cfg.table()
+
+    def material(x):
+        if sub is None:
+            comp = field_.composition(x[:, :2])
+        else:
+            comp = field_.composition(x[:, :2], region=np.repeat(sub, len(x) // len(T)))
+        return mix(np.asarray(comp, dtype=np.float64), table, cfg.mixing, matrix)
+
+    groups = np.asarray(mesh2d.regions, dtype=np.int64)[tri2d]
+    if sub is not None:
+        groups = groups * (int(sub.max()) + 1) + sub
+    probes = {k: (float(q[0]), float(q[1]), 0.5 * thickness) for k, q in cfg.probes.items()}
+    r3 = solve_tets(P, T, material, order=cfg.order, temperature=temps, displacement=disp,
+                    probes=probes, reference_temperature=cfg.reference_temperature,
+                    length_scale=cfg.length_scale, groups=groups, solver=solver)
+    out = {}
+    for k in probes:
+        a, b = r2.probes[k], r3.probes[k]
+        vm = a["von_mises"]
+        diff = max(abs(a[c] - b[c]) for c in ("stress_xx", "stress_yy", "stress_xy",
+                                               "stress_zz")) / vm
+        out[k] = {"vm_2d": vm, "vm_3d": b["von_mises"], "difference": diff,
+                  "stress_xz": b["stress_xz"], "stress_yz": b["stress_yz"]}
+    return {"2d": r2, "3d": r3, "probes": out}
