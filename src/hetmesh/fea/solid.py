@@ -290,17 +290,22 @@ def _pieces(t: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def recover_3d(copies: np.ndarray, ncopy: int, dx: np.ndarray, phi: np.ndarray,
-               values: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
+               values: np.ndarray, rtol: float = 1e-10, pattern=None) -> np.ndarray:
     """L2 projection of quadrature values ``(M, Q, C)`` onto continuous P1 on the vertex
     copies ``copies (M, 4)``; ``phi (4, Q)`` the P1 basis at the quadrature points, ``dx``
     ``(M, Q)``. Consistent mass; all components at once by Jacobi-preconditioned CG
-    (:func:`cg_columns`)."""
+    (:func:`cg_columns`). ``pattern``: :func:`node_pattern` of ``copies``, if at hand."""
     vol = dx.sum(axis=1)
     M4 = (np.ones((4, 4)) + np.eye(4)) / 20.0
-    rows = np.repeat(copies, 4, axis=1).ravel()
-    cols = np.tile(copies, (1, 4)).ravel()
-    mass = sp.csr_matrix(((M4[None] * vol[:, None, None]).ravel(), (rows, cols)),
-                         shape=(ncopy, ncopy))
+    local_mass = M4[None] * vol[:, None, None]
+    if pattern is not None:
+        indptr, indices, slot = pattern
+        mass = sp.csr_matrix((_sum_into(slot, local_mass, len(indices)), indices, indptr),
+                             shape=(ncopy, ncopy))
+    else:
+        rows = np.repeat(copies, 4, axis=1).ravel()
+        cols = np.tile(copies, (1, 4)).ravel()
+        mass = sp.csr_matrix((local_mass.ravel(), (rows, cols)), shape=(ncopy, ncopy))
     C = values.shape[-1]
     local = np.einsum("mq,iq,mqc->mic", dx, phi, values)
     rhs = np.column_stack([np.bincount(copies.ravel(), weights=local[..., c].ravel(),
@@ -572,10 +577,16 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
     w = space.dx / space.dx.sum(axis=1, keepdims=True)
     cell = np.einsum("mq,mqc->mc", w, sq)
     groups = np.zeros(M, dtype=np.int64) if groups is None else np.asarray(groups)
-    copies, cnode = _pieces(T, groups)
     X = space.basis.X
     phi = np.vstack([1 - X.sum(axis=0), X])
-    rec = recover_3d(copies, len(cnode), space.dx, phi, sq)
+    one_piece = bool((groups == groups[0]).all()) if M else True
+    if one_piece and order == 1 and np.bincount(T.ravel(), minlength=n).all():
+        # one piece of P1 elements: the copies are the vertices, the pattern is the matrix's
+        copies, cnode = space.dofs, np.arange(n)
+        rec = recover_3d(copies, n, space.dx, phi, sq, pattern=pattern)
+    else:
+        copies, cnode = _pieces(T, groups)
+        rec = recover_3d(copies, len(cnode), space.dx, phi, sq)
     nodal = np.zeros((n, 6))
     np.add.at(nodal, cnode, rec)
     nodal /= np.bincount(cnode, minlength=n)[:, None]
