@@ -147,3 +147,4 @@ def test_extruded_fgm_plate_is_the_plane_strain_solution():
         p = out["probes"][name]
         assert p["difference"] < 0.01, (name, p)
         assert abs(p["vm_3d"] / p["vm_2d"] - 1) < 0.01
+

@@ -47,10 +47,13 @@ import numpy as np
 
 from .config import (LENGTH_UNITS, MIXINGS, PROPERTY_KEYS, Properties, _array, _choice,
                      _properties, length_scale)
-from .linsolve import SOLVERS
+
+#: the linear solvers by name (:func:`hetmesh.fea.linsolve.solve_spd`); ``auto`` factorises
+#: small systems directly and solves larger ones by multigrid-preconditioned CG
+SOLVERS = ("auto", "direct", "amg")
 
 __all__ = ["FEAConfig3D", "Selection", "TemperatureBC3D", "DisplacementBC3D", "PressureBC",
-           "parse_fea3d"]
+           "parse_fea3d", "SOLVERS"]
 
 
 @dataclass(frozen=True)

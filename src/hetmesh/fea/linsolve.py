@@ -26,13 +26,12 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import cg, splu
 
 from ..errors import FEAError
+from .config3d import SOLVERS  # "auto": direct up to DIRECT_MAX unknowns, else "amg"
 
 __all__ = ["solve_spd", "rigid_modes", "eliminate", "SOLVERS", "DIRECT_MAX", "blas_threads"]
 
 log = logging.getLogger(__name__)
 
-#: the linear solvers by name; ``auto`` picks ``direct`` up to :data:`DIRECT_MAX` unknowns
-SOLVERS = ("auto", "direct", "amg")
 #: largest system ``auto`` factorises directly (3-D fill-in makes larger ones slow)
 DIRECT_MAX = 10_000
 
@@ -99,7 +98,7 @@ def eliminate(A: sp.spmatrix, b: np.ndarray, fixed: np.ndarray, x0: np.ndarray
 
 def solve_spd(A: sp.spmatrix, b: np.ndarray, fixed: np.ndarray, x0: np.ndarray, *,
               what: str, method: str = "auto", blocksize: int = 1,
-              near_nullspace: np.ndarray | None = None, rtol: float = 1e-10,
+              near_nullspace: np.ndarray | None = None, rtol: float = 1e-8,
               maxiter: int = 2000) -> tuple[np.ndarray, dict]:
     """Solve ``A x = b`` with ``x[fixed] = x0[fixed]``; ``A`` symmetric positive definite once
     the fixed unknowns are removed.

@@ -441,7 +441,7 @@ def solve_tets(P: np.ndarray, T: np.ndarray, material: Material, *, order: int =
                probes: Mapping[str, Sequence[float]] | None = None,
                reference_temperature: float = 293.15, length_scale: float = 1.0,
                groups: np.ndarray | None = None, solver: str = "auto",
-               rtol: float = 1e-10) -> SolidResult:
+               rtol: float = 1e-8) -> SolidResult:
     """Steady conduction then linear thermoelasticity on a tetrahedral mesh.
 
     Parameters
