@@ -470,14 +470,16 @@ def locate(P: np.ndarray, t: np.ndarray, q, prefer: np.ndarray | None = None
 def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     """Steady conduction then linear thermoelasticity on ``mesh`` (paper Sec. 4.4).
 
+    The dimension is read from the mesh: a tetrahedral mesh (``mesh.dim == 3``) of a 3-D
+    model is analysed in 3-D (:mod:`hetmesh.fea.analysis3d`, with an
+    :class:`~hetmesh.fea.config3d.FEAConfig3D`; returns a ``FEAResult3D``).
+
     Parameters
     ----------
     mesh : Mesh
         Any triangle mesh of the model's domain (from :func:`hetmesh.generate`,
         :func:`hetmesh.uniform` or :func:`hetmesh.io.export.read_mesh`), in the model's
-        coordinates; or a tetrahedral mesh (``mesh.dim == 3``) of a 3-D model, analysed in
-        3-D (:mod:`hetmesh.fea.analysis3d`, with an
-        :class:`~hetmesh.fea.config3d.FEAConfig3D`).
+        coordinates.
     model : Model
         With an ``[fea]`` table (``model.fea``), or pass ``config``.
     config : FEAConfig or FEAConfig3D, optional
