@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri import adapt, layers
+from hetmesh.tri import layers
+from hetmesh.tri import pipeline as adapt
 from hetmesh.tri.workset import FREE, triangulate
 
 

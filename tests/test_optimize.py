@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri import adapt
+from hetmesh.tri import pipeline as adapt
 from hetmesh.material import element_subregions, has_subregions
 from hetmesh.tri.discontinuity import embed_discontinuities
 from hetmesh.metrics import element_delta, quality, signed_area2

@@ -146,7 +146,7 @@ def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> Non
 
 
 def _statistics(mesh, model, sampling: str, threshold: float | None):
-    """:func:`hetmesh.tri.adapt.mesh_statistics`, with ``threshold`` for certified sampling."""
+    """:func:`hetmesh.mesh_statistics`, with ``threshold`` for certified sampling."""
     from ..material.field import element_subregions, has_subregions
     from ..metrics import element_delta, statistics
 

@@ -15,7 +15,7 @@ or an extremum the last band of rows is much higher than its neighbours: it gets
 intermediate levels, graded from both ends, and the rows next to it a node step that
 matches their bands (:func:`_grade_levels`); what no level covers is filled by
 circumcenter insertion to the maximum size; nodes then slide along their rows (conforming
-Lloyd, :func:`hetmesh.tri.workset.smooth`) and the shared repair loop of :mod:`hetmesh.tri.adapt`
+Lloyd, :func:`hetmesh.tri.workset.smooth`) and the shared repair loop of :mod:`hetmesh.tri.refine`
 fixes whatever is left, so the guarantee does not depend on this placement.
 """
 
