@@ -411,7 +411,7 @@ def meshed(model, tmp_path_factory):
 
 
 def test_mesh_writes_mesh_stats_and_plot(meshed):
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     out, stats, plot = meshed
     doc = json.loads(stats.read_text())
@@ -469,7 +469,7 @@ def test_uniform_writes_mesh_and_stats(model, meshed, tmp_path, capsys):
     assert doc["stats"]["delta_max"] < THRESHOLD
     adaptive = json.loads(meshed[1].read_text())
     assert doc["stats"]["n_elements"] > adaptive["stats"]["n_elements"]
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     assert read_mesh(out).n_elements == doc["stats"]["n_elements"]
 
@@ -555,7 +555,7 @@ def _example(name: str, tmp_path: Path) -> Path:
 def test_max_size_bounds_every_edge(tmp_path, capsys):
     import numpy as np
 
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     square, out = _example("unit_square", tmp_path), tmp_path / "s.vtu"
     code, _, err = run(["mesh", square, "-d", "0.1", "--max-size", "0.05", "-o", out, "-q"],
@@ -723,7 +723,7 @@ def test_scaled_models_mesh_the_same_up_to_the_scale(tmp_path, capsys):
     coordinates in their last bits, and the element count by a few per cent at most."""
     import numpy as np
 
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     text = (resources.files("hetmesh") / "examples" / "unit_square.toml").read_text()
     meshes = {}

@@ -71,7 +71,7 @@ def test_placement_alone_meets_the_threshold_on_graded_plates():
     (19 and 5 violators before the rows were re-spaced); at the default 0.85 it leaves at
     most a handful for the repair loop (power_plate 0.03: 10 of 4,994, where rows meet the
     curved top)."""
-    from hetmesh.metrics import element_delta
+    from hetmesh.delta import element_delta
     for name, thr in (("unit_square", 0.02), ("power_plate", 0.03)):
         ctx, ws, tris = _placed(name, thr)
         assert element_delta(ctx.field, ws.P, tris).max() < thr, name

@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 from .errors import OptionError
 from .material.field import element_subregions, has_subregions
 from .mesh import Mesh
-from .metrics import MeshStats, element_delta, statistics
+from .metrics import MeshStats, statistics
+from .delta import element_delta
 from .options import SAMPLINGS
 
 __all__ = ["Result", "mesh_statistics"]

@@ -16,7 +16,8 @@ import numpy as np
 from .errors import BudgetError, MeshingError
 from .material.field import element_subregions, has_subregions
 from .mesh import edge_keys
-from .metrics import TET_EDGES, element_delta
+from .metrics import TET_EDGES
+from .delta import element_delta
 from .parallel import block_concat
 
 __all__ = ["SIMPLEX_EDGES", "cell_delta", "composition_at", "carried", "carry",
@@ -37,7 +38,7 @@ def composition_at(field, pts: np.ndarray) -> np.ndarray:
 
 def cell_delta(field, points: np.ndarray, cells: np.ndarray, sampling: str,
                composition: np.ndarray, threshold: float) -> np.ndarray:
-    """delta(T) of every element (:func:`hetmesh.metrics.element_delta`), each element of
+    """delta(T) of every element (:func:`hetmesh.delta.element_delta`), each element of
     a piecewise field evaluated in its own subregion (the paper's Sec. 3.3)."""
     regions = element_subregions(field, points, cells) if has_subregions(field) else None
     return element_delta(field, points, cells, sampling, composition, regions=regions,
