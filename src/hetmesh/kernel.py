@@ -19,6 +19,7 @@ against its model.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from .errors import OptionError
 from .material.field import element_subregions, has_subregions
@@ -26,6 +27,9 @@ from .mesh import Mesh
 from .metrics import MeshStats, statistics
 from .delta import element_delta
 from .options import SAMPLINGS
+
+if TYPE_CHECKING:
+    from .io.model import Model
 
 __all__ = ["Result", "mesh_statistics"]
 
@@ -41,7 +45,7 @@ class Result:
     timings: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
     #: the model as meshed: with its material discontinuities embedded as interfaces
-    model: object = None
+    model: Model | None = None
 
 
 
