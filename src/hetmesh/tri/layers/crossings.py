@@ -1,0 +1,100 @@
+"""Where the levels cross the curves, and the curve nodes between the crossings."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import pslg_from_parameters
+from ..workset import Context, WorkSet, workset_from_pslg
+from .curves import side_points
+from .levels import KEY_STRIDE
+from .pieces import Pieces
+from .rowstep import row_step_at
+
+
+def curve_crossings(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float):
+    """Where the level curves cross every curve, from the side of each piece along it:
+    (curve id, t, level, side, piece, row spacing) arrays."""
+    cid, tt, lv, sd, pc_out, dp_out = [], [], [], [], [], []
+    for k, c in enumerate(ctx.curves):
+        for side, ev in pieces.sides(k, ctx):
+            n = 64
+            ts = np.linspace(0, 1, n + 1)
+            g = np.linalg.norm(ctx.grad_f(side_points(ctx, k, ts, ev)), axis=1).max()
+            # resolve the rows: at least 8 samples per row crossing
+            n = int(min(200_000, max(256, 8 * c.length * g / dprime)))
+            ts = np.linspace(0, 1, n + 1)
+            f = ctx.f(side_points(ctx, k, ts, ev))
+            pc = pieces.at(k, ts, side)
+            idx = np.searchsorted(keys, pc * KEY_STRIDE + f, side="right")
+            i = np.flatnonzero((idx[1:] != idx[:-1]) & (pc[1:] == pc[:-1]) & (pc[1:] >= 0))
+            if i.size == 0:
+                continue
+            lo = np.minimum(idx[i], idx[i + 1])
+            cnt = np.abs(idx[i + 1] - idx[i]).astype(np.int64)
+            seg = np.repeat(i, cnt)
+            kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+            level = levs[kk]
+            a, b = ts[seg], ts[seg + 1]
+            fa = f[seg] - level
+            for _ in range(40):  # bisection on t, vectorised
+                m = 0.5 * (a + b)
+                fm = ctx.f(side_points(ctx, k, m, ev)) - level
+                left = np.sign(fm) == np.sign(fa)
+                a = np.where(left, m, a)
+                fa = np.where(left, fm, fa)
+                b = np.where(left, b, m)
+            cid.append(np.full(len(a), k))
+            tt.append(0.5 * (a + b))
+            lv.append(level)
+            sd.append(np.full(len(a), side))
+            pc_out.append(pc[seg])
+            dp_out.append(dps[kk])
+    if not cid:
+        z = np.zeros(0)
+        return z.astype(np.int64), z, z, z.astype(np.int64), z.astype(np.int64), z
+    return (np.concatenate(cid), np.concatenate(tt), np.concatenate(lv), np.concatenate(sd),
+            np.concatenate(pc_out), np.concatenate(dp_out))
+
+
+def curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):
+    """Per-curve sorted parameters: 0, crossings, 1, and between them nodes at the local row
+    step (and the chord tolerance, the per-curve ``spacing`` cap of :func:`grade_levels`,
+    and the minimum interval counts, of :mod:`geometry`)."""
+    batch = ctx.domain.curve_batch
+    chord_cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
+    cap = chord_cap
+    if spacing is not None:
+        cap = np.minimum(cap, spacing)
+    out = []
+    for k, c in enumerate(ctx.curves):
+        t = np.sort(tt[cid == k])
+        if len(t):  # drop crossings too close to the curve's ends or to each other
+            s = row_step_at(ctx, c.point(t), dprime)
+            ok = np.minimum(t, 1 - t) * c.length > 0.3 * s
+            t, s = t[ok], s[ok]
+        if len(t) > 1:
+            keep = np.ones(len(t), bool)
+            keep[1:] = np.diff(t) * c.length > 0.3 * np.minimum(s[1:], s[:-1])
+            t = t[keep]
+        full = np.concatenate([[0.0], t, [1.0]])
+        a, b = full[:-1], full[1:]
+        h = np.minimum(row_step_at(ctx, c.point(0.5 * (a + b)), dprime), cap[k])
+        nseg = np.maximum(np.ceil((b - a) * c.length / (1.15 * h)), np.ceil(nmin[k] * (b - a)))
+        # the chord tolerance is a bound, not a target: never a chord longer than its cap
+        nseg = np.maximum(nseg, np.ceil((b - a) * c.length / chord_cap[k] * (1 - 1e-12)))
+        nseg = np.maximum(nseg, 1).astype(np.int64)
+        gap = np.repeat(np.arange(len(a)), nseg)
+        step = np.arange(nseg.sum()) - np.repeat(np.cumsum(nseg) - nseg, nseg) + 1
+        inner = a[gap] + step * ((b - a) / nseg)[gap]  # as np.linspace(a, b, nseg + 1)[1:]
+        inner[np.cumsum(nseg) - 1] = b  # each gap ends exactly on its crossing (or 1)
+        out.append((np.concatenate([[0.0], inner]), t))
+    return out
+
+
+def pslg_workset(ctx: Context, params) -> WorkSet:
+    """The work set for per-curve ``(parameters, pinned parameters)`` (curve ends shared)."""
+    ts = [p[0] for p in params]
+    offsets = np.r_[0, np.cumsum([len(x) for x in ts])]
+    pslg = pslg_from_parameters(ctx.domain, offsets, np.concatenate(ts))
+    return workset_from_pslg(pslg, [p[1] for p in params])

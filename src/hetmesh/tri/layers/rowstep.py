@@ -1,0 +1,43 @@
+"""The node step along a row: 2 w / sqrt(3), w = delta' / |grad f| the row distance."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...parallel import BLOCK, block_concat
+from ..workset import Context
+
+#: a node projected onto its level is kept if |f - level| <= LEVEL_TOL x the row spacing in f
+LEVEL_TOL = 0.05
+
+
+def row_step(ctx: Context, gnorm: np.ndarray, dprime: float, h_cap=None) -> np.ndarray:
+    """Node spacing along a row, 2 w / sqrt(3) with w = delta' / |grad f|, between h_min and
+    ``h_cap`` (default h_max; where |grad f| is infinite, nan or zero too)."""
+    h_cap = ctx.h_max if h_cap is None else h_cap
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = 2.0 * dprime / (np.sqrt(3.0) * gnorm)
+    s = np.nan_to_num(s, nan=ctx.h_max, posinf=ctx.h_max)
+    return np.clip(s, ctx.h_min, h_cap)
+
+
+def row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None = None
+                 ) -> np.ndarray:
+    """:func:`row_step` at ``pts`` (``grad``: grad f there, if known), for the gradient
+    capped by the context (:meth:`Context.cap_at`); pointwise, so by blocks of points."""
+    if len(pts) > BLOCK:
+        dp = np.broadcast_to(dprime, (len(pts),))
+        return block_concat(lambda s: row_step_at(ctx, pts[s], dp[s],
+                                                   None if grad is None else grad[s]),
+                            len(pts), serial=True)
+    gr = ctx.grad_f(pts) if grad is None else grad
+    gn = np.minimum(np.nan_to_num(np.linalg.norm(gr, axis=1), nan=np.inf), ctx.cap_at(pts))
+    return row_step(ctx, gn, dprime, ctx.h_at(pts))
+
+
+def level_dprime(levs: np.ndarray, dps: np.ndarray, rlev: np.ndarray) -> np.ndarray:
+    """The spacing in f of the rows at levels ``rlev`` (the smallest of equal levels)."""
+    o = np.lexsort((dps, levs))
+    lv, dp = levs[o], dps[o]
+    i = np.clip(np.searchsorted(lv, rlev, side="left"), 0, len(lv) - 1)
+    return dp[i]
