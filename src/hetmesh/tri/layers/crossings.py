@@ -2,20 +2,51 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..geometry import pslg_from_parameters
 from ..workset import Context, WorkSet, workset_from_pslg
 from .curves import side_points
-from .levels import KEY_STRIDE
-from .pieces import Pieces
+from .levels import Levels, crossed_levels
+from .pieces import OUTSIDE, Pieces
+from .records import Records
 from .rowstep import row_step_at
 
 
-def curve_crossings(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float):
-    """Where the level curves cross every curve, from the side of each piece along it:
-    (curve id, t, level, side, piece, row spacing) arrays."""
-    cid, tt, lv, sd, pc_out, dp_out = [], [], [], [], [], []
+@dataclass(frozen=True)
+class Crossings(Records):
+    """Points where a level curve crosses a curve of the domain, seen from one piece.
+
+    Attributes
+    ----------
+    curve : (C,) int, the curve crossed.
+    t : (C,) float, the parameter of the crossing on that curve.
+    level : (C,) float, the level crossing there.
+    side : (C,) int, +1 / -1: the piece lies left / right of the curve (increasing t).
+    piece : (C,) int, that piece.
+    dprime : (C,) float, the spacing in f of the level's row (:class:`~.levels.Levels`).
+    """
+
+    curve: np.ndarray
+    t: np.ndarray
+    level: np.ndarray
+    side: np.ndarray
+    piece: np.ndarray
+    dprime: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Crossings:
+        z = np.zeros(0)
+        return cls(z.astype(np.int64), z, z, z.astype(np.int64), z.astype(np.int64), z)
+
+
+def curve_crossings(ctx: Context, pieces: Pieces, levels: Levels, dprime: float) -> Crossings:
+    """Where the levels cross every curve, from the side of each piece along it: the curve
+    sampled (at least 8 samples per row crossing, from the largest |grad f| along it), then
+    every change of the level index between two samples of one piece bisected on t."""
+    parts = []
     for k, c in enumerate(ctx.curves):
         for side, ev in pieces.sides(k, ctx):
             n = 64
@@ -26,15 +57,13 @@ def curve_crossings(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float
             ts = np.linspace(0, 1, n + 1)
             f = ctx.f(side_points(ctx, k, ts, ev))
             pc = pieces.at(k, ts, side)
-            idx = np.searchsorted(keys, pc * KEY_STRIDE + f, side="right")
-            i = np.flatnonzero((idx[1:] != idx[:-1]) & (pc[1:] == pc[:-1]) & (pc[1:] >= 0))
+            idx = levels.index_after(pc, f)
+            i = np.flatnonzero((idx[1:] != idx[:-1]) & (pc[1:] == pc[:-1])
+                               & (pc[1:] != OUTSIDE))
             if i.size == 0:
                 continue
-            lo = np.minimum(idx[i], idx[i + 1])
-            cnt = np.abs(idx[i + 1] - idx[i]).astype(np.int64)
-            seg = np.repeat(i, cnt)
-            kk = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-            level = levs[kk]
+            seg, kk = crossed_levels(i, idx[i], idx[i + 1])
+            level = levels.value[kk]
             a, b = ts[seg], ts[seg + 1]
             fa = f[seg] - level
             for _ in range(40):  # bisection on t, vectorised
@@ -44,17 +73,10 @@ def curve_crossings(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float
                 a = np.where(left, m, a)
                 fa = np.where(left, fm, fa)
                 b = np.where(left, b, m)
-            cid.append(np.full(len(a), k))
-            tt.append(0.5 * (a + b))
-            lv.append(level)
-            sd.append(np.full(len(a), side))
-            pc_out.append(pc[seg])
-            dp_out.append(dps[kk])
-    if not cid:
-        z = np.zeros(0)
-        return z.astype(np.int64), z, z, z.astype(np.int64), z.astype(np.int64), z
-    return (np.concatenate(cid), np.concatenate(tt), np.concatenate(lv), np.concatenate(sd),
-            np.concatenate(pc_out), np.concatenate(dp_out))
+            parts.append(Crossings(curve=np.full(len(a), k), t=0.5 * (a + b), level=level,
+                                   side=np.full(len(a), side), piece=pc[seg],
+                                   dprime=levels.dprime[kk]))
+    return Crossings.concat(parts) if parts else Crossings.empty()
 
 
 def curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 
 from ..workset import Context
-from .levels import KEY_STRIDE
+from .levels import KEY_STRIDE, Levels
 from .paths import gradient_profiles
 from .pieces import Pieces
 
@@ -19,8 +20,8 @@ GRADE = 0.35  # growth of the band height per unit length where flat zones are s
 MAX_RATIO = 1.5  # a piece's end band up to this many times the height wanted is left whole
 
 
-def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
-                  chord_tol: float):
+def grade_levels(ctx: Context, pieces: Pieces, levels: Levels, dprime: float,
+                 chord_tol: float):
     """Subdivide the bands between rows that are much higher than their neighbours.
 
     Where |grad f| tends to 0 (a boundary where f ~ d^2 or d^3, an extremum) consecutive
@@ -39,12 +40,14 @@ def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
     away (evened out by :func:`piece_levels`); a border level curve gets the node spacing of
     its sub-band (curve spacing caps). hft_ring at 0.1: q_avg of the placement 0.91 -> 0.94,
     repair insertions 614 -> 77. Returns (keys, levs, dps, curve spacing caps)."""
+    keys, levs, dps = levels.key, levels.value, levels.dprime
     ncurve = len(ctx.curves)
     spacing = np.full(ncurve, np.inf)
     prof = gradient_profiles(ctx, pieces, dprime)
     if prof is None or len(keys) == 0:
-        return keys, levs, dps, spacing
-    (pid, s, f, x, gn), (ppc, pcv, pdir) = prof
+        return levels, spacing
+    pid, s, f, gn = prof.path, prof.arc, prof.f, prof.grad_norm
+    ppc, pcv, pdir = prof.piece, prof.curve, prof.direction
     nk = len(keys)
     piece_of = np.floor((keys + 2.0) / KEY_STRIDE).astype(np.int64)  # levels lie in (-2, 3)
     kx = np.searchsorted(keys, ppc[pid] * KEY_STRIDE + f, side="right")
@@ -60,7 +63,7 @@ def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
     cpid = pid[ii]
     # the levels a piece really holds: those its paths cross (the level list overshoots)
     if len(kk) == 0:
-        return keys, levs, dps, spacing
+        return levels, spacing
     first = np.full(pieces.n, nk, np.int64)
     last = np.full(pieces.n, -1, np.int64)
     np.minimum.at(first, ppc[cpid], kk)
@@ -105,7 +108,7 @@ def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
         ((high == last[pcb] + 1) & (low >= 0))
     full &= (a != -3) & (b != -3) & (high - low == 1) & (low >= first[pcb] - 1) & (high <= last[pcb] + 1)
     if not full.any():
-        return keys, levs, dps, spacing
+        return levels, spacing
     band = (pcb * (nk + 2) + low + 1)[full]
     Hf, bpf = H[full], bp[full]
     ubands, inv = np.unique(band, return_inverse=True)
@@ -135,7 +138,7 @@ def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
         log.debug("bands %s", [(int(b_piece[j]), int(b_low[j]), round(float(medH[j]), 3),
                                 round(end_size(j, False), 3), round(end_size(j, True), 3))
                                for j in range(nb)])
-    new_l, new_d, new_k = [], [], []
+    new_l, new_d, new_k, new_p = [], [], [], []
     row_d = {}
     for j in range(nb):
         Hj = medH[j]
@@ -179,6 +182,7 @@ def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
         new_l.append(sub_f)
         new_d.append(sub_g * 0.5 * (hs[:-1] + hs[1:]))
         new_k.append(p_ * KEY_STRIDE + sub_f)
+        new_p.append(np.full(len(sub_f), p_, np.int64))
         # the rows bounding the band: their step follows the sub-band next to them
         for lvl, side, h_in in ((lw, 1, hs[0]), (lw + 1, 0, hs[-1])):
             if first[p_] <= lvl <= last[p_]:
@@ -209,10 +213,11 @@ def grade_levels(ctx: Context, pieces: Pieces, keys, levs, dps, dprime: float,
         if np.isfinite(d) and d > 0.05 * dps[lvl] and abs(d / dps[lvl] - 1.0) > 0.15:
             dps[lvl] = d
     if not new_l:
-        return keys, levs, dps, spacing
+        return replace(levels, dprime=dps), spacing
     keys = np.concatenate([keys] + new_k)
     levs = np.concatenate([levs] + new_l)
     dps = np.concatenate([dps] + new_d)
+    piece_all = np.concatenate([levels.piece] + new_p)
     o = np.argsort(keys, kind="stable")
     log.info("layers: %d intermediate levels in %d flat bands", len(o) - nk, len(new_l))
-    return keys[o], levs[o], dps[o], spacing
+    return Levels(piece_all[o], levs[o], dps[o], keys[o]), spacing

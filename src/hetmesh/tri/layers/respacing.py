@@ -2,17 +2,28 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..workset import Context, project_to_level
+from .paths import RowSeeds
 from .rowstep import LEVEL_TOL, row_step_at
+from .tracing import RowNodes, Trace
 
 #: ratio of the ladder of node counts of the rows that run from curve to curve (:func:`respace_rows`)
 LADDER = 1.1
 
 
-def respace_rows(ctx: Context, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, at_curve):
+def start_phase(parity: np.ndarray) -> np.ndarray:
+    """Where a row's first node lies, in spacings from its start: 1 for rows of even level
+    index, 1/2 for odd ones (:meth:`~hetmesh.tri.layers.levels.Levels.parity`)."""
+    return np.where(parity == 0, 1.0, 0.5)
+
+
+def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndarray,
+                 trace: Trace) -> RowNodes:
     """Re-place the nodes of the rows that run from curve to curve, in phase with their
     neighbours.
 
@@ -34,12 +45,15 @@ def respace_rows(ctx: Context, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, at
     * rows of even level index starting a full spacing from the curve at both ends and odd
       rows a half spacing: n - 1 and n nodes, as in a staggered lattice.
 
-    ``ix`` are the starts traced (into the crossing arrays); ``p, l, tid`` the traced
-    nodes, their levels and traces; ``xend, at_curve`` where each trace stopped and
-    whether next to a curve. Rows whose far end is not a crossing of their own level and
-    piece keep their traced nodes. Returns the new (points, levels)."""
+    ``starts`` are the rows' start points at the crossings of the levels with the curves,
+    ``parity`` the parity of their levels' indices (:func:`start_phase`), ``trace`` the rows
+    traced from the starts ``ix``. Rows whose far end is not a crossing of their own level
+    and piece keep their traced nodes. Returns all the rows' nodes."""
+    p, l, tid = trace.point, trace.level, trace.start
+    xend, at_curve = trace.end, trace.at_curve
+    seeds, lv, pcs, cdp = starts.point, starts.level, starts.piece, starts.dprime
     if len(p) == 0 or not at_curve.any():
-        return p, l
+        return RowNodes(p, l)
     # the far end: the crossing of the same level and piece nearest to where the trace stopped
     h_end = row_step_at(ctx, xend, cdp[ix])
     tree = cKDTree(seeds)
@@ -53,17 +67,26 @@ def respace_rows(ctx: Context, seeds, lv, pcs, cdp, par, ix, p, l, tid, xend, at
     p, l, tid = p[order], l[order], tid[order]
     rows = np.flatnonzero(has)
     if len(rows) == 0:
-        return p, l
+        return RowNodes(p, l)
     lines = row_polylines(seeds[ix[rows]], seeds[far[rows]], p, tid, rows, has)
-    x, lev = even_nodes(ctx, lines, cdp[ix[rows]], lv[ix[rows]],
-                         np.where(par[ix[rows]] == 0, 1.0, 0.5), closed=False)
+    even = even_nodes(ctx, lines, cdp[ix[rows]], lv[ix[rows]], start_phase(parity[ix[rows]]),
+                      closed=False)
     keep = ~has[tid]
-    return np.concatenate([p[keep], x]), np.concatenate([l[keep], lev])
+    return RowNodes.concat([RowNodes(p[keep], l[keep]), even])
 
 
-def row_polylines(first, last, p, tid, rows, has):
-    """Row polylines ``(points, start offsets)``: ``first``, the traced nodes ``p`` of trace
-    ``rows[r]`` in trace order (``tid`` sorted, ``has`` marking the traces kept), ``last``."""
+@dataclass(frozen=True)
+class Polylines:
+    """Polylines one after the other: ``points`` (P, 2); polyline r is
+    ``points[starts[r]:starts[r + 1]]``."""
+
+    points: np.ndarray
+    starts: np.ndarray
+
+
+def row_polylines(first, last, p, tid, rows, has) -> Polylines:
+    """Row polylines: ``first``, the traced nodes ``p`` of trace ``rows[r]`` in trace order
+    (``tid`` sorted, ``has`` marking the traces kept), ``last``."""
     cnt = np.bincount(tid, minlength=len(has))[rows]
     starts = np.cumsum(np.r_[0, cnt + 2])
     pts = np.empty((starts[-1], 2))
@@ -73,18 +96,18 @@ def row_polylines(first, last, p, tid, rows, has):
     r_of = np.searchsorted(rows, tid[inner])
     pos = starts[r_of] + 1 + (np.arange(len(inner)) - np.searchsorted(tid[inner], tid[inner]))
     pts[pos] = p[inner]
-    return pts, starts
+    return Polylines(pts, starts)
 
 
-def even_nodes(ctx: Context, lines, dprime, level, phi, closed: bool):
+def even_nodes(ctx: Context, lines: Polylines, dprime, level, phi, closed: bool) -> RowNodes:
     """Nodes spaced evenly, in units of the local row step, along the polylines ``lines``
     (:func:`row_polylines`) of rows with spacing ``dprime`` in f at ``level``: n spacings per
     row, n its length in local steps rounded to a rung of the ladder (:data:`LADDER`), the
     first node ``phi`` (1 or 1/2) spacings from the start. An open row gets n - 1 nodes
     (phi = 1) or n (phi = 1/2) and ends ``phi`` spacings before its end; a closed row
-    (first point = last) gets n, phi = 1 meaning a node on its start. Returns (points,
-    levels), projected onto the levels and inside the domain."""
-    pts, starts = lines
+    (first point = last) gets n, phi = 1 meaning a node on its start. Returns the nodes
+    projected onto the levels and inside the domain."""
+    pts, starts = lines.points, lines.starts
     nrow = len(starts) - 1
     row = np.repeat(np.arange(nrow), np.diff(starts))
     seg = np.flatnonzero(row[1:] == row[:-1])
@@ -102,11 +125,12 @@ def even_nodes(ctx: Context, lines, dprime, level, phi, closed: bool):
     cu[seg + 1] = du
     cu = np.cumsum(cu)
     cu -= cu[starts[:-1]][row]
-    span = 2.0 * (U.max() + 1)  # rows apart in one sorted key
+    # one sorted key for all rows: row r's arc lengths, 0..U[r], become r * span + 0..U[r]
+    span = 2.0 * (U.max() + 1)
     gk, tk = row * span + cu, rr * span + ut
     i = np.clip(np.searchsorted(gk, tk, side="right") - 1, starts[:-1][rr], starts[1:][rr] - 2)
     w = np.clip((tk - gk[i]) / np.maximum(gk[i + 1] - gk[i], 1e-300), 0.0, 1.0)
     x = pts[i] + w[:, None] * (pts[i + 1] - pts[i])
     lev = level[rr]
     x, ok = project_to_level(ctx, x, lev, iters=3, tol=LEVEL_TOL * dprime[rr])
-    return x[ok], lev[ok]
+    return RowNodes(x[ok], lev[ok])

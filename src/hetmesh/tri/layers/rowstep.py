@@ -33,11 +33,3 @@ def row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None =
     gr = ctx.grad_f(pts) if grad is None else grad
     gn = np.minimum(np.nan_to_num(np.linalg.norm(gr, axis=1), nan=np.inf), ctx.cap_at(pts))
     return row_step(ctx, gn, dprime, ctx.h_at(pts))
-
-
-def level_dprime(levs: np.ndarray, dps: np.ndarray, rlev: np.ndarray) -> np.ndarray:
-    """The spacing in f of the rows at levels ``rlev`` (the smallest of equal levels)."""
-    o = np.lexsort((dps, levs))
-    lv, dp = levs[o], dps[o]
-    i = np.clip(np.searchsorted(lv, rlev, side="left"), 0, len(lv) - 1)
-    return dp[i]
