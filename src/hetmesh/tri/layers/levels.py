@@ -17,6 +17,7 @@ from ...density import background_points
 from ..workset import Context
 from .curves import side_points
 from .pieces import OUTSIDE, Pieces
+from .records import Records
 
 #: The levels of all pieces sort on one key, :func:`level_key` = ``piece * KEY_STRIDE +
 #: level``. Levels lie within [-1.9, 2.9] (:func:`piece_levels` clamps them there), so the
@@ -31,7 +32,7 @@ def level_key(piece, value):
 
 
 @dataclass(frozen=True)
-class Levels:
+class Levels(Records):
     """The row levels of all pieces, one entry per row level, sorted by :func:`level_key`.
 
     Attributes
@@ -60,9 +61,6 @@ class Levels:
     @classmethod
     def empty(cls) -> Levels:
         return cls.of(np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
-
-    def __len__(self) -> int:
-        return len(self.key)
 
     def index_after(self, piece, f):
         """How many levels sort before or at ``f`` of piece ``piece``: f lies between levels
