@@ -26,14 +26,16 @@ The stages, one module each, in the order :func:`place_layers` runs them:
 - :mod:`.paths` -- gradient paths (steepest ascent and descent) from just inside the curves;
 - :mod:`.grading` -- intermediate levels in bands much higher than their neighbours;
 - :mod:`.crossings` -- where the levels cross the curves, and the curve nodes between them;
-- :mod:`.tracing` -- the rows traced from the crossings and from gradient-line seeds;
+- :mod:`.rows` -- all the row nodes: rows from the crossings, then from gradient-line seeds;
+- :mod:`.tracing` -- one level curve followed node by node (predictor-corrector);
 - :mod:`.respacing` -- the nodes of a row spaced evenly, in phase with its neighbours;
 - :mod:`.fill` -- circumcenters inserted where no row reaches;
 - :mod:`.stagger` -- every apex slid above the midpoint of the row edge it faces;
 - :mod:`.assemble` -- :func:`place_layers`, the stages in order.
 
-Shared by the stages: :mod:`.rowstep` (the node step along a row) and :mod:`.curves` (points
-just off a curve, distances to the curves, steps that cross an interface).
+Shared by the stages: :mod:`.rowstep` (the node step along a row), :mod:`.curves` (points
+just off a curve, distances to the curves, steps that cross an interface) and
+:mod:`.records` (the mixin of the frozen dataclasses of parallel arrays the stages pass).
 """
 
 from __future__ import annotations

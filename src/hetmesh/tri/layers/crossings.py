@@ -1,4 +1,9 @@
-"""Where the levels cross the curves, and the curve nodes between the crossings."""
+"""Where the levels cross the curves, and the curve nodes between the crossings.
+
+Every row that meets a curve ends on a node of it: the crossings are pinned curve nodes
+(:func:`curve_crossings`), and the curve is divided between them at the local row step
+(:func:`curve_params`), so the triangles along a curve are as high as the band next to it.
+"""
 
 from __future__ import annotations
 
@@ -79,10 +84,22 @@ def curve_crossings(ctx: Context, pieces: Pieces, levels: Levels, dprime: float)
     return Crossings.concat(parts) if parts else Crossings.empty()
 
 
-def curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):
-    """Per-curve sorted parameters: 0, crossings, 1, and between them nodes at the local row
-    step (and the chord tolerance, the per-curve ``spacing`` cap of :func:`grade_levels`,
-    and the minimum interval counts, of :mod:`geometry`)."""
+@dataclass(frozen=True)
+class CurveNodes:
+    """The nodes of one curve: ``t`` its sorted parameters, from 0 to 1, and ``pinned``
+    those of the level crossings (nodes that stay where they are)."""
+
+    t: np.ndarray
+    pinned: np.ndarray
+
+
+def curve_params(ctx: Context, cid: np.ndarray, tt: np.ndarray, dprime: float,
+                 chord_tol: float, spacing: np.ndarray | None = None) -> list[CurveNodes]:
+    """The nodes of every curve: 0, the crossings ``tt`` of curve ``cid``, 1, and between
+    them nodes at the local row step (within the chord tolerance's step cap, the per-curve
+    ``spacing`` cap of :func:`~hetmesh.tri.layers.grading.grade_levels` and the minimum
+    interval counts of :mod:`hetmesh.tri.geometry`). Crossings closer than 0.3 of the row
+    step to a curve's end or to each other are dropped."""
     batch = ctx.domain.curve_batch
     chord_cap, nmin = batch.max_step(chord_tol), batch.min_intervals()
     cap = chord_cap
@@ -110,13 +127,13 @@ def curve_params(ctx: Context, cid, tt, dprime, chord_tol, spacing=None):
         step = np.arange(nseg.sum()) - np.repeat(np.cumsum(nseg) - nseg, nseg) + 1
         inner = a[gap] + step * ((b - a) / nseg)[gap]  # as np.linspace(a, b, nseg + 1)[1:]
         inner[np.cumsum(nseg) - 1] = b  # each gap ends exactly on its crossing (or 1)
-        out.append((np.concatenate([[0.0], inner]), t))
+        out.append(CurveNodes(np.concatenate([[0.0], inner]), t))
     return out
 
 
-def pslg_workset(ctx: Context, params) -> WorkSet:
-    """The work set for per-curve ``(parameters, pinned parameters)`` (curve ends shared)."""
-    ts = [p[0] for p in params]
+def pslg_workset(ctx: Context, nodes: list[CurveNodes]) -> WorkSet:
+    """The work set of the PSLG with the nodes of every curve (curve ends shared)."""
+    ts = [n.t for n in nodes]
     offsets = np.r_[0, np.cumsum([len(x) for x in ts])]
     pslg = pslg_from_parameters(ctx.domain, offsets, np.concatenate(ts))
-    return workset_from_pslg(pslg, [p[1] for p in params])
+    return workset_from_pslg(pslg, [n.pinned for n in nodes])

@@ -10,6 +10,7 @@ from ..workset import Context
 
 
 def left_normal(c, t: np.ndarray) -> np.ndarray:
+    """The unit normals of curve ``c`` at parameters ``t``, to the left of increasing t."""
     tg = c.tangent(t)
     return np.column_stack([-tg[:, 1], tg[:, 0]])
 
@@ -29,7 +30,9 @@ def side_points(ctx: Context, k: int, t: np.ndarray, side: int) -> np.ndarray:
     return p
 
 
-def curve_distances(ctx: Context, pts: np.ndarray):
+def curve_distances(ctx: Context, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distance of every point to the nearest boundary curve and to the nearest
+    interface curve (inf where there is none)."""
     db = np.full(len(pts), np.inf)
     di = np.full(len(pts), np.inf)
     for c, isb in zip(ctx.curves, ctx.boundary_curve):

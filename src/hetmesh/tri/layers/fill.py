@@ -1,4 +1,9 @@
-"""Filling the flat zones that no row covers (circumcenter insertion)."""
+"""Filling the flat zones that no row covers (circumcenter insertion).
+
+Where |grad f| is small the row step reaches the maximum size and the levels lie far apart or
+not at all (a plateau of f): the triangles of the rows and the curve nodes are larger than
+the local size there, and their circumcenters are inserted, round by round, as free nodes.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +16,10 @@ from .rowstep import row_step_at
 
 
 def fill_flat_zones(ws: WorkSet, ctx: Context, dprime: float, rounds: int = 30):
-    """Fill flat zones: insert circumcenters of triangles larger than the local size."""
+    """Fill flat zones: insert the circumcenters of the triangles whose circumradius
+    exceeds 0.75 of the local row step, inside the domain, at least half a step from every
+    curve and not too near a node (:func:`hetmesh.tri.workset.thin_candidates_mask`), for at
+    most ``rounds`` rounds. Returns the triangles of the work set as filled."""
     for _ in range(rounds):
         tris = triangulate(ws, ctx)
         cc, R = circumcircles(ws.P, tris)

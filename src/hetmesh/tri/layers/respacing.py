@@ -1,4 +1,10 @@
-"""Spacing along rows: the nodes of a row re-placed evenly, in phase with its neighbours."""
+"""Spacing along rows: the nodes of a row re-placed evenly, in phase with its neighbours.
+
+A row is traced at its own local step (:mod:`~hetmesh.tri.layers.tracing`); here the rows
+that run from curve to curve, and the closed ones, get their nodes anew: a node count shared
+by adjacent rows (a rung of a geometric ladder) and alternate rows starting a full and a half
+spacing from their start, as in a staggered lattice (:func:`respace_rows`).
+"""
 
 from __future__ import annotations
 
@@ -12,7 +18,8 @@ from .paths import RowSeeds
 from .rowstep import LEVEL_TOL, row_step_at
 from .tracing import RowNodes, Trace
 
-#: ratio of the ladder of node counts of the rows that run from curve to curve (:func:`respace_rows`)
+#: ratio of the ladder of node counts of the rows that run from curve to curve
+#: (:func:`respace_rows`)
 LADDER = 1.1
 
 
@@ -31,7 +38,7 @@ def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndar
     node one step from the wall, so adjacent rows are in phase at the wall (apex above a
     vertex, not above an edge's midpoint), and since the step changes from row to row the
     phase between two rows drifts along them: sheared bands along the walls and diagonal
-    lines of dislocations (power_plate 0.03: q_avg 0.950). Here a row's nodes are spaced
+    lines of dislocations. Here a row's nodes are spaced
     evenly in units of its local step, with
 
     * the row's length in spacings, n, taken from its length in local steps U rounded to
@@ -49,11 +56,11 @@ def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndar
     ``parity`` the parity of their levels' indices (:func:`start_phase`), ``trace`` the rows
     traced from the starts ``ix``. Rows whose far end is not a crossing of their own level
     and piece keep their traced nodes. Returns all the rows' nodes."""
-    p, l, tid = trace.point, trace.level, trace.start
+    p, lev, tid = trace.point, trace.level, trace.start
     xend, at_curve = trace.end, trace.at_curve
     seeds, lv, pcs, cdp = starts.point, starts.level, starts.piece, starts.dprime
     if len(p) == 0 or not at_curve.any():
-        return RowNodes(p, l)
+        return RowNodes(p, lev)
     # the far end: the crossing of the same level and piece nearest to where the trace stopped
     h_end = row_step_at(ctx, xend, cdp[ix])
     tree = cKDTree(seeds)
@@ -64,15 +71,15 @@ def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndar
     has = at_curve & same.any(axis=1)
     far = j[np.arange(len(ix)), np.argmax(same, axis=1)]
     order = np.argsort(tid, kind="stable")
-    p, l, tid = p[order], l[order], tid[order]
+    p, lev, tid = p[order], lev[order], tid[order]
     rows = np.flatnonzero(has)
     if len(rows) == 0:
-        return RowNodes(p, l)
+        return RowNodes(p, lev)
     lines = row_polylines(seeds[ix[rows]], seeds[far[rows]], p, tid, rows, has)
     even = even_nodes(ctx, lines, cdp[ix[rows]], lv[ix[rows]], start_phase(parity[ix[rows]]),
                       closed=False)
     keep = ~has[tid]
-    return RowNodes.concat([RowNodes(p[keep], l[keep]), even])
+    return RowNodes.concat([RowNodes(p[keep], lev[keep]), even])
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,9 @@
-"""Staggering adjacent rows: every apex above the midpoint of the edge it faces."""
+"""Staggering adjacent rows: every apex above the midpoint of the edge it faces.
+
+The last step of the placement. A triangle with two nodes on one row and its apex on the
+next is equilateral, q(T) = 1 (the paper, Eq. 17), when the apex sits above the midpoint of
+the other two; rows traced independently have a random phase between them.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +14,7 @@ from ...parallel import block_map, blocks
 from .. import cvt
 from ..workset import FREE, Context, WorkSet, slide_along_rows, triangulate
 
+#: the stagger iterations of :func:`~hetmesh.tri.layers.assemble.place_layers`
 STAGGER_ITERS = 8
 
 
