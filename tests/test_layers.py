@@ -1,10 +1,15 @@
-"""Node placement on iso-composition rows (hetmesh.tri.layers): the rows' phase."""
+"""Node placement on iso-composition rows (hetmesh.tri.layers): the rows' phase, and the
+levels, band passages and sub-bands of the grading on synthetic gradient paths."""
 
 import numpy as np
 import pytest
 
 import hetmesh
 from hetmesh.tri import adapt, layers
+from hetmesh.tri.layers.grading import (GRADE, EventKind, banding, path_crossings, path_events,
+                                        piece_spans, sub_band_bounds)
+from hetmesh.tri.layers.levels import Levels
+from hetmesh.tri.layers.paths import GradientPaths
 from hetmesh.tri.workset import FREE, triangulate
 
 
@@ -80,14 +85,12 @@ def test_placement_alone_meets_the_threshold_on_graded_plates():
 
 
 def _one_piece_levels(values, dprime=0.1):
-    from hetmesh.tri.layers.levels import Levels
     values = np.asarray(values, float)
     return Levels.of(np.zeros(len(values), np.int64), values, np.full(len(values), dprime))
 
 
 def _paths(samples):
     """Gradient paths from ``[(f samples, direction)]`` on f = s^2 (s the arc length)."""
-    from hetmesh.tri.layers.paths import GradientPaths
     path = np.concatenate([np.full(len(f), i) for i, (f, _) in enumerate(samples)])
     f = np.concatenate([f for f, _ in samples])
     arc = np.sqrt(f)
@@ -97,7 +100,6 @@ def _paths(samples):
 
 
 def test_levels_are_searched_within_their_piece():
-    from hetmesh.tri.layers.levels import Levels
     lv = Levels.of([0, 0, 1, 1, 1], [0.2, 0.4, 0.1, 0.3, 0.5], np.full(5, 0.1))
     assert np.all(np.diff(lv.key) > 0)
     assert lv.index_after(np.array([0, 0, 1, 1]), np.array([0.3, 0.9, 0.0, 0.35])).tolist() \
@@ -111,8 +113,6 @@ def test_band_passages_from_piece_ends_levels_and_open_ends():
     piece's ends. A path that starts inside the lowest band but well above the piece's
     minimum (f = 0.05, a boundary across the rows) passes through that band in part: it
     counts only from its first level on."""
-    from hetmesh.tri.layers.grading import EventKind, banding, path_crossings, path_events, \
-        piece_spans
     levels = _one_piece_levels([0.1, 0.2, 0.3, 0.4, 0.5])
     paths = _paths([(np.linspace(0.0, 0.55, 221), 1.0), (np.linspace(0.05, 0.55, 201), 1.0)])
     cross = path_crossings(paths, levels)
@@ -133,7 +133,6 @@ def test_band_passages_from_piece_ends_levels_and_open_ends():
 
 
 def test_sub_bands_grow_from_both_ends_up_to_the_cap():
-    from hetmesh.tri.layers.grading import GRADE, sub_band_bounds
     H, h_end, cap = 1.0, 0.02, 0.15
     pos = sub_band_bounds(H, h_end, h_end, cap)
     hs = np.diff(np.r_[0.0, pos, H])

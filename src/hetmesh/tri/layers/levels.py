@@ -3,7 +3,8 @@
 The rows of the placement lie on the level curves f = c_k of the composition, c_k = anchor
 -/+ k * delta' with delta' = beta * delta_0 (``Context.row_spacing`` times the threshold): two
 adjacent rows differ by delta' in f, so a triangle with its vertices on two adjacent rows has
-delta(T) = delta' (the paper, Eq. 5, with the composition linear across the band).
+delta(T) = delta' < delta_0 (delta(T) as the paper's Eqs. 14-15 define it, from the vertices'
+compositions).
 """
 
 from __future__ import annotations
