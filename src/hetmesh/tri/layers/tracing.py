@@ -95,7 +95,8 @@ def trace_rows(ctx: Context, x0: np.ndarray, lev: np.ndarray, dirn: np.ndarray,
         near = (db <= 0.3 * h) | (di <= 0.3 * h)
         cont = ok & ~closed & (~near | (step < 2))
         # where an open trace stops is its far end, if a crossing of its level lies there
-        # (:func:`~hetmesh.tri.layers.respacing.respace_rows` checks): next to a curve, or a step from leaving its piece
+        # (:func:`~hetmesh.tri.layers.respacing.respace_rows` checks): next to a curve, or a
+        # step from leaving its piece
         at_curve[ia] = ~cont & ~closed & (step >= 2)
         x[ia] = np.where(ok[:, None], xn, xa)
         active[ia[~cont]] = False
