@@ -20,7 +20,8 @@ from scipy.spatial import cKDTree
 
 from . import cvt
 from .. import density as dens
-from ..mesh import any_corner, points_near
+from ..material.field import field_dim
+from ..topology import any_corner, points_near
 from ..parallel import BLOCK, block_concat
 from .cdt import constrained_delaunay, patch
 
@@ -116,7 +117,8 @@ class Context:
     def rho(self, pts: np.ndarray) -> np.ndarray:
         if len(pts) > BLOCK:
             return block_concat(lambda s: self.rho(pts[s]), len(pts), serial=True)
-        return dens.density(self.g(pts), self.h_at(pts), self.threshold)  # Eq. (9)
+        return dens.density(self.g(pts), self.h_at(pts), self.threshold,
+                            field_dim(self.field))  # Eq. (9)
 
     # the scalar composition whose level curves carry node rows (two constituents)
     def f(self, pts: np.ndarray) -> np.ndarray:
