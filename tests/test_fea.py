@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import hetmesh
+import hetmesh.io.read
 import hetmesh.fea as fea
 from hetmesh.cli import main
 from hetmesh.errors import FEAError, ModelFileError
@@ -479,7 +480,7 @@ def test_fgm_plate_from_a_mesh_file_gives_the_same_answer(plate, tmp_path):
     model, meshed = plate
     path = meshed.mesh.write(tmp_path / "plate.vtu")
     a = fea.solve(meshed.mesh, model)
-    b = fea.solve(hetmesh.io.export.read_mesh(path), model)
+    b = fea.solve(hetmesh.io.read.read_mesh(path), model)
     for k in a.probes:
         assert b.probes[k]["von_mises"] == pytest.approx(a.probes[k]["von_mises"], rel=1e-9)
 
@@ -513,7 +514,7 @@ def test_cli_writes_results(plate, tmp_path, capsys):
     assert doc["model"] == "fgm_plate" and doc["elements"] == meshed.mesh.n_elements
     assert set(doc["probes"]) >= {"P1", "Q6"}
     assert png.stat().st_size > 1000
-    back = hetmesh.io.export.read_mesh(out)
+    back = hetmesh.io.read.read_mesh(out)
     assert {"temperature", "von_mises", "stress_zz", "displacement"} <= set(back.point_data)
     assert "von_mises" in back.cell_data
     np.testing.assert_allclose(back.point_data["von_mises"],

@@ -702,7 +702,7 @@ def test_pixel_sampling_statistics_and_frame(stripe):
     pixel_delta: the elements reach the field in its coordinates."""
     import hetmesh
     from hetmesh.tri.frame import local_field, local_frame
-    from hetmesh.metrics import element_delta
+    from hetmesh.delta import element_delta
 
     m = load_model(stripe)
     P = np.array([[1.9, 0.0], [2.1, 0.0], [2.0, 0.3], [2.0, 0.5]])
@@ -720,7 +720,7 @@ def test_pixel_sampling_statistics_and_frame(stripe):
 
 
 def test_pixel_sampling_cli(stripe, capsys):
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     out = stripe.parent / "out.vtu"
     code = main(["mesh", str(stripe), "-d", "0.1", "--sampling", "pixels", "--method",

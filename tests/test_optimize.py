@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri import adapt
+from hetmesh.tri import pipeline as adapt
 from hetmesh.material import element_subregions, has_subregions
 from hetmesh.tri.discontinuity import embed_discontinuities
-from hetmesh.metrics import element_delta, quality, signed_area2
+from hetmesh.metrics import quality, signed_area2
+from hetmesh.delta import element_delta
 from hetmesh.tri.optimize import _Eval, _sweep, independent_sets, optimize
 from hetmesh.tri.workset import FIXED
 

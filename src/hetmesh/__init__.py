@@ -15,7 +15,8 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-from .tri.adapt import Result, generate, mesh_statistics
+from .kernel import Result, mesh_statistics
+from .tri.pipeline import generate
 from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, MaterialError,
                      MeshingError, ModelFileError, OptionError, OutputError)
 from .io.model import Model, load_model

@@ -303,7 +303,7 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
 
 
 def _generate() -> Callable:
-    from ..tri.adapt import generate
+    from ..tri.pipeline import generate
 
     return generate
 

@@ -478,7 +478,7 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     ----------
     mesh : Mesh
         Any triangle mesh of the model's domain (from :func:`hetmesh.generate`,
-        :func:`hetmesh.uniform` or :func:`hetmesh.io.export.read_mesh`), in the model's
+        :func:`hetmesh.uniform` or :func:`hetmesh.io.read.read_mesh`), in the model's
         coordinates.
     model : Model
         With an ``[fea]`` table (``model.fea``), or pass ``config``.

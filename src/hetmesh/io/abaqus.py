@@ -28,15 +28,18 @@ from __future__ import annotations
 import logging
 import re
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import numpy as np
 
 from ..errors import OutputError
-from ..mesh import Mesh
 from . import textio
 from .groups import curve_groups
 from .textio import check_ids
+
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
 
 __all__ = ["format_reals", "abaqus_name", "element_type", "quadratic_nodes", "write_inp",
            "write_inp_mesh", "write_materials", "edge_sides", "set_names", "MAX_FIELD"]

@@ -19,14 +19,14 @@ import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
 from ..errors import GeometryError, HetmeshError, MaterialError, ModelFileError
 from ..expr import FUNCTIONS
 from ..fea.config import FEAConfig, parse_fea
-from ..tri.geometry import Arc, Loop, Segment, make_domain
+from ..tri.geometry import Arc, Domain, Loop, Segment, make_domain
 from ..tri.geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
 from ..material.hft import parse_hft
@@ -78,7 +78,7 @@ class Model:
     """
 
     name: str
-    domain: Any
+    domain: Domain
     material: MaterialField
     parameters: dict = field(default_factory=dict)
     source: Path | None = None

@@ -77,7 +77,7 @@ def _timed(func, *args, **kwargs):
 def mesh_pair(model, threshold: float):
     """hetmesh's adaptive mesh and uniform baseline of ``model``: ``(adaptive Result,
     seconds, uniform Result, seconds)``."""
-    from ..tri.adapt import generate
+    from ..tri.pipeline import generate
     from ..tri.uniform import uniform
 
     adaptive, t_a = _timed(generate, model, threshold)
@@ -94,7 +94,8 @@ def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
     equilateral elements tiling the area, ``h = sqrt(4 A / (sqrt(3) n))``, and is corrected
     by the square root of the count ratio until within ``tol``.
     """
-    from ..tri.adapt import evaluate, prepare
+    from ..tri.pipeline import prepare
+    from ..tri.refine import evaluate
     from ..tri.uniform import uniform_at
 
     ctx, frame = prepare(model, threshold, None)

@@ -53,7 +53,8 @@ import numpy as np
 
 from ..material.field import element_subregions, has_subregions
 from ..mesh import any_corner, edge_keys, edge_order
-from ..metrics import element_delta, signed_area2, triangle_areas2
+from ..metrics import signed_area2, triangle_areas2
+from ..delta import element_delta
 from ..parallel import block_concat
 from .workset import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
