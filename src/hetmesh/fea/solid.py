@@ -43,7 +43,7 @@ from .linsolve import blas_threads, rigid_modes, solve_spd
 __all__ = ["STRESS_NAMES_3D", "TetSpace", "tet_space", "node_pattern", "conduction_matrix",
            "elasticity_matrix", "thermal_load", "pressure_load", "surface_dofs",
            "boundary_faces", "stresses_3d", "von_mises_3d", "recover_3d", "cg_columns",
-           "locate_tet",
+           "locate_tet", "tet_boxes",
            "rigid_rank_3d", "SolidResult", "solve_tets", "Displacement"]
 
 log = logging.getLogger(__name__)
@@ -343,13 +343,19 @@ def cg_columns(A: sp.spmatrix, B: np.ndarray, diag: np.ndarray, rtol: float = 1e
 
 # ------------------------------------------------------------------------------- probes
 
-def locate_tet(P: np.ndarray, T: np.ndarray, q) -> tuple[int, np.ndarray]:
+def tet_boxes(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding boxes ``(lo (M, 3), hi (M, 3))`` of the tetrahedra."""
+    c = P[T]
+    return c.min(axis=1), c.max(axis=1)
+
+
+def locate_tet(P: np.ndarray, T: np.ndarray, q, boxes=None) -> tuple[int, np.ndarray]:
     """The tetrahedron holding point ``q`` and its barycentric coordinates ``(4,)``; a point
     just outside (a curved surface between its facets) takes the element it is least outside
-    of. Raises :class:`FEAError` for a point far from the mesh."""
+    of. Raises :class:`FEAError` for a point far from the mesh. ``boxes``:
+    :func:`tet_boxes`, when locating several points."""
     q = np.asarray(q, dtype=np.float64)
-    lo = P[T].min(axis=1)
-    hi = P[T].max(axis=1)
+    lo, hi = boxes if boxes is not None else tet_boxes(P, T)
     span = float(np.max(P.max(axis=0) - P.min(axis=0)))
     pad = 1e-9 * span
     cand = np.flatnonzero(np.all((lo - pad <= q) & (q <= hi + pad), axis=1))
@@ -595,8 +601,9 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
     Tv = Tfull[space.basis.nodal_dofs[0]]
     Uv = U[space.basis.nodal_dofs[0]]
     out_probes = {}
+    boxes = tet_boxes(P, T) if probes else None
     for name, q in (probes or {}).items():
-        e, bary = locate_tet(P, T, q)
+        e, bary = locate_tet(P, T, q, boxes)
         vals = _p2_values(bary) if order == 2 else bary
         s = bary @ rec[copies[e]]
         entry = {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "element": e,
