@@ -29,6 +29,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..errors import FEAError
 from .config import Properties
 from .mixing import mix_linear
 from .radial import RadialSolution, cylinder, sphere
@@ -38,7 +39,7 @@ __all__ = ["prisms_to_tets", "annulus_tets", "shell_octant_tets", "annulus_mesh"
            "graded_field", "case_config", "CYLINDER_FACES", "AL2O3", "NI",
            "graded_profiles", "graded_material", "CASES", "reference", "run_case",
            "convergence", "case_mesh", "RADII", "LENGTH", "PRESSURE", "T_INNER", "T_OUTER",
-           "T_REF", "extrude", "plane_strain_check"]
+           "T_REF", "extrude", "plane_strain_check", "case_probes", "radial_hoop", "CaseRun"]
 
 #: the constituents' properties (paper Table 6; SI units)
 AL2O3 = Properties(conductivity=35.0, youngs_modulus=393e9, poisson_ratio=0.25,
@@ -171,7 +172,7 @@ def case_config(case: str, order: int = 2):
                            TemperatureBC3D)
 
     if case not in ("pressure", "thermal"):
-        raise ValueError(f"unknown cylinder case {case!r}")
+        raise FEAError(f"unknown cylinder case {case!r} (expected pressure or thermal)")
     disp = (DisplacementBC3D(Selection(faces=("bottom", "top")), None, None, 0.0),
             DisplacementBC3D(Selection(faces=("y0",)), None, 0.0, None),
             DisplacementBC3D(Selection(faces=("x0",)), 0.0, None, None))
@@ -247,7 +248,7 @@ def reference(case: str) -> RadialSolution:
                         t_outer=T_OUTER, t_ref=T_REF)
     if case == "sphere":
         return sphere(a, b, f["E"], f["nu"], p_inner=PRESSURE, t_ref=T_REF)
-    raise ValueError(f"unknown case {case!r} (expected one of {', '.join(CASES)})")
+    raise FEAError(f"unknown case {case!r} (expected one of {', '.join(CASES)})")
 
 
 def case_probes(case: str) -> dict[str, tuple[float, float, float]]:
@@ -388,7 +389,7 @@ def plane_strain_check(model, mesh2d, *, thickness: float = 1.0, layers: int = 1
 
     cfg = model.fea
     if cfg is None or cfg.plane != "strain":
-        raise ValueError("plane_strain_check needs a model with a plane-strain [fea] table")
+        raise FEAError("plane_strain_check needs a model with a plane-strain [fea] table")
     r2 = solve(mesh2d, model)
     P2, T2 = np.asarray(mesh2d.points), np.asarray(mesh2d.triangles)
     P, T, node2d, tri2d = extrude(P2, T2, 0.0, thickness, layers)
