@@ -22,7 +22,7 @@ log = logging.getLogger(__name__)
 
 def report_document(result, **extra) -> dict[str, Any]:
     """:meth:`FEAResult.report` plus ``extra`` keys (file names, version), JSON-ready."""
-    from .. import __version__
+    from ..version import __version__
 
     return jsonable({"hetmesh_version": __version__, **extra, **result.report()},
                     infinity_as_string=False)

@@ -11,6 +11,7 @@ import numpy as np
 
 from ...errors import GeometryError, MaterialError, ModelFileError
 from ...expr import compile_expr
+from ...io.schema import describe
 from ...tri.geometry import Arc, Segment
 from ..analytic import check_constituents
 from .features import (BlendFeature, CurveFeature, NearestFeature, PointFeature,
@@ -31,13 +32,11 @@ _KINDS = ("point", "segment", "arc", "circle", "nearest", "composite", "select",
 
 def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
     """The ``[material]`` parser of ``type = "hft"`` (schema: :mod:`hetmesh.material.hft`)."""
-    from ...io.model import _describe  # local: io.model imports this module
-
     t = ctx.table(table, "material", required=("type", "constituents", "root", "features"))
     cons = t["constituents"]
     if not isinstance(cons, list) or not all(isinstance(c, str) for c in cons):
         raise ctx.fail("material.constituents", f"expected an array of names, got "
-                                                f"{_describe(cons)}")
+                                                f"{describe(cons)}")
     try:
         cons = check_constituents(cons)
     except MaterialError as exc:
@@ -46,16 +45,16 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
     feats = t["features"]
     if not isinstance(feats, list) or not feats:
         raise ctx.fail("material.features", f"expected an array of tables "
-                                             f"([[material.features]]), got {_describe(feats)}")
+                                             f"([[material.features]]), got {describe(feats)}")
     raw: dict[str, tuple[str, dict]] = {}
     for i, item in enumerate(feats):
         key = f"material.features[{i}]"
         if not isinstance(item, Mapping):
-            raise ctx.fail(key, f"expected a table, got {_describe(item)}")
+            raise ctx.fail(key, f"expected a table, got {describe(item)}")
         fid = item.get("id")
         if not isinstance(fid, str) or not fid.strip():
             raise ctx.fail(f"{key}.id", f"expected a non-empty feature id, got "
-                                        f"{_describe(fid) if 'id' in item else 'nothing'}")
+                                        f"{describe(fid) if 'id' in item else 'nothing'}")
         if fid in raw:
             raise ctx.fail(f"{key}.id", f"feature {fid!r} is defined twice")
         kind = item.get("kind")
@@ -74,7 +73,7 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
     def ref(fid: str, name, what: str, stack: list[str]):
         if not isinstance(name, str):
             raise ctx.fail(f"material.features.{fid}", f"{what}: expected a feature id, got "
-                                               f"{_describe(name)}")
+                                               f"{describe(name)}")
         if name not in raw:
             raise ctx.fail(f"material.features.{fid}", f"{what}: unknown feature {name!r}")
         return build(name, stack + [fid])
@@ -84,14 +83,14 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
                                          and math.isfinite(c) for c in v)
         if not ok:
             raise ctx.fail(f"material.features.{fid}", f"{what}: expected an array of numbers, got "
-                                               f"{_describe(v)}", MaterialError)
+                                               f"{describe(v)}", MaterialError)
         if len(v) != m:
             raise ctx.fail(f"material.features.{fid}", f"{what} has {len(v)} values but there are "
                                                f"{m} constituents ({', '.join(cons)})",
                            MaterialError)
         a = np.array(v, dtype=float)
         if a.min() < 0 or a.max() > 1 or abs(a.sum() - 1.0) > 1e-9:
-            shown = _describe(v).split(" (")[0]
+            shown = describe(v).split(" (")[0]
             raise ctx.fail(f"material.features.{fid}", f"{what} {shown} is not a composition "
                                                        f"(values in [0, 1] summing to 1)",
                            MaterialError)
@@ -159,7 +158,7 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
             kids = item["children"]
             if not isinstance(kids, list) or not kids:
                 raise ctx.fail(f"{key}.children", f"expected a non-empty array of feature "
-                                                  f"ids, got {_describe(kids)}")
+                                                  f"ids, got {describe(kids)}")
             children = [ref(fid, k, "children", stack) for k in kids]
             try:
                 feat = NearestFeature(fid, children)
@@ -171,7 +170,7 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
             if not isinstance(rules_in, list) or not rules_in:
                 raise ctx.fail(f"{key}.rules", f"expected a non-empty array of "
                                                f"{{ child = ..., inside | outside | where }} "
-                                               f"tables, got {_describe(rules_in)}")
+                                               f"tables, got {describe(rules_in)}")
             children, index, rules = [], {}, []
             for j, rt in enumerate(rules_in):
                 rk = f"{key}.rules[{j}]"
@@ -200,7 +199,7 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
                     text = rt["where"]
                     if not isinstance(text, str):
                         raise ctx.fail(f"{rk}.where", f"expected a condition string, got "
-                                                      f"{_describe(text)}")
+                                                      f"{describe(text)}")
                     e = compile_expr(f"where({text}, 1, 0)", ("x", "y"), parameters,
                                      where=f"{here}: rules[{j}].where {text!r}")
                     pred = (lambda p, _e=e: _e(x=p[:, 0], y=p[:, 1]) > 0.5)
@@ -214,7 +213,7 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
             dist_in = item["distances"]
             if not isinstance(dist_in, Mapping) or not dist_in:
                 raise ctx.fail(f"{key}.distances", f"expected a table variable = feature id, "
-                                                   f"got {_describe(dist_in)}")
+                                                   f"got {describe(dist_in)}")
             distances = {}
             for var, target in dist_in.items():
                 if not (var.isascii() and var.isidentifier()) or var in ("x", "y") \
@@ -225,7 +224,7 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
             weights = []
             if not isinstance(item.get("weights", []), list):
                 raise ctx.fail(f"{key}.weights", f"expected an array of {{ owner, formula }} "
-                                                 f"tables, got {_describe(item['weights'])}")
+                                                 f"tables, got {describe(item['weights'])}")
             for j, wt in enumerate(item.get("weights", [])):
                 wk = f"{key}.weights[{j}]"
                 wt = ctx.table(wt, wk, required=("owner", "formula"))
@@ -236,12 +235,12 @@ def parse_hft(ctx, table: dict, domain, parameters: dict) -> HFTField:
                 formula = wt["formula"]
                 if not isinstance(formula, str):
                     raise ctx.fail(f"{wk}.formula", f"expected a formula string, got "
-                                                    f"{_describe(formula)}")
+                                                    f"{describe(formula)}")
                 weights.append((formula, owner))
             if "weight" in item:
                 if not isinstance(item["weight"], str):
                     raise ctx.fail(f"{key}.weight", f"expected a formula string, got "
-                                                    f"{_describe(item['weight'])}")
+                                                    f"{describe(item['weight'])}")
                 weights.append((item["weight"], None))
             if not weights:
                 raise ctx.fail(key, "a blend needs 'weight' and/or 'weights'")
