@@ -30,6 +30,15 @@ KNOWN_CYCLE_EDGES: set[tuple[str, str]] = {
     ("hetmesh.metrics", "hetmesh.certify"),
 }
 
+# Private names still read across modules, as "importing module: imported.module._name";
+# the test fails once such a use is gone, so that the entry goes with it.
+KNOWN_PRIVATE: set[str] = {
+    # the Abaqus writer's id-list helper, used by the input-deck writer too
+    "hetmesh.io.deck: hetmesh.io.abaqus._write_id_list",
+    # the offset handling the analytic fields share, a base class of HFTField too
+    "hetmesh.material.hft.field: hetmesh.material.analytic._Shiftable",
+}
+
 
 def _module_name(path: Path) -> str:
     parts = list(path.relative_to(SRC).with_suffix("").parts)
@@ -143,7 +152,8 @@ def test_find_cycles_sees_a_cycle_and_a_lazy_import(tmp_path):
 def test_no_import_cycles():
     graph = import_graph()
     for importer, imported in KNOWN_CYCLE_EDGES:
-        assert imported in graph[importer], f"{importer} -> {imported} is gone: drop it from KNOWN_CYCLE_EDGES"
+        assert imported in graph[importer], \
+            f"{importer} -> {imported} is gone: drop it from KNOWN_CYCLE_EDGES"
         graph[importer].discard(imported)
     cycles = find_cycles(graph)
     assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
@@ -153,17 +163,17 @@ def _private(name: str) -> bool:
     return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
 
 
-def _private_imports(module: str, path: Path) -> list[str]:
-    bad = []
+def _private_imports(module: str, path: Path) -> list[tuple[str, int]]:
+    """``from other.module import _name`` (or ``import other._module``) in one file."""
+    found = []
     for target, name, line in imports_of(module, path):
         owner = _owner(target)
         if owner is None:
             continue
         parts = target.split(".")[len(owner.split(".")) - 1 :] + ([name] if name else [])
         if any(_private(p) for p in parts if p != "__main__"):
-            shown = f"{target}.{name}" if name else target
-            bad.append(f"{path.relative_to(ROOT)}:{line}: {shown}")
-    return bad
+            found.append((f"{target}.{name}" if name else target, line))
+    return found
 
 
 def _module_aliases(module: str, path: Path, tree: ast.AST) -> dict[str, str]:
@@ -194,37 +204,56 @@ def _dotted(node: ast.AST) -> str | None:
     return None
 
 
-def _private_attributes(module: str, path: Path) -> list[str]:
+def _private_attributes(module: str, path: Path) -> list[tuple[str, int]]:
     """``mod._name`` where ``mod`` is another package module bound by an import."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     aliases = _module_aliases(module, path, tree)
-    bad = []
+    found = []
     for node in ast.walk(tree):
         if not (isinstance(node, ast.Attribute) and _private(node.attr)):
             continue
         chain = _dotted(node.value)
-        if chain is None:
+        if chain is None or chain.partition(".")[0] not in aliases:
             continue
         head, _, rest = chain.partition(".")
-        if head not in aliases:
-            continue
         target = aliases[head] + ("." + rest if rest else "")
         if target in MODULES and target != module:
-            bad.append(f"{path.relative_to(ROOT)}:{node.lineno}: {target}.{node.attr}")
-    return bad
+            found.append((f"{target}.{node.attr}", node.lineno))
+    return found
+
+
+def private_uses(module: str, path: Path) -> list[str]:
+    """Every private name of another package module that one file imports or reads, as
+    ``file:line: module._name``, the known ones (:data:`KNOWN_PRIVATE`) left out."""
+    found = _private_imports(module, path) + _private_attributes(module, path)
+    return [f"{path.relative_to(ROOT)}:{line}: {shown}" for shown, line in found
+            if f"{module}: {shown}" not in KNOWN_PRIVATE]
+
+
+def test_known_private_uses_are_still_there():
+    for entry in KNOWN_PRIVATE:
+        module, _, shown = entry.partition(": ")
+        path = MODULES[module]
+        found = {s for s, _ in _private_imports(module, path) + _private_attributes(module, path)}
+        assert shown in found, f"{entry} is gone: drop it from KNOWN_PRIVATE"
 
 
 def test_no_private_names_imported_across_modules():
-    bad = [
-        b
-        for module, path in MODULES.items()
-        for b in _private_imports(module, path) + _private_attributes(module, path)
-    ]
+    bad = [b for module, path in MODULES.items() for b in private_uses(module, path)]
     assert not bad, "private names imported from another module:\n" + "\n".join(bad)
 
 
 @pytest.mark.parametrize("path", sorted((ROOT / "tests").glob("*.py")), ids=lambda p: p.name)
 def test_tests_import_no_private_names(path):
-    module = f"tests.{path.stem}"
-    bad = _private_imports(module, path) + _private_attributes(module, path)
+    bad = private_uses(f"tests.{path.stem}", path)
     assert not bad, "private names imported by a test:\n" + "\n".join(bad)
+
+
+def test_private_uses_are_seen(tmp_path):
+    """Both spellings are caught: ``from m import _x`` and ``import m as a; a._x``."""
+    f = tmp_path / "t.py"
+    f.write_text("from hetmesh.io.abaqus import _x, y\n"
+                 "import hetmesh.io.atomic as a\n"
+                 "def g():\n    return a._y, a.z, a.__name__\n")
+    assert _private_imports("tests.t", f) == [("hetmesh.io.abaqus._x", 1)]
+    assert _private_attributes("tests.t", f) == [("hetmesh.io.atomic._y", 4)]

@@ -108,7 +108,7 @@ class FEAResult:
 
 # ----------------------------------------------------------------------------- geometry
 
-def _p1(P: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def p1_basis(P: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(gradients (M, 3, 2), areas (M,))`` of the P1 basis functions of every triangle."""
     a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
     d = signed_area2(a, b, c)
@@ -362,7 +362,7 @@ def von_mises(s: np.ndarray) -> np.ndarray:
 
 def p1_gradient(grads: np.ndarray, u: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Displacement gradients ``(M, 1, 2, 2)`` (``du_c/dx_d``) of P1 nodal values ``u (N, 2)``
-    with basis gradients ``grads (M, 3, 2)`` (:func:`_p1`)."""
+    with basis gradients ``grads (M, 3, 2)`` (:func:`p1_basis`)."""
     return np.einsum("mic,mid->mcd", u[t], grads)[:, None]
 
 

@@ -13,7 +13,7 @@ from ...errors import MaterialError
 from ..field import as_points
 from .maps import ValueMap
 from .sampling import element_pixel_delta
-from .read import Image, _fail
+from .read import Image, image_error
 
 __all__ = ["ImageField", "LabelField", "image_field", "covers", "INTERPOLATIONS"]
 
@@ -233,9 +233,9 @@ def covers(image: Image, bounds, where: str = "") -> None:
         def fmt(v):
             return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
         bad = b[0] if (b[0] < lo - tol).any() else b[1]
-        raise _fail(where or image.source,
-                    f"the image covers {fmt(lo)} - {fmt(hi)} but the domain reaches "
-                    f"{fmt(bad)}: it must lie inside the image (check origin and spacing)")
+        raise image_error(where or image.source,
+                          f"the image covers {fmt(lo)} - {fmt(hi)} but the domain reaches "
+                          f"{fmt(bad)}: it must lie inside the image (check origin and spacing)")
 
 
 # ---------------------------------------------------------------------------- label fields
