@@ -14,8 +14,9 @@ Tables
       elasticity with the thermal load) at ~1M linear tetrahedra (target: < 60 s, < 8 GB)
       and ~200k quadratic ones (target: < 120 s); each run in a fresh subprocess (its peak
       resident memory is the process's ru_maxrss; its CPU time is printed beside the wall
-      time, since on a shared machine the wall time follows the load); phase times (material, pattern, thermal,
-      elastic assembly, elastic solve, recovery), CG iterations, unknowns, and the largest
+      time, since on a shared machine the wall time follows the load); phase times
+      (material, pattern, thermal, elastic assembly, elastic solve, recovery), CG
+      iterations, unknowns, and the largest
       relative error at R1..R3 against the exact solution. Median of --big-repeats runs.
   G2. Solvers: direct (SuperLU) against CG + smoothed-aggregation AMG on the same
       elastic problems at a few sizes (the pressure case, P1 and P2); the ratio direct/AMG.
@@ -160,7 +161,7 @@ def table_accuracy(quick: bool) -> list[dict]:
             for r in runs:
                 worst_r = max(e["sigma_r"] for e in r.errors.values())
                 worst_t = max(e["sigma_t"] for e in r.errors.values())
-                worst_T = max((e.get("T", 0.0) for e in r.errors.values()))
+                worst_T = max(e.get("T", 0.0) for e in r.errors.values())
                 rows.append([case, f"P{order}", f"{r.tets:,}", f"{r.unknowns:,}",
                              f"{worst_r:.2e}", f"{worst_t:.2e}",
                              f"{worst_T:.1e}" if case == "thermal" else "",

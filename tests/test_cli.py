@@ -651,7 +651,7 @@ def fsync(tmp):  # the mesh is in the temporary file, not yet renamed: terminate
     os.kill(os.getpid(), signal.SIGTERM)
     time.sleep(5)
 
-atomic._fsync = fsync
+atomic.fsync = fsync
 sys.exit(main(sys.argv[1:]))
 """
 

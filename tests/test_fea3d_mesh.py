@@ -13,7 +13,7 @@ from hetmesh.errors import FEAError, ModelFileError
 from hetmesh.fea import verification as v
 from hetmesh.fea.analysis3d import Part3D
 from hetmesh.fea.config3d import parse_fea3d
-from hetmesh.io.model import _Ctx
+from hetmesh.io.schema import SchemaContext
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +106,7 @@ TABLE = {
 
 
 def test_parse_fea3d():
-    cfg = parse_fea3d(_Ctx("cyl.toml"), TABLE, None, ("ceramic", "metal"), "mm")
+    cfg = parse_fea3d(SchemaContext("cyl.toml"), TABLE, None, ("ceramic", "metal"), "mm")
     assert cfg.dim == 3 and cfg.order == 2 and cfg.solver == "amg"
     assert cfg.length_scale == 1e-3
     assert cfg.displacement[1].where.edge == ("y0", "x0")
@@ -127,7 +127,8 @@ def test_parse_fea3d():
 ])
 def test_parse_fea3d_errors(change, message):
     with pytest.raises(ModelFileError, match=message) as e:
-        parse_fea3d(_Ctx("cyl.toml"), {**TABLE, **change}, None, ("ceramic", "metal"), "mm")
+        parse_fea3d(SchemaContext("cyl.toml"), {**TABLE, **change}, None,
+                    ("ceramic", "metal"), "mm")
     assert str(e.value).startswith("cyl.toml")
     assert "\n" not in str(e.value)
 

@@ -225,7 +225,7 @@ def run_pipeline(func: Callable, model, threshold: float, kwargs: dict[str, Any]
 
 def stats_document(args: argparse.Namespace, model, result, seconds: float) -> dict[str, Any]:
     """The ``--stats`` JSON: everything needed to reproduce and judge the run."""
-    from .. import __version__
+    from ..version import __version__
 
     return jsonable({
         "hetmesh_version": __version__,

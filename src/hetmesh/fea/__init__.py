@@ -21,7 +21,8 @@ Modules: :mod:`~hetmesh.fea.config` (the ``[fea]`` table; pure numpy, imported b
 parser), :mod:`~hetmesh.fea.config3d` (its 3-D form), :mod:`~hetmesh.fea.solid` (3-D
 assembly and solve on arrays), :mod:`~hetmesh.fea.analysis3d` (the 3-D analysis of a mesh),
 :mod:`~hetmesh.fea.linsolve` (direct / AMG-CG), :mod:`~hetmesh.fea.radial` (exact 1-D
-references), :mod:`~hetmesh.fea.verification` (structured meshes and the validation cases), :mod:`~hetmesh.fea.mixing` (rule of mixtures, Mori-Tanaka), :mod:`~hetmesh.fea.analysis`
+references), :mod:`~hetmesh.fea.verification` (structured meshes and the validation cases),
+:mod:`~hetmesh.fea.mixing` (rule of mixtures, Mori-Tanaka), :mod:`~hetmesh.fea.analysis`
 (assembly, solves, recovery, probes), :mod:`~hetmesh.fea.report` (JSON report, plot),
 :mod:`~hetmesh.fea.probe_study` (the case-4 study, :func:`study`; not named ``study`` so that
 importing it cannot shadow the function). scikit-fem and matplotlib are imported on first use

@@ -15,8 +15,9 @@ An edge is the vertices on both of its faces; a point condition takes the vertex
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 

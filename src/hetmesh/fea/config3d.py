@@ -40,13 +40,21 @@ loaded; every error is one line naming the file and the key. Pure numpy.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
-from .config import (LENGTH_UNITS, MIXINGS, PROPERTY_KEYS, Properties, _array, _choice,
-                     _properties, length_scale)
+from .config import (
+    LENGTH_UNITS,
+    MIXINGS,
+    PROPERTY_KEYS,
+    Properties,
+    length_scale,
+    parse_choice,
+    parse_properties,
+    table_array,
+)
 
 #: the linear solvers by name (:func:`hetmesh.fea.linsolve.solve_spd`); ``auto`` factorises
 #: small systems directly and solves larger ones by multigrid-preconditioned CG
@@ -203,8 +211,8 @@ def parse_fea3d(ctx, value, solid, constituents, units: str = "") -> FEAConfig3D
     if scale is None:
         raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
                                       f"{', '.join(u for u in LENGTH_UNITS if u)}; none means m)")
-    mixing = _choice(ctx, t, "mixing", MIXINGS, "linear")
-    solver = _choice(ctx, t, "solver", SOLVERS, "auto")
+    mixing = parse_choice(ctx, t, "mixing", MIXINGS, "linear")
+    solver = parse_choice(ctx, t, "solver", SOLVERS, "auto")
     ref = ctx.number(t.get("reference_temperature", 293.15), "fea.reference_temperature")
     if ref <= 0:
         raise ctx.fail("fea.reference_temperature", f"expected a temperature in K above 0, "
@@ -220,10 +228,10 @@ def parse_fea3d(ctx, value, solid, constituents, units: str = "") -> FEAConfig3D
                                          f"constituent, one of: {', '.join(constituents)}")
     elif matrix is not None:
         raise ctx.fail("fea.matrix", "only mixing = \"mori-tanaka\" has a matrix constituent")
-    props = _properties(ctx, t["properties"], constituents)
+    props = parse_properties(ctx, t["properties"], constituents)
     known = tuple(getattr(solid, "face_names", ())) or None
     temps = []
-    for i, item in enumerate(_array(ctx, t.get("temperature", []), "fea.temperature")):
+    for i, item in enumerate(table_array(ctx, t.get("temperature", []), "fea.temperature")):
         key = f"fea.temperature[{i}]"
         tt = ctx.table(item, key, required=("value",), optional=("faces", "edge", "point"))
         v = ctx.number(tt["value"], f"{key}.value")
@@ -231,7 +239,7 @@ def parse_fea3d(ctx, value, solid, constituents, units: str = "") -> FEAConfig3D
             raise ctx.fail(f"{key}.value", f"expected a temperature in K above 0, got {v:g}")
         temps.append(TemperatureBC3D(_selection(ctx, tt, key, known, solid), v, key))
     disps = []
-    for i, item in enumerate(_array(ctx, t.get("displacement", []), "fea.displacement")):
+    for i, item in enumerate(table_array(ctx, t.get("displacement", []), "fea.displacement")):
         key = f"fea.displacement[{i}]"
         tt = ctx.table(item, key, optional=("faces", "edge", "point", "ux", "uy", "uz"))
         comps = {c: ctx.number(tt[c], f"{key}.{c}") if c in tt else None
@@ -244,7 +252,7 @@ def parse_fea3d(ctx, value, solid, constituents, units: str = "") -> FEAConfig3D
         raise ctx.fail("fea.displacement", "at least one displacement condition is needed "
                                            "(the six rigid-body modes must be removed)")
     press = []
-    for i, item in enumerate(_array(ctx, t.get("pressure", []), "fea.pressure")):
+    for i, item in enumerate(table_array(ctx, t.get("pressure", []), "fea.pressure")):
         key = f"fea.pressure[{i}]"
         tt = ctx.table(item, key, required=("faces", "value"))
         press.append(PressureBC(Selection(faces=_names(ctx, tt["faces"], f"{key}.faces",

@@ -41,8 +41,8 @@ displacements in the units of the radii, temperatures in K.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.integrate import quad, solve_ivp
@@ -129,6 +129,10 @@ class RadialSolution:
         return lam * (du + u / r) - th
 
 
+def _zero(r):
+    return 0.0 * np.asarray(r, dtype=np.float64)
+
+
 def _lame(E, nu):
     return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
@@ -204,8 +208,7 @@ def _radial(geometry, a, b, E, nu, alpha, k, p_inner, p_outer, t_inner, t_outer,
         raise FEAError("give both t_inner and t_outer, or neither")
     if t_inner is not None and k is None:
         raise FEAError("a thermal problem needs the conductivity profile k")
-    zero = (lambda r: 0.0 * np.asarray(r, dtype=np.float64))
-    alpha = alpha if alpha is not None else zero
+    alpha = alpha if alpha is not None else _zero
     fine, i_b, s_scale = _solve(geometry, a, b, E, nu, alpha, k, p_inner, p_outer, t_inner,
                                 t_outer, t_ref, rtol)
     coarse, _, _ = _solve(geometry, a, b, E, nu, alpha, k, p_inner, p_outer, t_inner,

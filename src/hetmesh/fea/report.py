@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 
 def report_document(result, **extra) -> dict[str, Any]:
     """:meth:`FEAResult.report` plus ``extra`` keys (file names, version), JSON-ready."""
-    from .. import __version__
+    from ..version import __version__
 
     return jsonable({"hetmesh_version": __version__, **extra, **result.report()},
                     infinity_as_string=False)
@@ -52,12 +52,12 @@ def von_mises_figure(result, *, title: str | None = None, show_probes: bool = Tr
     """
     from matplotlib.tri import Triangulation
 
-    from ..plot import _figure_size, _new_figure, axis_labels, label_points
+    from ..plot import axis_labels, figure_size, label_points, new_figure
 
     mesh = result.mesh
     if getattr(mesh, "dim", 2) == 3:
         return section_figure(result, title=title, show_probes=show_probes, units=units)
-    fig = _new_figure(*_figure_size(mesh))
+    fig = new_figure(*figure_size(mesh))
     ax = fig.add_subplot()
     tri = Triangulation(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles)
     art = ax.tripcolor(tri, result.von_mises / 1e6, shading="gouraud", cmap="inferno")
@@ -78,9 +78,9 @@ def von_mises_figure(result, *, title: str | None = None, show_probes: bool = Tr
 def plot_von_mises(result, path: str | Path, *, title: str | None = None,
                    dpi: int = 150, units: str = "") -> Path:
     """Save :func:`von_mises_figure` to ``path`` (format from the extension, atomically)."""
-    from ..plot import _save
+    from ..plot import save_figure
 
-    return _save(von_mises_figure(result, title=title, units=units), path, dpi)
+    return save_figure(von_mises_figure(result, title=title, units=units), path, dpi)
 
 
 # ------------------------------------------------------------------------------ 3-D section
@@ -142,7 +142,7 @@ def section_figure(result, *, title: str | None = None, show_probes: bool = True
     """
     from matplotlib.tri import Triangulation
 
-    from ..plot import _new_figure, label_points
+    from ..plot import label_points, new_figure
 
     mesh = result.mesh
     P, T = np.asarray(mesh.points), np.asarray(mesh.cells)
@@ -163,7 +163,7 @@ def section_figure(result, *, title: str | None = None, show_probes: bool = True
     uv = [(axis + 1) % 3, (axis + 2) % 3]
     span = np.ptp(q, axis=0) if len(q) else np.ones(2)
     aspect = float(span[1] / span[0]) if span[0] > 0 else 1.0
-    fig = _new_figure(7.0, float(np.clip(7.0 * aspect * 0.85 + 0.6, 2.5, 10.0)))
+    fig = new_figure(7.0, float(np.clip(7.0 * aspect * 0.85 + 0.6, 2.5, 10.0)))
     ax = fig.add_subplot()
     if len(tri):
         art = ax.tripcolor(Triangulation(q[:, 0], q[:, 1], tri), v / 1e6, shading="gouraud",

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -168,8 +169,7 @@ def graded_field():
 def case_config(case: str, order: int = 2):
     """The ``[fea]`` settings of the cylinder cases (``pressure`` or ``thermal``) on the
     faces of :func:`annulus_mesh`, as a model file would give them."""
-    from .config3d import (DisplacementBC3D, FEAConfig3D, PressureBC, Selection,
-                           TemperatureBC3D)
+    from .config3d import DisplacementBC3D, FEAConfig3D, PressureBC, Selection, TemperatureBC3D
 
     if case not in ("pressure", "thermal"):
         raise FEAError(f"unknown cylinder case {case!r} (expected pressure or thermal)")
