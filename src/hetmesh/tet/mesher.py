@@ -219,13 +219,15 @@ def _slab(layers, k):
     return _delaunay(np.concatenate([layers[k], layers[k + 1]]))
 
 
-def _mesh_planar(layers, fixed, spacing, axis, rng, target: float = SLIVER_ANGLE,
-                 rounds: int = SLIVER_ROUNDS):
+def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
+                 rounds: int | None = None):
     """Slab by slab Delaunay of the planar layers, then sliver removal by perturbation:
     the free vertices of tetrahedra with a dihedral angle below ``target`` slide in their
     plane by up to :data:`PERTURB` x the layer spacing (random, from ``rng``); a move is
     kept where the worst dihedral angle around the vertex got better, and the two slabs
     around a moved vertex are triangulated again. Global ids in layer order."""
+    target = SLIVER_ANGLE if target is None else target
+    rounds = SLIVER_ROUNDS if rounds is None else rounds
     layers = [p.copy() for p in layers]
     nl = len(layers)
     slabs = [_slab(layers, k) for k in range(nl - 1)]

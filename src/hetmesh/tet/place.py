@@ -61,11 +61,13 @@ def section_points(section, spacing: float, phase: int, rng: np.random.Generator
     """Points of one layer in the section: ``(q (n, 2), on_boundary (n,))``.
 
     Boundary curves are divided into ``ceil(length / spacing)`` equal parts (arcs also so
-    that a chord's sagitta stays below ``chord_tol``); the interior is a square lattice of
+    that a chord's sagitta stays below ``chord_tol / 3``); the interior is a square lattice of
     ``spacing``, shifted by half a cell when ``phase`` is odd.
     """
     curves = [c.curve for c in section.curves if c.kind in ("outer", "hole")]
-    off, t = sample_parameters(curves, spacing, chord_tol)
+    # a side triangle may join points of two layers up to ~1.5 steps apart in angle: the
+    # sagitta grows with the square of the angle, so a third of the tolerance here
+    off, t = sample_parameters(curves, spacing, chord_tol / 3.0)
     qs = []
     for i, c in enumerate(curves):
         ti = t[off[i]:off[i + 1]][:-1]  # the end is the next curve's start
@@ -89,6 +91,11 @@ def section_points(section, spacing: float, phase: int, rng: np.random.Generator
             g = g[d >= BOUNDARY_GAP * spacing]
     if len(g):
         g = g + rng.uniform(-JITTER, JITTER, g.shape) * spacing
+    else:
+        # an interior point keeps the boundary points (on one circle per layer in a
+        # cylinder: two layers' are cospherical) from forming flat Delaunay tetrahedra
+        r = section.polygon().representative_point()
+        g = np.array([[r.x, r.y]])
     q = np.concatenate([qb, g])
     return q, np.r_[np.ones(len(qb), bool), np.zeros(len(g), bool)]
 
