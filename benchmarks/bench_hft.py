@@ -10,7 +10,7 @@ Tables
       {0.15, 0.10, 0.08, 0.05}, hft_complex and fgm_plate at 0.1; adaptive (layers) against
       hetmesh's uniform baseline, with the paper's element counts and ratios, the number of
       embedded discontinuity curves, and an independent count of elements whose interior
-      crosses a subregion boundary (hetmesh.discontinuity.crossing_elements); targets as
+      crosses a subregion boundary (hetmesh.tri.discontinuity.crossing_elements); targets as
       PASS/FAIL columns.
   H2. Field evaluation speed: composition + gradient of fgm_plate at 1,000,000 points (median
       of 5 uncached calls), and the subregion ids alone.
@@ -32,7 +32,7 @@ from bench_core import (ROOT, environment, err_text, fmt, limit_memory, median, 
 
 import hetmesh  # noqa: E402
 from hetmesh.density import n_iso  # noqa: E402
-from hetmesh.discontinuity import crossing_elements, embedded_count, FIT_TOL  # noqa: E402
+from hetmesh.tri.discontinuity import crossing_elements, embedded_count, FIT_TOL  # noqa: E402
 from hetmesh.reproduce.paper import CASES  # noqa: E402
 
 EXAMPLES = ROOT / "examples"

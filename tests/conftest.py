@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.discontinuity import crossing_elements, has_subregions
+from hetmesh.tri.discontinuity import crossing_elements, has_subregions
 from hetmesh.metrics import delta_vertices, min_angle
 
 EXAMPLES = sorted((Path(hetmesh.__file__).parent / "examples").glob("*.toml"))
 
 
 def square_domain(x0=0.0, y0=0.0, w=1.0, h=1.0):
-    from hetmesh.geometry import Loop, Segment, make_domain
+    from hetmesh.tri.geometry import Loop, Segment, make_domain
 
     pts = [(x0, y0), (x0 + w, y0), (x0 + w, y0 + h), (x0, y0 + h)]
     outer = Loop(tuple(Segment(a, b) for a, b in zip(pts, pts[1:] + pts[:1])), "outer")

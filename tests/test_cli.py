@@ -295,14 +295,14 @@ def test_every_error_class_has_its_exit_code(cls, model, tmp_path, capsys, monke
 
 def test_a_verification_failure_on_valid_input_is_an_internal_error(model, tmp_path, capsys,
                                                                    monkeypatch):
-    import hetmesh.adapt
+    import hetmesh.tri.adapt
     from hetmesh.errors import VerificationError
 
     def failing_finish(*a, **k):
         raise VerificationError("the mesh failed verification: 3 degenerate or inverted "
                                 "triangles (first #7)")
 
-    monkeypatch.setattr(hetmesh.adapt, "finish", failing_finish)
+    monkeypatch.setattr(hetmesh.tri.adapt, "finish", failing_finish)
     out = tmp_path / "o.vtu"
     code, _, err = run(mesh_argv(model, out), capsys)
     assert code == 1
@@ -319,13 +319,13 @@ def test_a_stalled_refinement_is_internal_and_a_budget_overrun_bad_input(model, 
                                                                          capsys, monkeypatch):
     code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "--max-elements", "10"), capsys)
     assert code == 2 and "budget" in err and "internal" not in err
-    import hetmesh.adapt
+    import hetmesh.tri.adapt
     from hetmesh.errors import MeshingError
 
     def stalled(*a, **k):
         raise MeshingError("refinement stalled in round 3 with 2 elements at delta >= 0.1")
 
-    monkeypatch.setattr(hetmesh.adapt, "repair", stalled)
+    monkeypatch.setattr(hetmesh.tri.adapt, "repair", stalled)
     code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "--method", "cvt"), capsys)
     assert code == 1 and len(err.strip().splitlines()) == 1
     assert err.startswith("hetmesh: error: internal error: refinement stalled")
@@ -344,7 +344,7 @@ def _noisy(then=None):
 
     def load(path, *a, **k):
         for _ in range(2):
-            logging.getLogger("hetmesh.adapt").warning("the angle floor was given up\nsomewhere")
+            logging.getLogger("hetmesh.tri.adapt").warning("the angle floor was given up\nsomewhere")
             logging.getLogger("somelib").warning("a library warning")
             np.log(np.array([-1.0]))  # RuntimeWarning: invalid value encountered in log
         if then is not None:

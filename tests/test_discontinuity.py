@@ -1,4 +1,4 @@
-"""Material discontinuities (hetmesh.discontinuity): traced, fitted and embedded curves against
+"""Material discontinuities (hetmesh.tri.discontinuity): traced, fitted and embedded curves against
 their closed forms, and the meshes that embed them."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.discontinuity import (crossing_elements, embed_discontinuities, embedded_count,
+from hetmesh.tri.discontinuity import (crossing_elements, embed_discontinuities, embedded_count,
                                    fit_curves, has_subregions, trace_discontinuities)
-from hetmesh.geometry import Arc, CurveBatch, Segment
+from hetmesh.tri.geometry import Arc, CurveBatch, Segment
 from hetmesh.errors import MaterialError
 from hetmesh.io.model import Model
 from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
@@ -278,7 +278,7 @@ def test_same_input_same_mesh(plate):
 def test_discontinuity_crossing_an_interface_is_cut_there():
     """x = 0.5 (nearest of two points) crosses the domain's interface circle twice: three
     pieces, the circle split at the two crossings, and a valid mesh."""
-    from hetmesh.geometry import Loop, Path, make_domain
+    from hetmesh.tri.geometry import Loop, Path, make_domain
 
     sq = [(0, 0), (1, 0), (1, 1), (0, 1)]
     outer = Loop(tuple(Segment(a, b) for a, b in zip(sq, sq[1:] + sq[:1])), "outer")

@@ -15,9 +15,9 @@ import pytest
 
 import hetmesh
 from hetmesh.cli import main
-from hetmesh.discontinuity import has_subregions
+from hetmesh.tri.discontinuity import has_subregions
 from hetmesh.errors import MaterialError, MeshingError
-from hetmesh.geometry import Loop, Segment, make_domain
+from hetmesh.tri.geometry import Loop, Segment, make_domain
 from hetmesh.io.model import Model, load_model
 from hetmesh.material import AnalyticField
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.frame import local_field, local_frame
+from hetmesh.tri.frame import local_field, local_frame
 import tomllib
 
 from hetmesh.io.model import parse_model

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import GeometryError
-from hetmesh.geometry import (PSLG, Arc, CurveBatch, Domain, Loop, Path, Segment, build_pslg,
+from hetmesh.tri.geometry import (PSLG, Arc, CurveBatch, Domain, Loop, Path, Segment, build_pslg,
                               make_domain, sample_parameters)
 
 SQUARE = [(0, 0), (1, 0), (1, 1), (0, 1)]

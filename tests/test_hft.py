@@ -15,7 +15,7 @@ import pytest
 
 import hetmesh
 from hetmesh.errors import FormulaError, MaterialError, ModelFileError
-from hetmesh.geometry import Arc, Segment
+from hetmesh.tri.geometry import Arc, Segment
 from hetmesh.io.model import load_model, parse_model
 from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
                                   PointFeature, SelectFeature, inside_predicate)

@@ -17,7 +17,7 @@ import tifffile
 
 from hetmesh.cli import main
 from hetmesh.errors import MaterialError
-from hetmesh.geometry.trace import (OUTSIDE, _polygons, _rings, _to_xy, label_domain,
+from hetmesh.tri.geometry.trace import (OUTSIDE, _polygons, _rings, _to_xy, label_domain,
                                     mask_domain, region_lookup, simplify_chains,
                                     trace_labels)
 from hetmesh.io.model import load_model
@@ -701,7 +701,7 @@ def test_pixel_sampling_statistics_and_frame(stripe):
     """mesh_statistics and element_delta through the local frame give the field's own
     pixel_delta: the elements reach the field in its coordinates."""
     import hetmesh
-    from hetmesh.frame import local_field, local_frame
+    from hetmesh.tri.frame import local_field, local_frame
     from hetmesh.metrics import element_delta
 
     m = load_model(stripe)

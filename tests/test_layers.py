@@ -1,11 +1,11 @@
-"""Node placement on iso-composition rows (hetmesh.layers): the rows' phase."""
+"""Node placement on iso-composition rows (hetmesh.tri.layers): the rows' phase."""
 
 import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh import adapt, layers
-from hetmesh.refine import FREE, triangulate
+from hetmesh.tri import adapt, layers
+from hetmesh.tri.workset import FREE, triangulate
 
 
 def _placed(name, threshold, row_spacing=0.985):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import FormulaError, MaterialError
-from hetmesh.geometry import Arc, Loop, Segment, make_domain
+from hetmesh.tri.geometry import Arc, Loop, Segment, make_domain
 from hetmesh.material import (AnalyticField, CallableField, MaterialField, check_field,
                               sample_domain)
 

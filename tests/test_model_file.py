@@ -10,7 +10,7 @@ import pytest
 
 from hetmesh.errors import (FormulaError, GeometryError, HetmeshError, MaterialError,
                             ModelFileError)
-from hetmesh.geometry import Loop, Segment, make_domain
+from hetmesh.tri.geometry import Loop, Segment, make_domain
 from hetmesh.io.model import Model, load_model, parse_model
 from hetmesh.material import AnalyticField, CallableField, check_field
 

@@ -1,4 +1,4 @@
-"""The post-refinement optimisation pass (hetmesh.optimize): it raises the quality and keeps
+"""The post-refinement optimisation pass (hetmesh.tri.optimize): it raises the quality and keeps
 every claim of the repaired mesh."""
 
 from __future__ import annotations
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh import adapt
-from hetmesh.discontinuity import element_subregions, embed_discontinuities, has_subregions
+from hetmesh.tri import adapt
+from hetmesh.tri.discontinuity import element_subregions, embed_discontinuities, has_subregions
 from hetmesh.metrics import element_delta, quality, signed_area2
-from hetmesh.optimize import _Eval, _sweep, independent_sets, optimize
-from hetmesh.refine import FIXED
+from hetmesh.tri.optimize import _Eval, _sweep, independent_sets, optimize
+from hetmesh.tri.workset import FIXED
 
 from conftest import check_invariants
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hetmesh.mesh import edge_keys
-from hetmesh.triangulate import constrained_delaunay, patch
+from hetmesh.tri.cdt import constrained_delaunay, patch
 
 
 def _loop(pts, start):
@@ -103,7 +103,7 @@ def test_patch_declines_large_changes():
 def test_band_flood_matches_full_flood():
     # the inside test of pieces separated by boundary edges, with an interface inside
     P, E, bnd, inside, _, _ = _model(3)
-    import hetmesh.triangulate as tr
+    import hetmesh.tri.cdt as tr
     t = constrained_delaunay(P, E, inside=inside, boundary_edges=E[bnd])
     area = np.ones(len(t))
     # the full flood and the band flood classify alike on the kernel's own triangles

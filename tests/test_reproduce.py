@@ -307,7 +307,7 @@ def test_blade_outline_is_naca_6428_with_three_holes():
     up, lo, camber = naca4()
     outline = np.vstack([up, lo])
     assert d.outer.curves and len(d.holes) == 3
-    batch = hetmesh.geometry.CurveBatch.from_curves(list(d.outer.curves))
+    batch = hetmesh.tri.geometry.CurveBatch.from_curves(list(d.outer.curves))
     assert batch.distance(outline).max() < 0.011  # the arcs fit the profile within 0.01 mm
     for hole, frac in zip(d.holes, (0.25, 0.45, 0.65)):
         (c,) = hole.curves

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from hetmesh.mesh import Mesh
-from hetmesh.triangulate import constrained_delaunay
+from hetmesh.tri.cdt import constrained_delaunay
 
 
 def _square_with_hole(n=400, seed=0):

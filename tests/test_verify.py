@@ -1,4 +1,4 @@
-"""The final verification against the domain's curves (``hetmesh.verify``), its use by
+"""The final verification against the domain's curves (``hetmesh.tri.verify``), its use by
 ``adapt.finish``, and the chord bound through the whole pipeline."""
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ import pytest
 
 import hetmesh
 from hetmesh.errors import MeshingError, VerificationError
-from hetmesh.geometry import Arc, CurveBatch, Segment
+from hetmesh.tri.geometry import Arc, CurveBatch, Segment
 from hetmesh.mesh import Mesh
-from hetmesh.refine import curve_bounds
-from hetmesh.verify import (CHORD_SLACK, chord_areas, chord_problems, chord_sagitta,
+from hetmesh.tri.workset import curve_bounds
+from hetmesh.tri.verify import (CHORD_SLACK, chord_areas, chord_problems, chord_sagitta,
                             coverage_problems)
 
 from conftest import EXAMPLES
@@ -138,7 +138,7 @@ def test_the_disc_hole_is_meshed_within_the_chord_tolerance(disc):
 def test_verification_rejects_a_chord_beyond_the_tolerance(disc, monkeypatch):
     """A hole node slid along its circle towards a neighbour, as an unchecked optimisation
     could: the other chord now strays beyond the tolerance, and finish() says which curve."""
-    import hetmesh.adapt as A
+    import hetmesh.tri.adapt as A
 
     real = A.optimize_mesh
 

@@ -15,14 +15,14 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-from .adapt import Result, generate, mesh_statistics
+from .tri.adapt import Result, generate, mesh_statistics
 from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, MaterialError,
                      MeshingError, ModelFileError, OptionError, OutputError)
 from .io.model import Model, load_model
 from .mesh import Mesh
 from .study import sweep
 from .metrics import MeshStats
-from .uniform import uniform
+from .tri.uniform import uniform
 
 __version__ = "0.1.0"
 

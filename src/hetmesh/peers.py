@@ -390,7 +390,7 @@ def triangle_mesh(domain, size: Callable[[np.ndarray], np.ndarray], *,
     """Mesh ``domain`` with Shewchuk's Triangle following the size field ``size``.
 
     The curves (interfaces included) are sampled with ``size`` into a PSLG
-    (:func:`hetmesh.geometry.build_pslg`, chord tolerance 1e-3 x diameter by default), meshed
+    (:func:`hetmesh.tri.geometry.build_pslg`, chord tolerance 1e-3 x diameter by default), meshed
     with ``-pq<min_angle>``, then refined with ``-rpq<min_angle>a`` and a per-triangle area
     bound ``sqrt(3)/4 h(centroid)^2`` until every triangle obeys its bound.
 
@@ -399,7 +399,7 @@ def triangle_mesh(domain, size: Callable[[np.ndarray], np.ndarray], *,
     PeerMesh
     """
     triangle = _require("triangle")
-    from .geometry import build_pslg
+    from .tri.geometry import build_pslg
 
     t0 = time.perf_counter()
     pslg = build_pslg(domain, size, chord_tol)
@@ -433,7 +433,7 @@ PEERS: dict[str, Callable[..., PeerMesh]] = {"gmsh": gmsh_mesh, "triangle": tria
 def peer_statistics(model, mesh: PeerMesh) -> MeshStats:
     """Np, Ne, q and delta of a peer mesh, evaluated like hetmesh's own
     (:func:`hetmesh.mesh_statistics`)."""
-    from .adapt import mesh_statistics
+    from .tri.adapt import mesh_statistics
     from .mesh import Mesh
 
     return mesh_statistics(Mesh(mesh.points, mesh.triangles), model)

@@ -2,7 +2,7 @@
 
 hetmesh must mesh every valid model. This module makes many different valid models from a
 seed, and checks a finished mesh with code that shares nothing with the pipeline's own
-verification (:func:`hetmesh.adapt.finish`), in the spirit of :mod:`numpy.testing`: it is
+verification (:func:`hetmesh.tri.adapt.finish`), in the spirit of :mod:`numpy.testing`: it is
 used by ``tests/test_robust.py`` and ``benchmarks/bench_robust.py``, and by anyone who
 changes the mesher and wants to know what they broke.
 

@@ -44,11 +44,11 @@ def run(args: argparse.Namespace) -> int:
     out: Path = output_dir(args.out)
     check_writable_dir(out, f"--out {out}")
 
-    from ..adapt import generate
+    from ..tri.adapt import generate
     from ..io.export import write_mesh
     from ..io.model import load_model
     from ..plot import interface_markers, plot_delta_histogram, plot_mesh
-    from ..uniform import uniform
+    from ..tri.uniform import uniform
 
     if args.image:
         from ..material.image import write_examples

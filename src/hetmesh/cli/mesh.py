@@ -303,7 +303,7 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
 
 
 def _generate() -> Callable:
-    from ..adapt import generate
+    from ..tri.adapt import generate
 
     return generate
 

@@ -112,7 +112,7 @@ def with_bounds(stats, mesh, model, sampling: str | None):
     does."""
     import dataclasses
 
-    from ..discontinuity import element_subregions, has_subregions
+    from ..tri.discontinuity import element_subregions, has_subregions
     from ..metrics import delta_dense, element_delta
 
     fld = model.material
@@ -134,10 +134,10 @@ def with_bounds(stats, mesh, model, sampling: str | None):
 
 def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> None:
     """Raise :class:`~hetmesh.errors.MeshDataError` (exit 2) unless ``mesh`` can be a mesh of
-    ``model``'s domain (:func:`hetmesh.verify.mesh_model_problems`; ``geometry=False``:
+    ``model``'s domain (:func:`hetmesh.tri.verify.mesh_model_problems`; ``geometry=False``:
     only that its nodes are finite)."""
     from ..errors import MeshDataError
-    from ..verify import mesh_model_problems
+    from ..tri.verify import mesh_model_problems
 
     problems = mesh_model_problems(mesh.points, mesh.triangles, model.domain,
                                    geometry=geometry)
@@ -146,8 +146,8 @@ def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> Non
 
 
 def _statistics(mesh, model, sampling: str, threshold: float | None):
-    """:func:`hetmesh.adapt.mesh_statistics`, with ``threshold`` for certified sampling."""
-    from ..discontinuity import element_subregions, has_subregions
+    """:func:`hetmesh.tri.adapt.mesh_statistics`, with ``threshold`` for certified sampling."""
+    from ..tri.discontinuity import element_subregions, has_subregions
     from ..metrics import element_delta, statistics
 
     fld = model.material

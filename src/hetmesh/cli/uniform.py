@@ -26,7 +26,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 
 def _uniform():
-    from ..uniform import uniform
+    from ..tri.uniform import uniform
 
     return uniform
 

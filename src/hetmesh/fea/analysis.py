@@ -13,7 +13,7 @@ triangles:
 
 The properties ``k, E, nu, alpha`` are mixed from the composition **at every quadrature
 point** (3 per element for P1, 6 for P2), each element evaluated in its own feature-tree
-subregion (:func:`hetmesh.discontinuity.element_subregions`), by the rule of ``[fea] mixing``
+subregion (:func:`hetmesh.tri.discontinuity.element_subregions`), by the rule of ``[fea] mixing``
 (:mod:`hetmesh.fea.mixing`). Boundary conditions are found geometrically -- the mesh nodes
 within ``1e-6`` x the domain diameter of the named curves, the node at a named point -- so any
 mesh file of the model works. Stresses are recovered at the nodes by an L2 projection onto
@@ -126,7 +126,7 @@ def _components(t: np.ndarray, n: int) -> tuple[int, np.ndarray]:
 
 
 def _curve_batch(domain, names):
-    from ..geometry.curves import CurveBatch
+    from ..tri.geometry.curves import CurveBatch
 
     infos = [info for info in domain.curves if info.name in names or info.owner in names]
     return CurveBatch.from_curves([i.curve for i in infos]), infos
@@ -261,7 +261,7 @@ def check_rigid(parts: tuple[int, np.ndarray], t: np.ndarray, P: np.ndarray, fx:
 # ------------------------------------------------------------------------------ material
 
 def _subregions(field, P: np.ndarray, t: np.ndarray) -> np.ndarray | None:
-    from ..discontinuity import element_subregions, has_subregions
+    from ..tri.discontinuity import element_subregions, has_subregions
 
     return element_subregions(field, P, t) if has_subregions(field) else None
 

@@ -145,12 +145,12 @@ def h_for_elements(area: float, n: float) -> float:
 
 def uniform_mesher(model) -> Callable[[float], Any]:
     """A function ``h -> Mesh``: uniform quality meshes of edge ~h of ``model`` (its
-    feature-tree discontinuities embedded, :func:`hetmesh.uniform.uniform_at`), sharing
+    feature-tree discontinuities embedded, :func:`hetmesh.tri.uniform.uniform_at`), sharing
     one prepared domain."""
-    from ..adapt import prepare
-    from ..discontinuity import embed_discontinuities
+    from ..tri.adapt import prepare
+    from ..tri.discontinuity import embed_discontinuities
     from ..mesh import Mesh
-    from ..uniform import uniform_at
+    from ..tri.uniform import uniform_at
 
     ctx, frame = prepare(embed_discontinuities(model), 0.1, None)
 
@@ -235,7 +235,7 @@ def measure(model, cfg, kind: str, p: float, *, uniform_mesh=None) -> dict:
     ``{"error": message}`` if meshing or solving raised a :class:`HetmeshError`.
     ``uniform_mesh`` is a :func:`uniform_mesher` of ``model`` to reuse (default: a new one).
     """
-    from ..adapt import generate
+    from ..tri.adapt import generate
     from .analysis import solve
 
     t0 = time.perf_counter()

@@ -180,7 +180,7 @@ def name_from_model(mesh: Mesh, model) -> Mesh:
     ``m - 1`` of the model as meshed (discontinuities embedded), checked node by node."""
     import dataclasses
 
-    from ..discontinuity import embed_discontinuities
+    from ..tri.discontinuity import embed_discontinuities
     from ..fea.config import ON_BOUNDARY
 
     tol = ON_BOUNDARY * model.domain.diameter

@@ -26,8 +26,8 @@ import numpy as np
 from ..errors import GeometryError, HetmeshError, MaterialError, ModelFileError
 from ..expr import FUNCTIONS
 from ..fea.config import FEAConfig, parse_fea
-from ..geometry import Arc, Loop, Segment, make_domain
-from ..geometry import Path as CurvePath
+from ..tri.geometry import Arc, Loop, Segment, make_domain
+from ..tri.geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
 from ..material.hft import parse_hft
 from ..material.image.parse import parse_image, parse_image_model
@@ -51,7 +51,7 @@ class Model:
     ----------
     name : str
     domain : Domain
-        From :func:`hetmesh.geometry.make_domain`.
+        From :func:`hetmesh.tri.geometry.make_domain`.
     material : MaterialField
         Any object with ``constituents``, ``composition`` and ``gradient``.
     parameters : dict of str to float
@@ -67,7 +67,7 @@ class Model:
 
     Examples
     --------
-    >>> from hetmesh.geometry import Loop, Segment, make_domain
+    >>> from hetmesh.tri.geometry import Loop, Segment, make_domain
     >>> from hetmesh.material import CallableField
     >>> sq = [(0, 0), (1, 0), (1, 1), (0, 1)]
     >>> outer = Loop(tuple(Segment(a, b) for a, b in zip(sq, sq[1:] + sq[:1])), "outer")

@@ -16,7 +16,7 @@ A formula field whose formulas contain jumps (``where``, ``a if c else b``, ``si
 *piecewise*: like a feature tree it offers ``region(points)``, ``n_regions``,
 ``region_names`` and ``composition(points, region=r)`` / ``gradient(points, region=r)``, the
 smooth field of subregion ``r`` continued past its boundary, so that
-:mod:`hetmesh.discontinuity` can find the jumps and embed them in the mesh. A smooth field
+:mod:`hetmesh.tri.discontinuity` can find the jumps and embed them in the mesh. A smooth field
 has no ``region`` (``n_regions`` is 1) and ignores the ``region`` keyword.
 """
 

@@ -132,7 +132,7 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
     A fraction whose values spread by more than :data:`JUMP` within ``JUMP_REACH`` x the
     diameter of a point on a curve of the domain (``x**1e308`` at ``x = 1``) is reported as
     a jump: a jump the mesh can follow must be written as a condition (``where``, ``sign``),
-    which makes the field piecewise (see :mod:`hetmesh.discontinuity`).
+    which makes the field piecewise (see :mod:`hetmesh.tri.discontinuity`).
 
     Kinks and infinite slopes are not errors: the built-in fields
     (:class:`~hetmesh.material.AnalyticField`, :class:`~hetmesh.material.CallableField`, the
@@ -153,7 +153,7 @@ def check_field(field, domain, where: str = "", n: int = 200) -> None:
 
     Examples
     --------
-    >>> from hetmesh.geometry import Arc, Loop, make_domain
+    >>> from hetmesh.tri.geometry import Arc, Loop, make_domain
     >>> from hetmesh.material import AnalyticField
     >>> disk = make_domain(Loop((Arc.circle((0, 0), 2.0),), "outer"))
     >>> check_field(AnalyticField({"b": "x/2"}, ["a", "b"]), disk, "m")

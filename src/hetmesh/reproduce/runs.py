@@ -77,8 +77,8 @@ def _timed(func, *args, **kwargs):
 def mesh_pair(model, threshold: float):
     """hetmesh's adaptive mesh and uniform baseline of ``model``: ``(adaptive Result,
     seconds, uniform Result, seconds)``."""
-    from ..adapt import generate
-    from ..uniform import uniform
+    from ..tri.adapt import generate
+    from ..tri.uniform import uniform
 
     adaptive, t_a = _timed(generate, model, threshold)
     uni, t_u = _timed(uniform, model, threshold)
@@ -94,8 +94,8 @@ def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
     equilateral elements tiling the area, ``h = sqrt(4 A / (sqrt(3) n))``, and is corrected
     by the square root of the count ratio until within ``tol``.
     """
-    from ..adapt import evaluate, prepare
-    from ..uniform import uniform_at
+    from ..tri.adapt import evaluate, prepare
+    from ..tri.uniform import uniform_at
 
     ctx, frame = prepare(model, threshold, None)
     h = math.sqrt(4.0 * model.domain.area / (math.sqrt(3.0) * max(int(n_elements), 1)))

@@ -87,7 +87,8 @@ def _model(spec: dict):
 
 
 def _mesh(spec: dict, model):
-    from .. import generate, uniform
+    from .. import generate
+    from ..tri import uniform
 
     opts = dict(spec["options"])
     if spec["method"] == "uniform":

@@ -26,8 +26,8 @@ import numpy as np
 
 from ...errors import MaterialError, ModelFileError
 from ...expr import compile_expr
-from ...geometry import Arc, Segment
-from ...geometry.curves import TWO_PI
+from ...tri.geometry import Arc, Segment
+from ...tri.geometry.curves import TWO_PI
 
 __all__ = ["PointFeature", "CurveFeature", "NearestFeature", "SelectFeature", "BlendFeature",
            "inside_predicate"]
@@ -123,7 +123,7 @@ class PointFeature(_Leaf):
 
 
 class CurveFeature(_Leaf):
-    """A :class:`~hetmesh.geometry.Segment` or :class:`~hetmesh.geometry.Arc` whose
+    """A :class:`~hetmesh.tri.geometry.Segment` or :class:`~hetmesh.tri.geometry.Arc` whose
     composition goes linearly in arc length from ``start`` to ``end`` (constant if
     ``end`` is None)."""
 
@@ -382,7 +382,7 @@ def inside_predicate(curves: Sequence, fid: str = "") -> Callable[[np.ndarray], 
     e.g. on the line joining a stadium's straight sides) are classified consistently by
     the two tests.
 
-    >>> from hetmesh.geometry import Arc, Segment
+    >>> from hetmesh.tri.geometry import Arc, Segment
     >>> half = [Segment((-1, 0), (1, 0)), Arc.from_center((1, 0), (-1, 0), (0, 0))]
     >>> inside_predicate(half)(np.array([[0.0, 0.5], [0.0, -0.5], [0.0, 1.5]])).tolist()
     [True, False, False]

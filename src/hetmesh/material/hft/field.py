@@ -29,7 +29,7 @@ class HFTField(_Shiftable):
 
     Examples
     --------
-    >>> from hetmesh.geometry import Segment
+    >>> from hetmesh.tri.geometry import Segment
     >>> from hetmesh.material.hft import BlendFeature, CurveFeature
     >>> bot = CurveFeature("bot", Segment((0, 0), (1, 0)), [1.0, 0.0])
     >>> top = CurveFeature("top", Segment((1, 1), (0, 1)), [0.0, 1.0])

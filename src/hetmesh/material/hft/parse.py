@@ -11,7 +11,7 @@ import numpy as np
 
 from ...errors import GeometryError, MaterialError, ModelFileError
 from ...expr import compile_expr
-from ...geometry import Arc, Segment
+from ...tri.geometry import Arc, Segment
 from ..analytic import check_constituents
 from .features import (BlendFeature, CurveFeature, NearestFeature, PointFeature,
                        SelectFeature, inside_predicate)

@@ -17,7 +17,7 @@ linearly or with a cubic B-spline, and returns the gradient of that same interpo
 optional Gaussian pre-smoothing (its standard deviation in model units) removes measurement
 noise first. A label image divides the domain into phases, each a subregion of
 :class:`LabelField` (constant or graded from a grey image), whose boundaries
-(:mod:`hetmesh.geometry.trace`) become curves of the mesh.
+(:mod:`hetmesh.tri.geometry.trace`) become curves of the mesh.
 
 Readers: PNG and other raster formats via ``imageio``, TIFF (8/16/32-bit, float, multi-page
 stacks, ImageJ calibration) via ``tifffile``, NumPy ``.npy``, VTK ImageData ``.vti`` (a

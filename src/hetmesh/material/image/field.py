@@ -241,7 +241,7 @@ class LabelField:
     ----------
     regions : callable ``points (N, 2) -> (N,) int``
         The subregion of each point (phase index into ``phases``), normally the traced,
-        simplified label polygons (:func:`hetmesh.geometry.trace.region_lookup`).
+        simplified label polygons (:func:`hetmesh.tri.geometry.trace.region_lookup`).
     phases : list
         Per subregion, either a composition ``(m,)`` (a constant phase) or an
         :class:`ImageField` (a graded phase, its pixels outside the phase filled with the

@@ -29,7 +29,7 @@ _IMAGE_KEYS = ("type", "constituents", "file", "labels", "phases", "map", "spaci
 
 def parse_image_model(ctx, dtable, mtable):
     """``[domain] image = "extent" | "mask"``: the domain taken from the material's image."""
-    from ...geometry.trace import DEFAULT_TOL, OUTSIDE, extent_domain, label_domain, mask_domain
+    from ...tri.geometry.trace import DEFAULT_TOL, OUTSIDE, extent_domain, label_domain, mask_domain
 
     t = ctx.table(dtable, "domain", required=("image",), optional=("mask", "tolerance"))
     how = t["image"]
@@ -347,7 +347,7 @@ def parse_image(ctx, table, domain, parameters=None, src=None, traced=None):
 
 
 def _label_field(ctx, t, domain, src, traced, cons, opts):
-    from ...geometry.trace import DEFAULT_TOL, OUTSIDE, label_chains, region_lookup
+    from ...tri.geometry.trace import DEFAULT_TOL, OUTSIDE, label_chains, region_lookup
     from . import ImageField, LabelField
 
     lab_img = src["geometry"]

@@ -5,7 +5,7 @@ curve (with its parameter), a fixed corner or named point, a composition level (
 placed on iso-composition curves), or nothing (free interior nodes). The triangulation is
 always recomputed from it (constrained Delaunay), so the operations here only add or move
 points: splitting constraint edges on their true curve, inserting free points, and the
-conforming CVT smoothing of :mod:`hetmesh.cvt`.
+conforming CVT smoothing of :mod:`hetmesh.tri.cvt`.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import cvt
-from . import density as dens
-from .mesh import any_corner, points_near
-from .parallel import BLOCK, block_concat
-from .triangulate import constrained_delaunay, patch
+from .. import density as dens
+from ..mesh import any_corner, points_near
+from ..parallel import BLOCK, block_concat
+from .cdt import constrained_delaunay, patch
 
 __all__ = ["WorkSet", "Context", "triangulate", "lineage", "split_constraint_edges",
            "add_free_points", "smooth"]
@@ -47,12 +47,12 @@ class Context:
     #: refinement then splits only where the composition really varies
     h_min: float = 0.0
     #: a local cap on |grad f| from the composition's sampled variation (a
-    #: :class:`~hetmesh.sizecap.VariationCap`), or None
+    #: :class:`~hetmesh.tri.sizecap.VariationCap`), or None
     variation_cap: object = None
     #: step in composition between the rows of the layers placement, over delta_0
     row_spacing: float = 0.985
     #: the geometric size bound near small boundary features (a
-    #: :class:`~hetmesh.geosize.BoundarySize`), or None
+    #: :class:`~hetmesh.tri.geosize.BoundarySize`), or None
     geo_size: object = None
     #: the longest edge allowed (``max_size`` given), or None: no bound beyond ``h_max``'s
     #: placement size
@@ -101,7 +101,7 @@ class Context:
 
     def h_at(self, pts: np.ndarray):
         """The largest element size at ``pts``: ``h_max``, or the geometric bound
-        ``min(h_max, h_geo)`` (:mod:`hetmesh.geosize`) where the model has small features."""
+        ``min(h_max, h_geo)`` (:mod:`hetmesh.tri.geosize`) where the model has small features."""
         if self.geo_size is None:
             return self.h_max
         return self.geo_size(pts)
@@ -248,7 +248,7 @@ def chord_violators(ws: WorkSet, ctx: Context, t_new: np.ndarray, moving: np.nda
 
 
 #: work sets of at least this many points update their triangulation locally where little
-#: changed (:func:`hetmesh.triangulate.patch`); smaller ones are always rebuilt
+#: changed (:func:`hetmesh.tri.cdt.patch`); smaller ones are always rebuilt
 PATCH_MIN_POINTS = 1 << 17
 
 
@@ -261,7 +261,7 @@ def triangulate(ws: WorkSet, ctx: Context) -> np.ndarray:
     is the repair loop's first): a comparison instead of a rebuild. On a work set of at
     least :data:`PATCH_MIN_POINTS` points where a few points moved or were added and a few
     constraint edges were split (a refinement round in a million-element mesh), it is
-    updated in a window around the changes (:func:`hetmesh.triangulate.patch`): the same
+    updated in a window around the changes (:func:`hetmesh.tri.cdt.patch`): the same
     triangles (up to the choice among cocircular points) in another order, for a
     twentieth of the cost. Below that size the full rebuild is cheap, and keeps the
     triangle order, so the meshes, of the versions before local updates.

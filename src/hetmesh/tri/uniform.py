@@ -15,11 +15,11 @@ import numpy as np
 
 from .adapt import CHORD_TOL, Result, evaluate, finish, prepare, repair
 from .discontinuity import embed_discontinuities
-from .errors import BudgetError
-from .options import DEFAULT_MAX_ELEMENTS, check_options
-from .density import background_points, gradient_norm
+from ..errors import BudgetError
+from ..options import DEFAULT_MAX_ELEMENTS, check_options
+from ..density import background_points, gradient_norm
 from .geometry import build_pslg
-from .refine import Context, add_free_points, smooth, triangulate, workset_from_pslg
+from .workset import Context, add_free_points, smooth, triangulate, workset_from_pslg
 
 __all__ = ["uniform", "uniform_at"]
 

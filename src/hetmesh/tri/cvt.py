@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .metrics import circumcenters, triangle_areas2
-from .parallel import block_map, blocks
+from ..metrics import circumcenters, triangle_areas2
+from ..parallel import block_map, blocks
 
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 

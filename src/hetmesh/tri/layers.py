@@ -15,7 +15,7 @@ or an extremum the last band of rows is much higher than its neighbours: it gets
 intermediate levels, graded from both ends, and the rows next to it a node step that
 matches their bands (:func:`_grade_levels`); what no level covers is filled by
 circumcenter insertion to the maximum size; nodes then slide along their rows (conforming
-Lloyd, :func:`hetmesh.refine.smooth`) and the shared repair loop of :mod:`hetmesh.adapt`
+Lloyd, :func:`hetmesh.tri.workset.smooth`) and the shared repair loop of :mod:`hetmesh.tri.adapt`
 fixes whatever is left, so the guarantee does not depend on this placement.
 """
 
@@ -29,12 +29,12 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .geometry import pslg_from_parameters
-from .mesh import any_corner, edge_keys
-from .metrics import circumcircles, corner_columns, signed_area2
+from ..mesh import any_corner, edge_keys
+from ..metrics import circumcircles, corner_columns, signed_area2
 from . import cvt
-from .density import background_points, estimate_elements
-from .parallel import BLOCK, block_concat, block_map, blocks
-from .refine import (FREE, Context, WorkSet, add_free_points, edge_params, project_to_level,
+from ..density import background_points, estimate_elements
+from ..parallel import BLOCK, block_concat, block_map, blocks
+from .workset import (FREE, Context, WorkSet, add_free_points, edge_params, project_to_level,
                      row_tangent,
                      slide_along_rows, smooth, thin_candidates_mask, triangulate,
                      workset_from_pslg)

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import any_corner
-from .metrics import side_lengths, triangle_angles
-from .refine import FIXED, Context, WorkSet
+from ..mesh import any_corner
+from ..metrics import side_lengths, triangle_angles
+from .workset import FIXED, Context, WorkSet
 
 __all__ = ["sharp_corners", "shell_split", "corner_exempt"]
 

@@ -2,7 +2,7 @@
 
 Examples
 --------
->>> from hetmesh.geometry import Arc, Loop, Segment, make_domain, build_pslg
+>>> from hetmesh.tri.geometry import Arc, Loop, Segment, make_domain, build_pslg
 >>> plate = make_domain(Loop((Segment((0, 0), (42, 0)), Segment((42, 0), (42, 24)),
 ...                           Arc.through((42, 24), (21, 30), (0, 24)),
 ...                           Segment((0, 24), (0, 0))), "outer"))

@@ -22,7 +22,7 @@ The minimum is taken over the ``K`` nearest such vertices (a KD-tree), which is 
 wherever the nearest features are the smallest, and never below the true minimum.
 
 The placements use ``min(h_max, h_geo(x))`` wherever they used ``h_max``
-(:meth:`hetmesh.refine.Context.h_at`). It bounds sizes, never delta: the delta-driven
+(:meth:`hetmesh.tri.workset.Context.h_at`). It bounds sizes, never delta: the delta-driven
 refinement still has the last word.
 """
 

@@ -7,7 +7,7 @@
 * MOR: nodes are placed for the density rho = |grad f|^4 (Eq. 9), either by the paper's
   conforming CVT (``method="cvt"``: density-sampled nodes + Lloyd iterations, Sec. 3.2.3) or by
   aligning rows of nodes with the iso-composition curves (``method="layers"``, see
-  :mod:`hetmesh.layers`); the default ``method="auto"`` uses the rows, and on small models
+  :mod:`hetmesh.tri.layers`); the default ``method="auto"`` uses the rows, and on small models
   both placements, keeping the better mesh; then elements with delta(T) >= delta_0 are refined (Eq. 13; we
   split the edge carrying the largest composition jump, which removes both triangles sharing
   it) and the new nodes are smoothed locally by conforming Lloyd steps, until
@@ -31,27 +31,27 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import density as dens
+from .. import density as dens
 from .corners import corner_exempt, sharp_corners, shell_split
 from .discontinuity import (FIT_TOL, crossing_elements, element_subregions,
                             embed_discontinuities, has_subregions)
-from .errors import BudgetError, MeshDataError, MeshingError, OptionError, VerificationError
+from ..errors import BudgetError, MeshDataError, MeshingError, OptionError, VerificationError
 from .frame import local_field, local_frame
 from .sizecap import variation_cap
 from .geosize import GRADE, boundary_size
 from .geometry import build_pslg
 from .layers import place_layers
-from .mesh import Mesh, any_corner, edge_keys
+from ..mesh import Mesh, any_corner, edge_keys
 from .optimize import optimize as optimize_mesh
-from .parallel import block_concat
-from .options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
+from ..parallel import block_concat
+from ..options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
                       check_options, check_sampling)
-from .metrics import (MeshStats, circumcircles, delta_dense, element_delta,
+from ..metrics import (MeshStats, circumcircles, delta_dense, element_delta,
                       quality, quality_and_angle, side_lengths, statistics, triangle_angles)
-from .refine import (Context, WorkSet, add_free_points, lineage, workset_from_pslg,
+from .workset import (Context, WorkSet, add_free_points, lineage, workset_from_pslg,
                      split_constraint_edges, smooth, thin_candidates_mask,
                      triangulate)
-from .refine import edge_params
+from .workset import edge_params
 from .verify import chord_areas, chord_problems, coverage_problems
 
 __all__ = ["generate", "Result", "mesh_statistics", "prepare", "finish", "check_options"]
@@ -86,7 +86,7 @@ class Result:
 
 def prepare(model, threshold, max_size, chord_tol: float = CHORD_TOL, *,
             row_spacing: float = DEFAULT_ROW_SPACING, geo_grade: float | None = GRADE):
-    """The refinement context in the model's :class:`~hetmesh.frame.LocalFrame` (moved to
+    """The refinement context in the model's :class:`~hetmesh.tri.frame.LocalFrame` (moved to
     the origin and scaled to a diameter near 1, so that no tolerance depends on the user's
     units), and that frame. ``max_size`` is in user units, ``chord_tol`` relative to the
     domain's diameter."""
@@ -211,7 +211,7 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
 
 def _carried(state, lin) -> np.ndarray | None:
     """For every triangle of the current triangulation (lineage ``lin``,
-    :func:`hetmesh.refine.lineage`), its position in the triangulation ``state`` was
+    :func:`hetmesh.tri.workset.lineage`), its position in the triangulation ``state`` was
     evaluated on (``(base, rows, ...)``), or -1 where it is new; None if the two do not
     descend from one full rebuild."""
     if state is None or lin is None or lin[0] is not state[0]:
@@ -501,7 +501,7 @@ def _nearest_constraint(ws: WorkSet, pts: np.ndarray) -> np.ndarray:
 
 # --------------------------------------------------------------------------- output
 def _curve_problems(ws: WorkSet, ctx: Context, local: Mesh, scale: float) -> list[str]:
-    """The mesh against the domain's curves (:mod:`hetmesh.verify`): every boundary and
+    """The mesh against the domain's curves (:mod:`hetmesh.tri.verify`): every boundary and
     interface edge within the chord tolerance of its curve, chord by chord; the mesh's
     boundary edges exactly the outer loop's and the holes' (no hole in the mesh, nothing
     outside); its area the domain's up to the circular segments of the boundary chords.
@@ -529,9 +529,9 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
     interface edge an edge of it (conforming) and within the chord tolerance
     (``ctx.chord_tol``) of its curve, chord by chord; its boundary exactly the domain's
     boundary edges and its area the domain's up to the boundary chords
-    (:mod:`hetmesh.verify`), delta_max < delta_0 strictly, curve nodes on their curves, and
+    (:mod:`hetmesh.tri.verify`), delta_max < delta_0 strictly, curve nodes on their curves, and
     for a feature-tree field no element crossing a subregion boundary
-    (:func:`hetmesh.discontinuity.crossing_elements`; the elements get their subregion id as
+    (:func:`hetmesh.tri.discontinuity.crossing_elements`; the elements get their subregion id as
     cell data ``subregion``). A failure raises :class:`~hetmesh.errors.VerificationError`.
     The statistics also get ``delta_max_dense``, from the order-4 lattice of every element
     (:func:`hetmesh.metrics.delta_dense`; each element in its own subregion).
@@ -743,7 +743,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     min_quality : quality floor q(T) (Eq. 17) enforced by the refinement.
     optimize : after the refinement, raise the element quality by smoothing and edge flips
         that keep delta(T) < threshold and never lower a node star's minimum quality
-        (:func:`hetmesh.optimize.optimize`); same nodes and elements.
+        (:func:`hetmesh.tri.optimize.optimize`); same nodes and elements.
     chord_tol : the largest distance between a curved boundary or interface curve and any
         of its chords (the mesh edges along it), relative to the domain's diameter, in
         [1e-7, 0.05]; verified chord by chord.

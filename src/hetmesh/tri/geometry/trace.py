@@ -17,7 +17,7 @@ Pixel corners where two diagonal pixels match and the other two do not (a checke
 the chains passing a quarter pixel off the corner, so regions touching at a corner only are
 separate and no curve touches itself.
 
-:func:`mask_domain` and :func:`label_domain` build a :class:`~hetmesh.geometry.Domain`: the
+:func:`mask_domain` and :func:`label_domain` build a :class:`~hetmesh.tri.geometry.Domain`: the
 outer boundary and holes from the chains that border the outside, and, for labels, every chain
 between two labels as an interface path named ``discontinuity[k]`` (so the mesh follows it and
 no element straddles two phases). :func:`region_lookup` gives each point its phase from the
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from ..errors import GeometryError
+from ...errors import GeometryError
 from .curves import Segment
 from .domain import Domain, Loop, Path, make_domain
 

@@ -1,6 +1,6 @@
 """Checks of the final verification that compare the mesh with the domain's curves.
 
-:func:`hetmesh.adapt.finish` re-checks every claim before a mesh is returned; the checks
+:func:`hetmesh.tri.adapt.finish` re-checks every claim before a mesh is returned; the checks
 here concern the curves and are pure functions of arrays:
 
 * **chords** (:func:`chord_sagitta`, :func:`chord_problems`): every boundary and interface
@@ -16,7 +16,7 @@ here concern the curves and are pure functions of arrays:
 
 Examples
 --------
->>> from hetmesh.geometry import Arc, CurveBatch, Segment
+>>> from hetmesh.tri.geometry import Arc, CurveBatch, Segment
 >>> b = CurveBatch.from_curves([Arc.circle((0, 0), 2.0), Segment((0, 0), (1, 0))])
 >>> s = chord_sagitta(b, np.array([0, 1]), np.array([[0.0, 1 / 17], [0.0, 1.0]]))
 >>> s.round(4).tolist()
@@ -32,7 +32,7 @@ from typing import Sequence
 import numpy as np
 
 from .geometry.curves import CurveBatch
-from .mesh import edge_keys
+from ..mesh import edge_keys
 
 __all__ = ["chord_sagitta", "chord_problems", "chord_areas", "coverage_problems",
            "mesh_model_problems", "CHORD_SLACK", "AREA_SLACK", "ON_BOUNDARY_TOL"]
@@ -174,7 +174,7 @@ def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
 
     Examples
     --------
-    >>> from hetmesh.geometry import Loop, Segment, make_domain
+    >>> from hetmesh.tri.geometry import Loop, Segment, make_domain
     >>> sq = make_domain(Loop(tuple(Segment(a, b) for a, b in [((0, 0), (1, 0)),
     ...     ((1, 0), (1, 1)), ((1, 1), (0, 1)), ((0, 1), (0, 0))]), "outer"))
     >>> P = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])

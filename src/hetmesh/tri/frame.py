@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import GeometryError
+from ..errors import GeometryError
 
 __all__ = ["LocalFrame", "local_frame", "local_field"]
 

@@ -23,9 +23,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, shortest_path
 from scipy.spatial import cKDTree
 
-from .errors import MeshingError
-from .mesh import any_corner, component_labels, edge_keys, points_near
-from .metrics import triangle_areas2
+from ..errors import MeshingError
+from ..mesh import any_corner, component_labels, edge_keys, points_near
+from ..metrics import triangle_areas2
 
 __all__ = ["constrained_delaunay", "patch"]
 

@@ -6,7 +6,7 @@ curve are contiguous and ordered from its start to its end.
 
 Examples
 --------
->>> from hetmesh.geometry import Loop, make_domain
+>>> from hetmesh.tri.geometry import Loop, make_domain
 >>> d = make_domain(Loop.polygon([(0, 0), (1, 0), (1, 1), (0, 1)]))
 >>> g = build_pslg(d, 0.5, 1e-3)
 >>> len(g.vertices), len(g.edges), g.vertex_curve[:4].tolist()
@@ -225,7 +225,7 @@ def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
 
     Examples
     --------
-    >>> from hetmesh.geometry import Segment
+    >>> from hetmesh.tri.geometry import Segment
     >>> off, t = sample_parameters([Segment((0, 0), (1, 0))], 0.25)
     >>> off.tolist(), t.tolist()
     ([0, 5], [0.0, 0.25, 0.5, 0.75, 1.0])

@@ -52,10 +52,10 @@ import logging
 import numpy as np
 
 from .discontinuity import element_subregions, has_subregions
-from .mesh import any_corner, edge_keys, edge_order
-from .metrics import element_delta, signed_area2, triangle_areas2
-from .parallel import block_concat
-from .refine import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
+from ..mesh import any_corner, edge_keys, edge_order
+from ..metrics import element_delta, signed_area2, triangle_areas2
+from ..parallel import block_concat
+from .workset import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
 __all__ = ["optimize", "independent_sets"]
 

@@ -39,7 +39,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import shapely
 
-from .errors import GeometryError, MaterialError, MeshingError
+from ..errors import GeometryError, MaterialError, MeshingError
 from .geometry import Arc, Path, Segment, make_domain
 
 __all__ = ["Discontinuity", "DISCONTINUITY", "has_subregions", "trace_discontinuities",
@@ -704,7 +704,7 @@ def crossing_elements(field, points: np.ndarray, triangles: np.ndarray, curves, 
     of width the sagitta, belongs to the neighbour. ``tol`` adds the fitting tolerance.
     ``regions``: the elements' subregions if already known (:func:`element_subregions`).
     """
-    from .metrics import lattice_barycentric
+    from ..metrics import lattice_barycentric
 
     own = element_subregions(field, points, triangles) if regions is None else regions
     lam = lattice_barycentric(order)
