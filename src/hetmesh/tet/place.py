@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.pslg import sample_parameters
+from ..tri.geometry.pslg import sample_parameters
 
 __all__ = ["Layer", "level_values", "section_points", "column_roots", "JITTER"]
 

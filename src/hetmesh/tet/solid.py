@@ -24,7 +24,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import GeometryError
-from ..geometry import Arc, Loop, Segment, make_domain
+from ..tri.geometry import Arc, Loop, Segment, make_domain
 
 __all__ = ["Prism", "box", "cylinder", "AXES"]
 
