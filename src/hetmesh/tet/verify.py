@@ -65,7 +65,8 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
     area = _tri_area(points[faces])
     names = solid.face_names
     arcs = sum(c.curve.length for c in solid.section.curves if hasattr(c.curve, "radius"))
-    # an inscribed polygon misses at most (arc length x chord tolerance) of the section
+    # chords within chord_tol of their arcs: the section's area is off by at most
+    # (arc length x chord tolerance)
     short = arcs * chord_tol
     exact_vol = True
     for m, name in enumerate(names, start=1):
@@ -74,7 +75,7 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
         if m <= 2:
             want = float(solid.section.area)
             slack = 1e-9 * max(want, diam ** 2)
-            if got > want + slack or got < want - short - slack:
+            if abs(got - want) > short + slack:
                 out.append(f"face {name!r}: triangles cover {got:.12g}, the face {want:.12g}")
             continue
         curve = solid.section.curves[m - 3].curve
@@ -85,12 +86,11 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
             q = q.reshape(-1, 3, 2)
             mids = 0.5 * (q + q[:, [1, 2, 0]])
             r = np.hypot(mids[..., 0] - curve.center[0], mids[..., 1] - curve.center[1])
-            sag = float((curve.radius - r).max()) if len(r) else 0.0
+            sag = float(np.abs(curve.radius - r).max()) if len(r) else 0.0
             if sag > chord_tol * (1 + 1e-9):
                 out.append(f"face {name!r}: chord deviation {sag:.3g} exceeds the chord "
                            f"tolerance {chord_tol:.3g}")
-            if got > want * (1 + 1e-9) or got < want * (1 - chord_tol / curve.radius
-                                                          - 1e-9):
+            if abs(got - want) > want * (chord_tol / curve.radius + 1e-9):
                 out.append(f"face {name!r}: triangles cover {got:.12g}, the face "
                            f"{want:.12g}")
         elif abs(got - want) > 1e-9 * max(want, diam ** 2):
@@ -101,7 +101,7 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
         if abs(vol - want) > 1e-9 * want:
             out.append(f"volume {vol:.12g} differs from the solid's {want:.12g}")
     else:
-        if vol > want * (1 + 1e-9) or vol < want - short * L - 1e-9 * want:
+        if abs(vol - want) > short * L + 1e-9 * want:
             out.append(f"volume {vol:.12g} differs from the solid's {want:.12g} by more than "
                        f"the chord tolerance allows")
     if delta is not None:
