@@ -19,16 +19,19 @@ from .quality import TET_FACES, delta_tets, volumes
 __all__ = ["boundary_faces", "verify_tets", "tet_problems"]
 
 
-def boundary_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def boundary_faces(tets: np.ndarray, *, owners: bool = False):
     """``(faces (K, 3), counts (F,))``: the faces of one tetrahedron only, oriented outward
     (for positive tetrahedra), in first-occurrence order; ``counts`` the multiplicity of
-    every distinct face."""
+    every distinct face. With ``owners``, also ``(K,)`` the row ``4 t + k`` of every
+    boundary face: tetrahedron ``t``, the face opposite its vertex ``k``."""
     f = tets[:, TET_FACES].reshape(-1, 3).astype(np.int64)
     key = np.sort(f, axis=1)
     _, first, inv, counts = np.unique(key, axis=0, return_index=True, return_inverse=True,
                                       return_counts=True)
     once = np.flatnonzero(counts == 1)
     rows = np.sort(first[once])
+    if owners:
+        return f[rows], counts, rows
     return f[rows], counts
 
 

@@ -1,0 +1,60 @@
+"""One entry point for 3D models: :func:`mesh_model` picks the placement.
+
+* an extruded 2D model (composition independent of the extrusion coordinate): the 2D mesh of
+  the section swept along the axis (:func:`hetmesh.tet.extrude.generate_extruded`), which keeps
+  the subregions of feature-tree and piecewise fields;
+* a convex prism (box, cylinder): layers on the level surfaces
+  (:func:`hetmesh.tet.mesher.generate_tets`);
+* any other prism (a section with holes or concave parts) with a composition varying along
+  the axis: the swept section mesh with thin layers, repaired by edge bisection.
+
+>>> import hetmesh
+>>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
+>>> r.info["placement"], bool(r.delta.max() < 0.2)
+('planar', True)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import OptionError
+from .extrude import generate_extruded
+from .mesher import TetResult, generate_tets
+
+__all__ = ["mesh_model", "DEFAULT_MAX_ELEMENTS"]
+
+DEFAULT_MAX_ELEMENTS = 20_000_000
+
+
+def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | None = None,
+               max_elements: int | None = DEFAULT_MAX_ELEMENTS, check: bool = True
+               ) -> TetResult:
+    """Tetrahedral mesh of a 3D model (:class:`hetmesh.io.model3d.Model3D`) with every
+    element's delta below ``threshold``, verified.
+
+    ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002.
+    The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``.
+    """
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) \
+            or not 0 < threshold < 1:
+        raise OptionError(f"threshold must be in (0, 1), got {threshold!r}")
+    if chord_tol is not None and not 1e-7 <= chord_tol <= 0.05:
+        raise OptionError(f"chord_tol must be in [1e-7, 0.05], got {chord_tol!r}")
+    if max_elements is not None and max_elements < 1:
+        raise OptionError(f"max_elements must be positive, got {max_elements!r}")
+    solid = model.solid
+    chord = None if chord_tol is None else chord_tol * solid.diameter
+    if model.material2d is not None:
+        res = generate_extruded(solid, model.material, threshold, field2d=model.material2d,
+                                seed=seed, chord_tol=chord, max_elements=max_elements,
+                                check=check, name=model.name)
+    elif solid.convex:
+        res = generate_tets(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                            max_elements=max_elements, check=check)
+    else:
+        res = generate_extruded(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, check=check, name=model.name)
+    res.info["composition"] = np.asarray(model.material.composition(res.points),
+                                         dtype=np.float64)
+    return res
