@@ -1,0 +1,215 @@
+"""3D model files, the CLI on solids, every 3D example, the writers' round trips."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+import hetmesh
+from hetmesh.cli import main
+from hetmesh.errors import GeometryError, ModelFileError, FormulaError
+from hetmesh.io.model import load_model
+from hetmesh.tet.api import mesh_model
+
+from conftest import EXAMPLES_3D
+from test_tet import check_tet_mesh
+
+CUBE = """
+[model]
+name = "cube"
+
+[solid]
+type = "box"
+min = [0, 0, 0]
+max = [1, 1, 1]
+
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "(1 - z)**2"
+"""
+
+SOLID_ONLY = """
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "{formula}"
+"""
+
+
+def write(tmp_path, text, name="m.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_the_3d_examples_exist():
+    names = {p.stem for p in EXAMPLES_3D}
+    assert {"unit_cube", "graded_cylinder", "fgm_plate_3d", "blade_3d"} <= names
+
+
+@pytest.mark.parametrize("path", EXAMPLES_3D, ids=lambda p: p.stem)
+def test_every_3d_example_meets_the_guarantee(path):
+    m = load_model(path)
+    assert m.dim == 3 and m.name == path.stem
+    d0 = 0.3
+    res = mesh_model(m, d0)
+    comp = m.material.composition
+    faces = None
+    for j in range(len(m.constituents)):
+        if "regions" in res.info:
+            # vertices on a material discontinuity take their element's side
+            f2 = m.material2d
+            q, _ = m.solid.to2d(res.points[res.tets].reshape(-1, 3))
+            c = f2.composition(q, region=np.repeat(res.info["regions"], 4))[:, j]
+            c = c.reshape(-1, 4)
+            assert (c.max(axis=1) - c.min(axis=1)).max() < d0
+            func = lambda p: np.zeros(len(p))  # noqa: E731  (checked just above)
+        else:
+            func = lambda p, j=j: comp(p)[:, j]  # noqa: E731
+        lo, hi = m.solid.bounds
+        box = (lo, hi) if m.solid.face_names[2:] == ("ymin", "xmax", "ymax", "xmin") else None
+        faces = check_tet_mesh(res.points, res.tets, func, d0, box_bounds=box)
+    # the boundary: every triangle on a face of the solid, the caps' area exact
+    assert len(faces) == len(res.faces)
+    assert (res.face_markers >= 1).all()
+    area = 0.5 * np.linalg.norm(np.cross(*(res.points[res.faces[:, k]]
+                                           - res.points[res.faces[:, 0]] for k in (1, 2))),
+                                axis=1)
+    cap = area[res.face_markers == 1].sum()
+    assert cap == pytest.approx(m.solid.section.area, rel=1e-2)  # chords of arcs
+
+
+def test_deterministic_swept():
+    m = load_model(hetmesh.example_path("fgm_plate_3d"))
+    a, b = mesh_model(m, 0.3), mesh_model(m, 0.3)
+    assert a.points.tobytes() == b.points.tobytes() and a.tets.tobytes() == b.tets.tobytes()
+
+
+@pytest.mark.parametrize("snippet, cls, contains", [
+    ('[solid]\ntype = "box"\nmin = [0, 0, 0]\nmax = [1, 0, 1]\n', GeometryError,
+     "size must be positive"),
+    ('[solid]\ntype = "cylinder"\ncenter = [0, 0]\nradius = -1\nfrom = 0\nto = 1\n',
+     GeometryError, "radius"),
+    ('[solid]\ntype = "extrusion"\nlength = 0\n[domain.outer]\nstart = [0, 0]\n'
+     'path = [{ to = [1, 0] }, { to = [1, 1] }, { to = [0, 0] }]\n', GeometryError,
+     "extrusion length must be positive"),
+    ('[solid]\ntype = "sphere"\n', ModelFileError, "solid.type"),
+    ('[solid]\ntype = "box"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n'
+     '[[solid.subtract]]\ntype = "box"\nmin = [-1, -1, -1]\nmax = [2, 2, 2]\n',
+     GeometryError, "solid.subtract"),
+])
+def test_bad_solids(tmp_path, snippet, cls, contains):
+    p = write(tmp_path, snippet + SOLID_ONLY.format(formula="z"))
+    with pytest.raises(cls, match=contains) as e:
+        load_model(p)
+    assert str(e.value).startswith(str(p))
+    assert "\n" not in str(e.value)
+
+
+def test_formula_in_a_missing_variable(tmp_path):
+    p = write(tmp_path, CUBE.replace("(1 - z)**2", "w + z"))
+    with pytest.raises(FormulaError, match="material.composition.metal"):
+        load_model(p)
+
+
+def test_2d_model_with_z_is_an_error(tmp_path):
+    text = ('[domain.outer]\nstart = [0, 0]\npath = [{ to = [1, 0] }, { to = [1, 1] }, '
+            '{ to = [0, 0] }]\n' + SOLID_ONLY.format(formula="z"))
+    with pytest.raises(FormulaError, match="'z'"):
+        load_model(write(tmp_path, text))
+
+
+def test_through_hole(tmp_path):
+    text = CUBE.replace('max = [1, 1, 1]\n', 'max = [1, 1, 1]\n\n[[solid.subtract]]\n'
+                        'type = "cylinder"\ncenter = [0.5, 0.5]\nradius = 0.2\n')
+    m = load_model(write(tmp_path, text))
+    assert m.solid.volume == pytest.approx(1 - np.pi * 0.04)
+    res = mesh_model(m, 0.3)
+    assert res.info["placement"] == "swept+repair"
+    check_tet_mesh(res.points, res.tets, lambda p: (1 - p[:, 2]) ** 2, 0.3)
+
+
+@pytest.mark.parametrize("ext, fmt", [(".vtu", None), (".vtk", None), (".msh", None),
+                                      (".msh", "gmsh22"), (".xdmf", None), (".inp", None)])
+def test_cli_writes_and_reads_back(tmp_path, capsys, ext, fmt):
+    model = write(tmp_path, CUBE, "cube.toml")
+    out = tmp_path / f"cube{ext}"
+    argv = ["mesh", model, "--threshold", 0.2, "--output", out, "--quiet"]
+    if fmt:
+        argv += ["--format", fmt]
+    code, o, err = run(argv, capsys)
+    assert code == 0, err
+    m = meshio.read(out)
+    tets = np.concatenate([c.data for c in m.cells if c.type == "tetra"])
+    res = mesh_model(load_model(model), 0.2)
+    assert len(tets) == len(res.tets)
+    # the same points (Gmsh 4.1 orders them by entity; text formats round the last digit)
+    a = m.points[np.lexsort(m.points.T[::-1])]
+    b = res.points[np.lexsort(res.points.T[::-1])]
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
+    check_tet_mesh(m.points, tets, lambda p: (1 - p[:, 2]) ** 2, 0.2,
+                   box_bounds=((0, 0, 0), (1, 1, 1)))
+    if ext == ".msh":
+        names = set(m.field_data)
+        assert {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "solid"} <= names
+    if ext == ".inp":
+        text = out.read_text()
+        assert "TYPE=C3D4" in text and "*SURFACE, NAME=ZMIN" in text
+
+
+def test_cli_plot_and_stats(tmp_path, capsys):
+    model = write(tmp_path, CUBE, "cube.toml")
+    code, o, err = run(["mesh", model, "--threshold", 0.2, "--output", tmp_path / "c.vtu",
+                        "--plot", tmp_path / "c.png", "--stats", tmp_path / "c.json"], capsys)
+    assert code == 0, err
+    assert (tmp_path / "c.png").stat().st_size > 1000
+    doc = json.loads((tmp_path / "c.json").read_text())
+    assert doc["stats"]["delta_max"] < 0.2
+    assert sum(doc["delta_histogram"]) == doc["stats"]["n_elements"]
+    assert "tetrahedra" in o
+
+
+@pytest.mark.parametrize("extra, contains", [
+    (["--method", "cvt"], "--method is not available for 3D models"),
+    (["--sampling", "dense"], "--sampling dense is not available"),
+    (["--threshold", "0"], "threshold"),
+])
+def test_cli_bad_options_exit_2(tmp_path, capsys, extra, contains):
+    model = write(tmp_path, CUBE, "cube.toml")
+    argv = ["mesh", model, "--threshold", 0.2, "--output", tmp_path / "c.vtu"] + extra
+    code, o, err = run(argv, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hetmesh: error:") and contains in lines[0]
+    assert not (tmp_path / "c.vtu").exists()
+
+
+def test_cli_bad_model_exit_2(tmp_path, capsys):
+    model = write(tmp_path, CUBE.replace("max = [1, 1, 1]", "max = [1, 1, -1]"), "bad.toml")
+    code, o, err = run(["mesh", model, "--threshold", 0.2, "--output", tmp_path / "c.vtu"],
+                       capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "bad.toml" in lines[0] and "positive" in lines[0]
+    assert not (tmp_path / "c.vtu").exists()
+
+
+def test_cli_unknown_extension_exit_2(tmp_path, capsys):
+    model = write(tmp_path, CUBE, "cube.toml")
+    code, o, err = run(["mesh", model, "--threshold", 0.2, "--output", tmp_path / "c.mesh"],
+                       capsys)
+    assert code == 2 and "tetrahedral" in err
+    assert not (tmp_path / "c.mesh").exists()
