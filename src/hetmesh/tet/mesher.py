@@ -34,7 +34,7 @@ from scipy.spatial import Delaunay
 
 from ..errors import BudgetError, GeometryError, MeshingError, OptionError
 from .field3d import scalar_column
-from .place import BOUNDARY_GAP, column_roots, level_values, section_points
+from .place import BOUNDARY_GAP, arc_count, column_roots, level_values, section_points
 from .quality import delta_tets, min_dihedral, volumes
 from .refine import bisect_edges, select_edges
 from .verify import boundary_faces, verify_tets
@@ -51,6 +51,8 @@ CHORD = 2e-3
 GRADE = 1.5
 #: ratio of consecutive layer spacings on the ladder (:func:`_ladder`)
 LADDER = 2.0 ** (1.0 / 3.0)
+#: largest node spacing in a prism with curved faces, x their chord-limited step
+ARC_SPACING = 2.0
 #: sliver removal: vertices of tetrahedra with a dihedral angle below this (degrees) move
 SLIVER_ANGLE = 15.0
 #: sliver removal rounds
@@ -180,6 +182,12 @@ def _layers_planar(solid, field, threshold, rng, chord_tol, h_max):
     j = int(np.argmax(np.abs(np.diff(c, axis=0)).sum(axis=0)))
     lev = level_values(float(c[:, j].min()), float(c[:, j].max()), BETA * threshold)
     s = _planes(lambda t: F1(t)[:, j], solid.s0, solid.s1, lev)
+    # planes between levels where the gap is over what the largest spacing can shape well
+    g_max = h_max / np.sqrt(2.0)
+    n_sub = np.maximum(1, np.ceil(np.diff(s) / g_max - 1e-9)).astype(int)
+    if (n_sub > 1).any():
+        s = np.concatenate([s[k] + (s[k + 1] - s[k]) * np.arange(n_sub[k]) / n_sub[k]
+                            for k in range(len(s) - 1)] + [s[-1:]])
     gaps = np.diff(s)
     lo = np.r_[gaps[0], gaps]
     hi = np.r_[gaps, gaps[-1]]
@@ -364,6 +372,12 @@ def generate_tets(solid, field, threshold: float, *, seed: int = 0,
                             "section without holes); this one is not")
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     hmax = solid.section.diameter / 2 if h_max is None else float(h_max)
+    arcs = [c.curve for c in solid.section.curves if hasattr(c.curve, "radius")]
+    if arcs and h_max is None:
+        # tetrahedra at a curved face are shaped by its step: keep the spacing within
+        # ARC_SPACING x that step
+        step = min(c.length / arc_count(c, chord) for c in arcs)
+        hmax = min(hmax, ARC_SPACING * step)
     est = estimate_tets(solid, field, threshold)
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "

@@ -34,6 +34,12 @@ log = logging.getLogger(__name__)
 JITTER = 0.04
 #: interior lattice points closer than this x spacing to the section boundary are dropped
 BOUNDARY_GAP = 0.45
+#: arcs whose boundary step is below this x the spacing get rings of graded points inside
+RING_START = 0.7
+#: growth of the point step from one ring to the next
+RING_GROWTH = 1.35
+#: lattice points closer than this x the spacing to a ring point are dropped
+RING_CLEAR = 0.6
 
 
 @dataclass
@@ -60,24 +66,33 @@ def section_points(section, spacing: float, phase: int, rng: np.random.Generator
                    chord_tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Points of one layer in the section: ``(q (n, 2), on_boundary (n,))``.
 
-    Boundary curves are divided into ``ceil(length / spacing)`` equal parts (arcs also so
-    that a chord's sagitta stays below ``chord_tol / 3``); the interior is a square lattice of
+    Boundary curves are divided into ``ceil(length / spacing)`` equal parts (arcs into at
+    least as many as the chord tolerance needs, see :func:`arc_count`); the interior is a square lattice of
     ``spacing``, shifted by half a cell when ``phase`` is odd.
     """
     curves = [c.curve for c in section.curves if c.kind in ("outer", "hole")]
-    # a side triangle may join points of two layers up to ~1.5 steps apart in angle: the
-    # sagitta grows with the square of the angle, so a third of the tolerance here
-    off, t = sample_parameters(curves, spacing, chord_tol / 3.0)
-    qs = []
+    off, t = sample_parameters(curves, spacing, None)
+    qs, offs, ts = [], [0], []
     for i, c in enumerate(curves):
         ti = t[off[i]:off[i + 1]][:-1]  # the end is the next curve's start
         n = len(ti)
-        if n > 1:
+        if hasattr(c, "radius"):
+            # arcs: the same points in every layer where the chord tolerance sets the count
+            # (a side triangle then spans one step), else at least 1.5 x that count (a side
+            # triangle spans at most 1.5 steps); never jittered
+            nc = arc_count(c, chord_tol)
+            n = nc if n < 1.5 * nc else n
+            ti = np.arange(n) / n
+        elif n > 1:
             j = np.zeros(n)
             j[1:] = rng.uniform(-JITTER, JITTER, n - 1) / n
             ti = ti + j
         qs.append(c.point(ti))
+        ts.append(np.r_[ti, 1.0])
+        offs.append(offs[-1] + len(ti) + 1)
+    off, t = np.array(offs), np.concatenate(ts) if ts else np.empty(0)
     qb = np.concatenate(qs) if qs else np.empty((0, 2))
+    rings = _arc_rings(section, curves, off, t, spacing, rng)
     x0, y0, x1, y1 = section.bounds
     o = 0.5 * spacing * (phase % 2)
     gx = np.arange(x0 + o, x1, spacing)
@@ -89,8 +104,15 @@ def section_points(section, spacing: float, phase: int, rng: np.random.Generator
         if len(g):
             d = section.distance_to_boundary(g)
             g = g[d >= BOUNDARY_GAP * spacing]
+    if len(g) and len(rings):
+        from scipy.spatial import cKDTree
+        dr, _ = cKDTree(rings).query(g)
+        g = g[dr >= RING_CLEAR * spacing]
     if len(g):
         g = g + rng.uniform(-JITTER, JITTER, g.shape) * spacing
+        g = np.concatenate([rings, g])
+    elif len(rings):
+        g = rings
     else:
         # an interior point keeps the boundary points (on one circle per layer in a
         # cylinder: two layers' are cospherical) from forming flat Delaunay tetrahedra
@@ -98,6 +120,54 @@ def section_points(section, spacing: float, phase: int, rng: np.random.Generator
         g = np.array([[r.x, r.y]])
     q = np.concatenate([qb, g])
     return q, np.r_[np.ones(len(qb), bool), np.zeros(len(g), bool)]
+
+
+def arc_count(arc, chord_tol: float) -> int:
+    """The fewest equal chords of ``arc`` within ``chord_tol`` of it (at least one per 90
+    degrees)."""
+    sweep = abs(arc.theta1 - arc.theta0)
+    c = min(max(1.0 - chord_tol / arc.radius, -1.0), 1.0)
+    step = 2.0 * np.arccos(c)  # the angle of a chord with sagitta chord_tol
+    return int(max(np.ceil(sweep / max(step, 1e-12) - 1e-9), np.ceil(sweep / (np.pi / 2))))
+
+
+def _arc_rings(section, curves, off, t, spacing: float, rng) -> np.ndarray:
+    """Points on curves parallel to the arcs whose chord-limited step ``b`` is much finer
+    than ``spacing``: rings at growing distances with steps growing by :data:`RING_GROWTH`
+    from ``b`` to ``spacing``, so that the tetrahedra grade from the curved face to the
+    lattice instead of meeting it in slivers."""
+    out = []
+    for i, c in enumerate(curves):
+        if not hasattr(c, "radius"):
+            continue
+        n = off[i + 1] - off[i] - 1
+        b = c.length / max(n, 1)
+        if b >= RING_START * spacing:
+            continue
+        mid = c.point(np.array([0.5]))[0]
+        to_c = np.asarray(c.center) - mid
+        eps = 1e-6 * c.radius
+        inward = 1.0 if section.contains((mid + eps * to_c / np.linalg.norm(to_c))[None])[0] \
+            else -1.0
+        d, step, k = 0.0, b, 0
+        while step < RING_START * spacing:
+            d += 0.85 * step
+            step = min(step * RING_GROWTH, spacing)
+            r = c.radius - inward * d
+            if r <= 0.5 * step:
+                break
+            sweep = abs(c.theta1 - c.theta0)
+            m = max(1, int(np.ceil(sweep * r / step)))
+            k += 1
+            th = c.theta0 + (c.theta1 - c.theta0) * (np.arange(m) + 0.5 * (k % 2)) / m
+            th = th + rng.uniform(-JITTER, JITTER, m) * (c.theta1 - c.theta0) / m
+            q = np.column_stack([c.center[0] + r * np.cos(th), c.center[1] + r * np.sin(th)])
+            ok = section.contains(q)
+            q = q[ok]
+            if len(q):
+                q = q[section.distance_to_boundary(q) >= 0.6 * d]
+            out.append(q)
+    return np.concatenate(out) if out else np.empty((0, 2))
 
 
 def column_roots(F, q: np.ndarray, s0: float, s1: float, level: float,
