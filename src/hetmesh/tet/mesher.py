@@ -227,6 +227,58 @@ def _slab(layers, k):
     return _delaunay(np.concatenate([layers[k], layers[k + 1]]))
 
 
+def circumspheres(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centres ``(M, 3)`` and radii ``(M,)`` of the tetrahedra's circumscribed spheres."""
+    a = points[tets[:, 0]]
+    u, v, w = (points[tets[:, k]] - a for k in (1, 2, 3))
+    vw, wu, uv = np.cross(v, w), np.cross(w, u), np.cross(u, v)
+    den = 2.0 * np.einsum("ij,ij->i", u, vw)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = ((u * u).sum(1)[:, None] * vw + (v * v).sum(1)[:, None] * wu
+               + (w * w).sum(1)[:, None] * uv) / den[:, None]
+    return a + off, np.linalg.norm(off, axis=1)
+
+
+def _local_delaunay(p_old: np.ndarray, p_new: np.ndarray, tets: np.ndarray,
+                    moved: np.ndarray) -> np.ndarray | None:
+    """The Delaunay tetrahedra of ``p_new`` from those of ``p_old`` (``tets``), where only
+    the points ``moved`` (ids) differ: the tetrahedra in conflict (around a moved point's old
+    position, or with a new position inside their sphere) are replaced by the globally empty
+    ones among the Delaunay tetrahedra of their vertices and the moved points. None if the
+    replacement does not fill the same volume (then the caller triangulates again)."""
+    from scipy.spatial import cKDTree
+
+    if not len(moved):
+        return tets
+    is_moved = np.zeros(len(p_old), dtype=bool)
+    is_moved[moved] = True
+    cc, r = circumspheres(p_old, tets)
+    dist, _ = cKDTree(p_new[moved]).query(cc)
+    conflict = is_moved[tets].any(axis=1) | (dist < r * (1 - 1e-9))
+    cav = tets[conflict]
+    verts = np.unique(np.r_[cav.ravel(), moved])
+    local = _delaunay(p_new[verts])
+    if not len(local):
+        return None
+    cand = verts[local]
+    c2, r2 = circumspheres(p_new, cand)
+    d2, _ = cKDTree(p_new).query(c2)
+    cand = cand[d2 >= r2 * (1 - 1e-9)]
+    kept = tets[~conflict]
+    # candidates already among the kept tetrahedra are not new
+    n = len(p_new) + 1
+    def keys(t):
+        st = np.sort(t, axis=1).astype(np.int64)
+        return ((st[:, 0] * n + st[:, 1]) * n + st[:, 2]) * n + st[:, 3]
+    new = cand[~np.isin(keys(cand), keys(kept))]
+    vol_new = volumes(p_new, new)
+    want = float(np.abs(volumes(p_old, cav)).sum())
+    if (vol_new <= 0).any() or abs(float(vol_new.sum()) - want) > 1e-9 * max(want, 1e-300) \
+            + 1e-12 * float(np.abs(volumes(p_old, kept)).sum()):
+        return None
+    return np.concatenate([kept, new])
+
+
 def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
                  rounds: int | None = None):
     """Slab by slab Delaunay of the planar layers, then sliver removal by perturbation:
@@ -241,6 +293,15 @@ def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
     slabs = [_slab(layers, k) for k in range(nl - 1)]
     inplane = [i for i in range(3) if i != axis]
 
+    def _update(k, prev, moved):
+        """Slab ``k`` after the points flagged in ``moved`` (per layer) moved from
+        ``prev``: locally if the local update is consistent, else triangulated again."""
+        ids = np.r_[np.flatnonzero(moved[k]), len(layers[k]) + np.flatnonzero(moved[k + 1])]
+        p_old = np.concatenate([prev[k], prev[k + 1]])
+        p_new = np.concatenate([layers[k], layers[k + 1]])
+        t = _local_delaunay(p_old, p_new, slabs[k], ids) if len(ids) else slabs[k]
+        slabs[k] = _slab(layers, k) if t is None else t
+
     def worst(k):
         """Per layer-k and layer-(k+1) point: the smallest dihedral of its slab-k tets."""
         p = np.concatenate([layers[k], layers[k + 1]])
@@ -249,8 +310,8 @@ def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
         np.minimum.at(w, slabs[k].ravel(), np.repeat(md, 4))
         return md, w[:len(layers[k])], w[len(layers[k]):]
 
+    stats = [worst(k) for k in range(nl - 1)]
     for _ in range(rounds):
-        stats = [worst(k) for k in range(nl - 1)]
         before = [np.full(len(layers[j]), 180.0) for j in range(nl)]
         for k, (_, wa, wb) in enumerate(stats):
             np.minimum(before[k], wa, out=before[k])
@@ -259,6 +320,7 @@ def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
         if not any(m.any() for m in move):
             break
         old = [layers[j][move[j]].copy() for j in range(nl)]
+        prev = [layers[j].copy() for j in range(nl)]
         for j in range(nl):
             n = int(move[j].sum())
             if n:
@@ -271,7 +333,7 @@ def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
         touched = sorted({k for j in range(nl) if move[j].any() for k in (j - 1, j)
                           if 0 <= k < nl - 1})
         for k in touched:
-            slabs[k] = _slab(layers, k)
+            _update(k, prev, move)
         after = [np.full(len(layers[j]), 180.0) for j in range(nl)]
         for k in touched:
             _, wa, wb = worst(k)
@@ -283,9 +345,12 @@ def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
                 np.minimum(after[k], stats[k][1], out=after[k])
                 np.minimum(after[k + 1], stats[k][2], out=after[k + 1])
         redo = set()
+        prev = [layers[j].copy() for j in range(nl)]
+        back_all = []
         for j in range(nl):
             worse = move[j].copy()
             worse[move[j]] = after[j][move[j]] < before[j][move[j]]
+            back_all.append(worse)
             if worse.any():
                 sub = layers[j][move[j]]
                 back = worse[move[j]]
@@ -293,7 +358,9 @@ def _mesh_planar(layers, fixed, spacing, axis, rng, target: float | None = None,
                 layers[j][move[j]] = sub
                 redo.update(k for k in (j - 1, j) if 0 <= k < nl - 1)
         for k in sorted(redo):
-            slabs[k] = _slab(layers, k)
+            _update(k, prev, back_all)
+        for k in set(touched) | redo:
+            stats[k] = worst(k)
     offs = np.r_[0, np.cumsum([len(p) for p in layers])]
     out = []
     for k in range(nl - 1):
