@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri.discontinuity import crossing_elements, has_subregions
+from hetmesh.material import has_subregions
+from hetmesh.tri.discontinuity import crossing_elements
 from hetmesh.metrics import delta_vertices, min_angle
 
 _ALL_EXAMPLES = sorted((Path(hetmesh.__file__).parent / "examples").glob("*.toml"))

@@ -156,7 +156,7 @@ def test_narrow_bump_meshes_with_no_element_above_threshold(tmp_path, centre, w)
 
 
 def test_piecewise_field_bounded_on_each_element_own_branch():
-    from hetmesh.tri.discontinuity import element_subregions
+    from hetmesh.material import element_subregions
 
     f = AnalyticField({"b": "where(x < 0.43, 0.5*x + 0.1*sin(20*y), 0.9 - 0.2*y)"}, ["a", "b"])
     P, T = _grid(10)
@@ -172,7 +172,7 @@ def test_piecewise_field_bounded_on_each_element_own_branch():
 def test_feature_tree_bound_is_above_a_fine_lattice():
     from importlib import resources
 
-    from hetmesh.tri.discontinuity import element_subregions
+    from hetmesh.material import element_subregions
     from hetmesh.io.model import load_model
 
     with resources.as_file(resources.files("hetmesh") / "examples" / "hft_ring.toml") as p:

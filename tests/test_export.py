@@ -44,7 +44,7 @@ def square_mesh() -> Mesh:
     c = points[tris].mean(axis=1)
     metal = points[:, 1] ** 2
     return Mesh(points, tris, regions=(c[:, 0] > 0.5).astype(int),
-                edges=[[0, 1], [1, 2], [1, 4], [4, 7]], edge_markers=[1, 1, 2, 2],
+                facets=[[0, 1], [1, 2], [1, 4], [4, 7]], facet_markers=[1, 1, 2, 2],
                 point_data={"ceramic": 1 - metal, "metal": metal},
                 cell_data={"delta": c[:, 0] / 3, "quality": 1 - c[:, 1] / 7},
                 marker_names={1: "bottom", 2: "interface x=0.5"})
@@ -102,7 +102,7 @@ def test_round_trip_sparse_ids(tmp_path, ext, file_format):
     """Regions 0, 2, 5 interleaved; markers 3 (unnamed) and 7 (named)."""
     base = square_mesh()
     mesh = Mesh(base.points, base.triangles, regions=[5, 0, 2, 5, 0, 2, 5, 0],
-                edges=base.edges, edge_markers=[7, 3, 7, 3], marker_names={7: "left side"})
+                facets=base.edges, facet_markers=[7, 3, 7, 3], marker_names={7: "left side"})
     back = read_mesh(write_mesh(mesh, tmp_path / f"m{ext}", file_format=file_format))
     assert by_triangle(back, back.regions) == by_triangle(mesh, mesh.regions)
     assert edge_set(back) == edge_set(mesh)
@@ -311,7 +311,7 @@ def split_mesh() -> Mesh:
     """The square mesh with the bottom split in two markers of one name, a named corner."""
     base = square_mesh()
     return Mesh(base.points, base.triangles, regions=base.regions,
-                edges=[[0, 1], [1, 2], [1, 4], [4, 7]], edge_markers=[1, 3, 2, 2],
+                facets=[[0, 1], [1, 2], [1, 4], [4, 7]], facet_markers=[1, 3, 2, 2],
                 marker_names={1: "bottom", 3: "bottom", 2: "cut"}, named_points={"A": 0, "C": 8})
 
 

@@ -15,7 +15,7 @@ import pytest
 
 import hetmesh
 from hetmesh.cli import main
-from hetmesh.tri.discontinuity import has_subregions
+from hetmesh.material import has_subregions
 from hetmesh.errors import MaterialError, MeshingError
 from hetmesh.tri.geometry import Loop, Segment, make_domain
 from hetmesh.io.model import Model, load_model

@@ -10,7 +10,8 @@ import pytest
 
 import hetmesh
 from hetmesh.tri import adapt
-from hetmesh.tri.discontinuity import element_subregions, embed_discontinuities, has_subregions
+from hetmesh.material import element_subregions, has_subregions
+from hetmesh.tri.discontinuity import embed_discontinuities
 from hetmesh.metrics import element_delta, quality, signed_area2
 from hetmesh.tri.optimize import _Eval, _sweep, independent_sets, optimize
 from hetmesh.tri.workset import FIXED

@@ -26,8 +26,8 @@ def graded_mesh(n: int = 9) -> Mesh:
     bottom = np.column_stack([np.arange(n - 1), np.arange(1, n)])
     middle = np.column_stack([np.arange(n // 2, n * n - n, n), np.arange(n // 2 + n, n * n, n)])
     return Mesh(points, tris, regions=(c[:, 0] > 1).astype(int),
-                edges=np.concatenate([bottom, middle]),
-                edge_markers=np.r_[np.ones(len(bottom)), np.full(len(middle), 2)],
+                facets=np.concatenate([bottom, middle]),
+                facet_markers=np.r_[np.ones(len(bottom)), np.full(len(middle), 2)],
                 point_data={"ceramic": 1 - metal, "metal": metal},
                 cell_data={"delta": np.linspace(0, 0.06, len(tris))})
 

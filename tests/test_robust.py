@@ -100,7 +100,7 @@ def test_check_finds_broken_meshes(square_result):
     # a threshold the mesh does not meet
     assert any("delta_max" in p for p in independent_check(result, model, 0.01))
     # a missing triangle: a hole in the mesh, a wrong area
-    cut = dataclasses.replace(mesh, triangles=mesh.triangles[1:], regions=None,
+    cut = dataclasses.replace(mesh, cells=mesh.cells[1:], regions=None,
                               cell_data={})
     probs = independent_check(dataclasses.replace(result, mesh=cut), model, 0.1)
     assert any("boundary" in p for p in probs) and any("area" in p for p in probs)
@@ -118,7 +118,7 @@ def test_check_finds_broken_meshes(square_result):
                               model, 0.1)
     assert any("off their curve" in p for p in probs)
     # constraint edges missing: a curve not covered, boundary edges without a curve
-    fewer = dataclasses.replace(mesh, edges=mesh.edges[5:], edge_markers=mesh.edge_markers[5:])
+    fewer = dataclasses.replace(mesh, facets=mesh.facets[5:], facet_markers=mesh.facet_markers[5:])
     probs = independent_check(dataclasses.replace(result, mesh=fewer), model, 0.1)
     assert any("cover" in p for p in probs) and any("not on the outer loop" in p for p in probs)
 

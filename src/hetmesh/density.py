@@ -1,7 +1,7 @@
 """Material-driven density and size fields: Eqs. (5), (8)-(9) of the paper.
 
 g = |grad f| (Eq. 5), taken as the largest gradient norm over the constituents; the CVT density
-is rho = g^(d+2) (Eq. 9, d = 2). The matching local element size follows from Eqs. (4) and (7):
+is rho = g^(d+2) (Eq. 9; d = 2 for a planar domain, 3 for a solid). The matching local element size follows from Eqs. (4) and (7):
 h = c * delta_0 / g, floored by a maximum size so that flat zones stay meshed.
 """
 
@@ -12,19 +12,24 @@ import numpy as np
 __all__ = ["gradient_norm", "density", "size_at", "background_points", "integrate",
            "n_iso", "estimate_elements"]
 
-D = 2  # dimension of the domain
+D = 2  # the default dimension of the domain
 
 
 def gradient_norm(field, points: np.ndarray) -> np.ndarray:
     """g(x) = max_i |grad f_i(x)| over the constituents, Eq. (5); shape (N,)."""
-    gr = field.gradient(points)  # (N, m, 2)
+    gr = field.gradient(points)  # (N, m, d)
     return np.sqrt((gr ** 2).sum(axis=2)).max(axis=1)
 
 
-def density(g: np.ndarray, h_max: float, threshold: float) -> np.ndarray:
-    """rho = g^(d+2), Eq. (9), with g floored at delta_0 / h_max so rho > 0 everywhere."""
+def density(g: np.ndarray, h_max: float, threshold: float, dim: int = D) -> np.ndarray:
+    """rho = g^(d+2), Eq. (9), with g floored at delta_0 / h_max so rho > 0 everywhere;
+    ``dim`` is d, the field's dimension (:func:`hetmesh.material.field_dim`).
+
+    >>> density(np.array([2.0]), 1.0, 0.1).tolist(), density(np.array([2.0]), 1.0, 0.1, 3).tolist()
+    ([16.0], [32.0])
+    """
     g = np.maximum(g, threshold / h_max)
-    return g ** (D + 2)
+    return g ** (dim + 2)
 
 
 def size_at(g: np.ndarray, threshold: float, h_max: float, factor: float = 1.0) -> np.ndarray:

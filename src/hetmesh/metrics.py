@@ -1,6 +1,10 @@
-"""Element quality and material variation: Eqs. (1) and (14)-(18) of the paper.
+"""Element quality and material variation: Eqs. (1) and (14)-(18) of the paper, in 2D and 3D.
 
-All functions work on whole arrays: ``points (N, 2)``, ``triangles (M, 3)``.
+All functions work on whole arrays: ``points (N, d)`` and simplices ``(M, d + 1)``
+(triangles, tetrahedra). The material variation delta(T) (Eqs. 14-15) and its dense sampling
+are the same in every dimension; the quality is Eq. (17) for triangles and the radius ratio
+``3 r_in / R_circ`` (1 for the regular tetrahedron) for tetrahedra, where the angle of the
+statistics is the smallest dihedral angle.
 """
 
 from __future__ import annotations
@@ -14,6 +18,9 @@ from .parallel import block_concat
 __all__ = [
     "quality",
     "min_angle",
+    "tet_volumes6",
+    "tet_quality",
+    "dihedral_angles",
     "quality_and_angle",
     "triangle_angles",
     "signed_area2",
@@ -126,7 +133,11 @@ def quality(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
     >>> quality(np.array([[0, 0], [1, 0], [0.5, 3 ** 0.5 / 2]]), np.array([[0, 1, 2]])).round(12)
     array([1.])
+
+    Tetrahedra ``(M, 4)`` take :func:`tet_quality`, the radius ratio.
     """
+    if triangles.shape[1] == 4:
+        return tet_quality(points, triangles)
     x, y = _columns(points)
     return block_concat(lambda s: _quality3(*_sides(x, y, triangles[s])), len(triangles))
 
@@ -138,7 +149,10 @@ def triangle_angles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def quality_and_angle(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(quality, min_angle)`` of every triangle from one computation of the side lengths
-    (by blocks of triangles, in threads)."""
+    (by blocks of triangles, in threads); for tetrahedra ``(radius ratio, smallest dihedral
+    angle)``."""
+    if triangles.shape[1] == 4:
+        return tet_quality(points, triangles), dihedral_angles(points, triangles).min(axis=1)
     x, y = _columns(points)
 
     def block(s):
@@ -152,6 +166,89 @@ def min_angle(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Smallest interior angle of every triangle, in degrees."""
     x, y = _columns(points)
     return block_concat(lambda s: _min_angle3(*_sides(x, y, triangles[s])), len(triangles))
+
+
+def _tet_frame(points: np.ndarray, tets: np.ndarray):
+    """The edge vectors ``a, b, c`` (each ``(M, 3)``) from vertex 0 to vertices 1, 2, 3."""
+    p0 = points[tets[:, 0]]
+    return points[tets[:, 1]] - p0, points[tets[:, 2]] - p0, points[tets[:, 3]] - p0
+
+
+def tet_volumes6(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Six times the signed volume ``(M,)`` of every tetrahedron, ``a . (b x c)`` with
+    ``a, b, c`` the edges from vertex 0; positive when ``a, b, c`` form a right-handed
+    frame (vertices 1, 2, 3 turn counter-clockwise seen from outside that face).
+
+    >>> tet_volumes6(np.eye(4, 3, k=-1), np.array([[0, 1, 2, 3]])).tolist()
+    [1.0]
+    """
+    def block(s):
+        a, b, c = _tet_frame(points, tets[s])
+        return np.einsum("ij,ij->i", a, np.cross(b, c))
+
+    return block_concat(block, len(tets))
+
+
+def _face_normals(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Normals ``(4, M, 3)`` (length twice the face's area) of the faces opposite vertices
+    0..3: outward for positively oriented tetrahedra, all inward for negative ones."""
+    p = [points[tets[:, k]] for k in range(4)]
+    return np.stack([np.cross(p[2] - p[1], p[3] - p[1]), np.cross(p[3] - p[0], p[2] - p[0]),
+                     np.cross(p[1] - p[0], p[3] - p[0]), np.cross(p[2] - p[0], p[1] - p[0])])
+
+
+def tet_quality(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """The radius ratio ``3 r_in / R_circ`` of every tetrahedron: 1 for the regular one, 0
+    for a flat one (a sliver included, which Eq. (17)'s 2D analogue by edge lengths misses).
+
+    ``r_in = 3 V / (A_0 + A_1 + A_2 + A_3)`` (V the volume, A_k the face areas) and
+    ``R_circ = |a|^2 (b x c) + |b|^2 (c x a) + |c|^2 (a x b)| / (2 |a . (b x c)|)``.
+
+    >>> regular = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+    >>> tet_quality(regular, np.array([[0, 1, 2, 3]])).round(12).tolist()
+    [1.0]
+    """
+    def block(s):
+        t = tets[s]
+        a, b, c = _tet_frame(points, t)
+        bc, ca, ab = np.cross(b, c), np.cross(c, a), np.cross(a, b)
+        v6 = np.abs(np.einsum("ij,ij->i", a, bc))
+        o = ((a * a).sum(1)[:, None] * bc + (b * b).sum(1)[:, None] * ca
+             + (c * c).sum(1)[:, None] * ab)
+        area2 = np.linalg.norm(_face_normals(points, t), axis=2).sum(axis=0)  # 2 x total area
+        with np.errstate(invalid="ignore", divide="ignore"):
+            # 3 r_in / R = 3 (v6 / area2) / (|o| / (2 v6)) = 6 v6^2 / (area2 |o|)
+            q = np.where(v6 > 0, 6.0 * v6 * v6 / (area2 * np.linalg.norm(o, axis=1)), 0.0)
+        return np.clip(np.nan_to_num(q, nan=0.0), 0.0, 1.0)
+
+    return block_concat(block, len(tets))
+
+
+#: the vertex pairs of a tetrahedron's six edges, in the column order of :func:`dihedral_angles`
+TET_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+
+
+def dihedral_angles(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Interior dihedral angles ``(M, 6)`` in degrees at the edges :data:`TET_EDGES`.
+
+    The angle at edge (i, j) is between the two faces holding it, those opposite the other
+    two vertices k, l: ``pi - angle(n_k, n_l)`` of their outward normals.
+
+    >>> regular = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
+    >>> dihedral_angles(regular, np.array([[0, 1, 2, 3]])).round(6).tolist()[0][:2]
+    [70.528779, 70.528779]
+    """
+    def block(s):
+        t = tets[s]
+        n = _face_normals(points, t)
+        n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-300)
+        out = np.empty((len(t), 6))
+        for e, (i, j) in enumerate(TET_EDGES):
+            k, l_ = (v for v in range(4) if v not in (i, j))
+            out[:, e] = -np.einsum("ij,ij->i", n[k], n[l_])
+        return _degrees(out)
+
+    return block_concat(block, len(tets))
 
 
 def signed_area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -227,24 +324,30 @@ def _delta_own_region(field, points, triangles, comp, regions, delta) -> np.ndar
 def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """delta(T) from the vertex compositions, Eqs. (14)-(15) with the max-norm.
 
-    ``composition`` is ``(N, m)`` (or ``(N,)`` for one fraction). The largest max-norm
-    difference over vertex pairs equals the largest per-constituent range over the vertices.
-    Computed a constituent at a time from its three corner values (elementwise maxima and
-    minima: the same numbers as a reduction over the ``(M, 3, m)`` gather, at a tenth of
-    its cost), by blocks of triangles.
+    ``composition`` is ``(N, m)`` (or ``(N,)`` for one fraction); ``triangles`` any
+    simplices ``(M, d + 1)``. The largest max-norm difference over vertex pairs equals the
+    largest per-constituent range over the vertices. Computed a constituent at a time from
+    its corner values (elementwise maxima and minima: the same numbers as a reduction over
+    the ``(M, d + 1, m)`` gather, at a tenth of its cost), by blocks of elements.
+
+    >>> delta_vertices(np.array([0.0, 0.2, 0.5, 0.1]), np.array([[0, 1, 2, 3]])).tolist()
+    [0.5]
     """
     c = composition if composition.ndim == 2 else composition[:, None]
     cols = [np.ascontiguousarray(c[:, j]) for j in range(c.shape[1])]
+    nv = triangles.shape[1]
 
     def block(s):
         t = triangles[s]
         out = np.zeros(len(t)) if not cols else None
         for cj in cols:
-            lo, b, d = cj[t[:, 0]], cj[t[:, 1]], cj[t[:, 2]]
+            lo, b = cj[t[:, 0]], cj[t[:, 1]]
             hi = np.maximum(lo, b)
-            np.maximum(hi, d, out=hi)
             np.minimum(lo, b, out=lo)
-            np.minimum(lo, d, out=lo)
+            for k in range(2, nv):
+                d = cj[t[:, k]]
+                np.maximum(hi, d, out=hi)
+                np.minimum(lo, d, out=lo)
             hi -= lo
             out = hi if out is None else np.maximum(out, hi, out=out)
         return out
@@ -252,34 +355,45 @@ def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray
     return block_concat(block, len(triangles))
 
 
-def lattice_barycentric(order: int) -> np.ndarray:
-    """Barycentric coordinates ``(K, 3)`` of the order-``order`` lattice of a triangle.
+def lattice_barycentric(order: int, dim: int = 2) -> np.ndarray:
+    """Barycentric coordinates ``(K, dim + 1)`` of the order-``order`` lattice of a simplex.
 
-    Includes the vertices; ``K = (order + 1)(order + 2)/2``.
+    Includes the vertices; ``K = (order + 1)(order + 2)/2`` for a triangle,
+    ``(order + 1)(order + 2)(order + 3)/6`` for a tetrahedron.
+
+    >>> len(lattice_barycentric(4)), len(lattice_barycentric(4, dim=3))
+    (15, 35)
     """
-    i, j = np.meshgrid(np.arange(order + 1), np.arange(order + 1), indexing="ij")
-    keep = i + j <= order
-    i, j = i[keep], j[keep]
-    return np.stack([order - i - j, i, j], axis=1).astype(float) / order
+    if dim == 2:
+        i, j = np.meshgrid(np.arange(order + 1), np.arange(order + 1), indexing="ij")
+        keep = i + j <= order
+        i, j = i[keep], j[keep]
+        return np.stack([order - i - j, i, j], axis=1).astype(float) / order
+    i, j, k = np.meshgrid(*[np.arange(order + 1)] * 3, indexing="ij")
+    keep = i + j + k <= order
+    i, j, k = i[keep], j[keep], k[keep]
+    return np.stack([order - i - j - k, i, j, k], axis=1).astype(float) / order
 
 
 def delta_dense(field, points: np.ndarray, triangles: np.ndarray, order: int = 4,
                 chunk: int = 200_000, regions: np.ndarray | None = None) -> np.ndarray:
-    """delta(T) from a lattice of ``(order+1)(order+2)/2`` sample points in every triangle.
+    """delta(T) from the order-``order`` lattice of sample points in every element
+    (:func:`lattice_barycentric`: 15 points in a triangle, 35 in a tetrahedron at order 4).
 
     Catches composition peaks inside an element that vertex sampling (the paper's) misses.
-    ``field`` provides ``composition((N, 2)) -> (N, m)``. Sample points are pulled a hair
+    ``field`` provides ``composition((N, d)) -> (N, m)``. Sample points are pulled a hair
     towards the centroid so that a field with discontinuities along element edges is sampled
     on the element's own side. If ``regions`` is given and the field accepts a ``region``
     keyword, compositions are evaluated for each element's own region.
     """
-    lam = lattice_barycentric(order)
-    lam = 0.999999 * lam + 0.000001 / 3.0
+    dim = points.shape[1]
+    lam = lattice_barycentric(order, dim)
+    lam = 0.999999 * lam + 0.000001 / (dim + 1.0)
     out = np.empty(len(triangles))
-    x, y = _columns(points)
+    cols = [np.ascontiguousarray(points[:, d]) for d in range(dim)]
     for s in range(0, len(triangles), chunk):
         t = triangles[s:s + chunk]
-        xy = block_concat(lambda b: _lattice_points(x, y, t[b], lam), len(t)).reshape(-1, 2)
+        xy = block_concat(lambda b: _lattice_points(cols, t[b], lam), len(t)).reshape(-1, dim)
         if regions is not None:
             comp = field.composition(xy, region=np.repeat(regions[s:s + chunk], len(lam)))
         else:
@@ -288,15 +402,18 @@ def delta_dense(field, points: np.ndarray, triangles: np.ndarray, order: int = 4
     return out
 
 
-def _lattice_points(x, y, t, lam) -> np.ndarray:
-    """The points ``(n, K, 2)`` at barycentric coordinates ``lam (K, 3)`` in triangles ``t``:
-    ``(l0 a + l1 b) + l2 c`` per coordinate, as ``np.einsum("kv,cvd->ckd", ...)`` sums
-    them (the same numbers), from coordinate columns."""
-    out = np.empty((len(t), len(lam), 2))
-    for d, z in enumerate((x, y)):
-        a, b, c = z[t[:, 0]], z[t[:, 1]], z[t[:, 2]]
-        for k, (l0, l1, l2) in enumerate(lam):
-            out[:, k, d] = l0 * a + l1 * b + l2 * c
+def _lattice_points(cols, t, lam) -> np.ndarray:
+    """The points ``(n, K, d)`` at barycentric coordinates ``lam (K, d + 1)`` in the
+    simplices ``t``: ``(l0 a + l1 b) + l2 c (+ l3 e)`` per coordinate, as ``np.einsum(
+    "kv,cvd->ckd", ...)`` sums them (the same numbers), from the coordinate columns ``cols``."""
+    out = np.empty((len(t), len(lam), len(cols)))
+    for d, z in enumerate(cols):
+        corners = [z[t[:, v]] for v in range(t.shape[1])]
+        for k, weights in enumerate(lam):
+            acc = weights[0] * corners[0]
+            for w, zc in zip(weights[1:], corners[1:]):
+                acc = acc + w * zc
+            out[:, k, d] = acc
     return out
 
 

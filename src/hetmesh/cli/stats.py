@@ -112,7 +112,7 @@ def with_bounds(stats, mesh, model, sampling: str | None):
     does."""
     import dataclasses
 
-    from ..tri.discontinuity import element_subregions, has_subregions
+    from ..material.field import element_subregions, has_subregions
     from ..metrics import delta_dense, element_delta
 
     fld = model.material
@@ -147,7 +147,7 @@ def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> Non
 
 def _statistics(mesh, model, sampling: str, threshold: float | None):
     """:func:`hetmesh.tri.adapt.mesh_statistics`, with ``threshold`` for certified sampling."""
-    from ..tri.discontinuity import element_subregions, has_subregions
+    from ..material.field import element_subregions, has_subregions
     from ..metrics import element_delta, statistics
 
     fld = model.material

@@ -261,7 +261,7 @@ def check_rigid(parts: tuple[int, np.ndarray], t: np.ndarray, P: np.ndarray, fx:
 # ------------------------------------------------------------------------------ material
 
 def _subregions(field, P: np.ndarray, t: np.ndarray) -> np.ndarray | None:
-    from ..tri.discontinuity import element_subregions, has_subregions
+    from ..material.field import element_subregions, has_subregions
 
     return element_subregions(field, P, t) if has_subregions(field) else None
 

@@ -68,6 +68,8 @@ class MeshFormat:
     writer : callable ``(mesh, path, fmt) -> None``
     meshio_writer : str, optional
         meshio's name of the writer when it differs (``"vtk42"``).
+    dims : tuple of int
+        The mesh dimensions the writer handles (triangles: 2, tetrahedra: 3).
     """
 
     name: str
@@ -75,6 +77,7 @@ class MeshFormat:
     options: Mapping = field(default_factory=dict)
     writer: Callable[[Mesh, Path, "MeshFormat"], None] | None = None
     meshio_writer: str | None = None
+    dims: tuple[int, ...] = (2,)
 
 
 # -- writers -----------------------------------------------------------------------------
@@ -85,19 +88,21 @@ def _numeric(a) -> np.ndarray:
 
 
 def _to_meshio(mesh: Mesh, *, points3d: bool) -> meshio.Mesh:
-    """The mesh as a meshio.Mesh: a triangle block and (if there are edges) a line block."""
+    """The mesh as a meshio.Mesh: a block of its cells (triangles or tetrahedra) and, if
+    there are facets, a block of them (lines or triangles); ``points3d`` pads 2D points
+    with z = 0."""
     p = np.asarray(mesh.points, np.float64)
-    if points3d:
+    if points3d and mesh.dim == 2:
         p = np.column_stack([p, np.zeros(len(p))])
-    cells = [("triangle", np.asarray(mesh.triangles))]
+    cells = [(mesh.cell_type, np.asarray(mesh.cells))]
     tri_data = {k: _numeric(v) for k, v in mesh.cell_data.items()
                 if k not in ("region", "marker")}
     tri_data["region"] = np.asarray(mesh.regions)
-    k = len(mesh.edges)
+    k = len(mesh.facets)
     if k:
-        cells.append(("line", np.asarray(mesh.edges)))
+        cells.append((mesh.facet_type, np.asarray(mesh.facets)))
         cell_data = {n: [v, float_pad(v, k)] for n, v in tri_data.items()}
-        cell_data["marker"] = [np.zeros(mesh.n_elements, np.int32), np.asarray(mesh.edge_markers)]
+        cell_data["marker"] = [np.zeros(mesh.n_elements, np.int32), np.asarray(mesh.facet_markers)]
     else:
         cell_data = {n: [v] for n, v in tri_data.items()}
     point_data = {n: _numeric(v) for n, v in mesh.point_data.items()}
@@ -110,11 +115,11 @@ def _write_meshio(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
 
 
 def _write_medit(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
-    cells = [("triangle", np.asarray(mesh.triangles))]
+    cells = [(mesh.cell_type, np.asarray(mesh.cells))]
     refs = [np.asarray(mesh.regions)]
-    if len(mesh.edges):
-        cells.append(("line", np.asarray(mesh.edges)))
-        refs.append(np.asarray(mesh.edge_markers))
+    if len(mesh.facets):
+        cells.append((mesh.facet_type, np.asarray(mesh.facets)))
+        refs.append(np.asarray(mesh.facet_markers))
     m = meshio.Mesh(np.asarray(mesh.points), cells, cell_data={"medit:ref": refs})
     meshio.write(path, m, file_format="medit", **fmt.options)
 
@@ -137,14 +142,15 @@ _register_abaqus_types()
 
 _GMSH41 = MeshFormat("gmsh41", "gmsh", {}, gmsh_msh.write_msh41)
 FILE_FORMATS: dict[str, MeshFormat] = {
-    "vtu": MeshFormat("vtu", "vtu", {"binary": True, "compression": "zlib"}, _write_meshio),
-    "vtk": MeshFormat("vtk", "vtk", {"binary": True}, _write_meshio, "vtk42"),
+    "vtu": MeshFormat("vtu", "vtu", {"binary": True, "compression": "zlib"}, _write_meshio,
+                      dims=(2, 3)),
+    "vtk": MeshFormat("vtk", "vtk", {"binary": True}, _write_meshio, "vtk42", dims=(2, 3)),
     "xdmf": MeshFormat("xdmf", "xdmf", {}, xdmf.write_xdmf),
     "gmsh": _GMSH41,
     "gmsh41": _GMSH41,
     "gmsh22": MeshFormat("gmsh22", "gmsh", {}, gmsh_msh.write_msh22),
     "abaqus": MeshFormat("abaqus", "abaqus", {}, abaqus.write_inp),
-    "medit": MeshFormat("medit", "medit", {}, _write_medit),
+    "medit": MeshFormat("medit", "medit", {}, _write_medit, dims=(2, 3)),
 }
 """Every format by its ``file_format`` name."""
 
@@ -202,6 +208,11 @@ def write_mesh(mesh: Mesh, path: str | Path, *, file_format: str | None = None) 
     """
     path = Path(path)
     fmt = _resolve(path, file_format)
+    if mesh.dim not in fmt.dims:
+        able = ", ".join(sorted(n for n, f in FILE_FORMATS.items() if mesh.dim in f.dims))
+        raise OutputError(f"cannot write {path} as {fmt.name}: it takes "
+                          f"{' and '.join(f'{d}D' for d in fmt.dims)} meshes, this one is "
+                          f"{mesh.dim}D (formats for {mesh.dim}D meshes: {able})")
     try:
         if fmt.name == "xdmf":  # two files, each written atomically
             xdmf.write_xdmf(mesh, path)
@@ -210,7 +221,8 @@ def write_mesh(mesh: Mesh, path: str | Path, *, file_format: str | None = None) 
                 fmt.writer(mesh, tmp, fmt)
     except (meshio.WriteError, ValueError, TypeError, OSError) as exc:
         raise OutputError(f"cannot write {path} as {fmt.name}: {_one_line(exc)}") from exc
-    log.info("wrote %s (%s: %d points, %d triangles)", path, fmt.name, mesh.n_points, mesh.n_elements)
+    log.info("wrote %s (%s: %d points, %d %s cells)", path, fmt.name, mesh.n_points,
+             mesh.n_elements, mesh.cell_type)
     return path
 
 
@@ -432,6 +444,6 @@ def read_mesh(path: str | Path) -> Mesh:
     cell_data = {k: _gather(m, k, tri) for k in m.cell_data
                  if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
     point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}
-    return Mesh(np.asarray(m.points, np.float64)[:, :2], triangles, regions=regions, edges=edges,
-                edge_markers=markers, point_data=point_data, cell_data=cell_data,
+    return Mesh(np.asarray(m.points, np.float64)[:, :2], triangles, regions=regions, facets=edges,
+                facet_markers=markers, point_data=point_data, cell_data=cell_data,
                 marker_names=names, named_points=named)

@@ -44,8 +44,8 @@ class CurveGroup:
 def curve_groups(mesh: Mesh) -> list[CurveGroup]:
     """One :class:`CurveGroup` per name among the markers of ``mesh.edges``, by tag.
 
-    >>> m = Mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], edges=[[0, 1], [1, 2], [2, 0]],
-    ...          edge_markers=[3, 5, 4], marker_names={3: "a", 4: "b", 5: "a"})
+    >>> m = Mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], facets=[[0, 1], [1, 2], [2, 0]],
+    ...          facet_markers=[3, 5, 4], marker_names={3: "a", 4: "b", 5: "a"})
     >>> [(g.name, g.tag, g.markers) for g in curve_groups(m)]
     [('a', 3, (3, 5)), ('b', 4, (4,))]
     """

@@ -100,7 +100,7 @@ def material_config(model):
 def element_material(mesh: Mesh, model, config=None) -> ElementMaterial:
     """Mean compositions, vertex ranges and mixed properties of every element of ``mesh``
     (a mesh of ``model``, in its coordinates)."""
-    from ..tri.discontinuity import element_subregions, has_subregions
+    from ..material.field import element_subregions, has_subregions
     from ..fea.mixing import mix_config
 
     cfg = config if config is not None else material_config(model)

@@ -175,5 +175,5 @@ def read_xdmf(path: Path) -> Mesh | None:
         label = {int(i.get("Value")): i.get("Name") for i in f.findall("Information")}
         vals = _data(f.find("Attribute/DataItem"), base).ravel()
         named = {label.get(int(v), f"point_{v}"): int(n) for n, v in zip(nodes, vals)}
-    return Mesh(p[:, :2], t, regions=regions, edges=edges, edge_markers=markers,
+    return Mesh(p[:, :2], t, regions=regions, facets=edges, facet_markers=markers,
                 point_data=pd, cell_data=cd, marker_names=names, named_points=named)

@@ -48,6 +48,16 @@ _PROBE_ROUNDS = 26  # continuation probes at radii 4**k x the smallest step, k <
 _DIRECTIONS = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0],
                         [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]) / \
     np.array([1.0, 1.0, 1.0, 1.0, *[np.sqrt(2.0)] * 4])[:, None]
+#: the continuation probes' unit directions in 3D: the 26 neighbours of a cube's centre
+_DIRECTIONS3 = np.array([v for v in np.ndindex(3, 3, 3) if v != (1, 1, 1)], float) - 1.0
+_DIRECTIONS3 /= np.linalg.norm(_DIRECTIONS3, axis=1)[:, None]
+#: the coordinate names of each dimension
+VARIABLES = {2: ("x", "y"), 3: ("x", "y", "z")}
+
+
+def probe_directions(dim: int) -> np.ndarray:
+    """Unit directions ``(K, dim)`` of :meth:`AnalyticField`'s continuation probes."""
+    return _DIRECTIONS if dim == 2 else _DIRECTIONS3
 
 
 def _prefix(where: str) -> str:
@@ -77,10 +87,11 @@ def check_constituents(constituents: Iterable[str], where: str = "") -> tuple[st
     return names
 
 
-def _offset(offset) -> np.ndarray:
+def _offset(offset, dim: int = 2) -> np.ndarray:
     o = np.asarray(offset, dtype=float).reshape(-1)
-    if o.shape != (2,) or not np.all(np.isfinite(o)):
-        raise MaterialError(f"shifted: expected an offset of 2 finite numbers, got {offset!r}")
+    if o.shape != (dim,) or not np.all(np.isfinite(o)):
+        raise MaterialError(f"shifted: expected an offset of {dim} finite numbers, "
+                            f"got {offset!r}")
     return o
 
 
@@ -99,36 +110,40 @@ def difference_step(local: np.ndarray, glob: np.ndarray, relative: float = 1e-6,
 
 def _difference(values, local: np.ndarray, offset: np.ndarray, h: np.ndarray,
                 center: np.ndarray | None = None) -> np.ndarray:
-    """Gradient ``(N, k, 2)`` of ``values(global points (K, 2)) -> (K, k)`` by differences
+    """Gradient ``(N, k, d)`` of ``values(global points (K, d)) -> (K, k)`` by differences
     of step ``h`` around ``local + offset``: central where both neighbours are finite, else
     one-sided from the centre (its value ``center``, evaluated if not given), else 0.
 
-    ``values`` is called with the four neighbour blocks stacked (x + h, x - h, y + h, y - h,
-    ``N`` points each, in the order of ``local``); quotients divide by the steps actually
-    represented in floating point.
+    ``values`` is called with the ``2 d`` neighbour blocks stacked (x + h, x - h, y + h,
+    y - h, ..., ``N`` points each, in the order of ``local``); quotients divide by the steps
+    actually represented in floating point.
     """
-    x, y = local[:, 0], local[:, 1]
-    xp, xm = (x + h) + offset[0], (x - h) + offset[0]
-    yp, ym = (y + h) + offset[1], (y - h) + offset[1]
-    gx, gy = x + offset[0], y + offset[1]
-    both = values(np.column_stack([np.concatenate([xp, xm, gx, gx]),
-                                   np.concatenate([gy, gy, yp, ym])]))
-    fxp, fxm, fyp, fym = np.split(both, 4)
-    out = np.empty((len(local), both.shape[1], 2))
+    d = local.shape[1]
+    plus = [(local[:, a] + h) + offset[a] for a in range(d)]
+    minus = [(local[:, a] - h) + offset[a] for a in range(d)]
+    g = [local[:, a] + offset[a] for a in range(d)]
+    blocks = []
+    for a in range(d):
+        for side in (plus[a], minus[a]):
+            blocks.append([side if b == a else g[b] for b in range(d)])
+    both = values(np.column_stack([np.concatenate([blk[b] for blk in blocks])
+                                   for b in range(d)]))
+    f = np.split(both, 2 * d)
+    out = np.empty((len(local), both.shape[1], d))
     with np.errstate(all="ignore"):
-        out[:, :, 0] = (fxp - fxm) / (xp - xm)[:, None]
-        out[:, :, 1] = (fyp - fym) / (yp - ym)[:, None]
+        for a in range(d):
+            out[:, :, a] = (f[2 * a] - f[2 * a + 1]) / (plus[a] - minus[a])[:, None]
         rows = np.flatnonzero(~np.isfinite(out).all(axis=(1, 2)))
         if len(rows):
             f0 = center[rows] if center is not None else \
-                values(np.column_stack([gx[rows], gy[rows]]))
-            for a, (fp, fm, cp, cm, c0) in enumerate(((fxp, fxm, xp, xm, gx),
-                                                      (fyp, fym, yp, ym, gy))):
-                fp, fm, cp, cm, c0 = fp[rows], fm[rows], cp[rows], cm[rows], c0[rows]
+                values(np.column_stack([c[rows] for c in g]))
+            for a in range(d):
+                fp, fm = f[2 * a][rows], f[2 * a + 1][rows]
+                cp, cm, c0 = plus[a][rows], minus[a][rows], g[a][rows]
                 fwd = (fp - f0) / (cp - c0)[:, None]
                 bwd = (f0 - fm) / (c0 - cm)[:, None]
-                d = out[rows, :, a]
-                out[rows, :, a] = np.where(np.isfinite(d), d, np.where(
+                da = out[rows, :, a]
+                out[rows, :, a] = np.where(np.isfinite(da), da, np.where(
                     np.isfinite(fwd), fwd, np.where(np.isfinite(bwd), bwd, 0.0)))
     return out
 
@@ -137,6 +152,8 @@ class _Shiftable:
     """Shared ``offset`` handling: fields evaluate at ``points + offset``."""
 
     _offset_xy: np.ndarray = np.zeros(2)
+    #: the dimension of the points the field takes
+    dim: int = 2
 
     @property
     def offset(self) -> np.ndarray:
@@ -149,11 +166,11 @@ class _Shiftable:
         ``f.shifted(a).composition(p)`` equals ``f.composition(p + a)``; shifts add up.
         """
         new = copy.copy(self)
-        new._offset_xy = self._offset_xy + _offset(offset)
+        new._offset_xy = self._offset_xy + _offset(offset, self.dim)
         return new
 
     def _global(self, points) -> np.ndarray:
-        p = as_points(points, f"{type(self).__name__}")
+        p = as_points(points, f"{type(self).__name__}", self.dim)
         if self._offset_xy.any():
             p = p + self._offset_xy
         return p
@@ -217,8 +234,13 @@ class AnalyticField(_Shiftable):
 
     def __init__(self, formulas: Mapping[str, str], constituents: Sequence[str],
                  parameters: Mapping[str, float] | None = None, where: str = "", *,
-                 length: float | None = None):
+                 length: float | None = None, dim: int = 2):
         pre = _prefix(where)
+        if dim not in VARIABLES:
+            raise MaterialError(f"{pre}AnalyticField: dim must be 2 or 3, got {dim!r}")
+        self.dim = int(dim)
+        self._vars = VARIABLES[self.dim]
+        self._offset_xy = np.zeros(self.dim)
         self.constituents = check_constituents(constituents, where)
         self.parameters = dict(parameters or {})
         self.where = where
@@ -250,10 +272,10 @@ class AnalyticField(_Shiftable):
             if not isinstance(text, str):
                 raise MaterialError(f"{pre}material.composition.{c}: expected a formula "
                                     f"string, got {text!r}")
-            e = compile_expr(text, ("x", "y"), self.parameters,
+            e = compile_expr(text, self._vars, self.parameters,
                              where=f"{pre}material.composition.{c}")
             self._exprs.append(e)
-            self._grads.append((e.diff("x"), e.diff("y")))
+            self._grads.append(tuple(e.diff(v) for v in self._vars))
         self._setup_conditions(pre)
 
     def _setup_conditions(self, pre: str) -> None:
@@ -273,7 +295,7 @@ class AnalyticField(_Shiftable):
         self._cond_keys = [owner.get(c.text, keys[0]) for c in conds]
         self._cond_names = tuple(f"_c{i}" for i in range(len(conds)))
         self._fixed = fixed if conds else []
-        self._fixed_grads = [(e.diff("x"), e.diff("y")) for e in self._fixed]
+        self._fixed_grads = [tuple(e.diff(v) for v in self._vars) for e in self._fixed]
 
     def __repr__(self) -> str:
         body = ", ".join(f"{c}={t!r}" for c, t in self.formulas.items())
@@ -323,10 +345,9 @@ class AnalyticField(_Shiftable):
 
     def _bits(self, p: np.ndarray) -> np.ndarray:
         """Truth values ``(N, k)`` of the conditions at global points ``p``."""
-        x, y = p[:, 0], p[:, 1]
         out = np.empty((len(p), len(self._conds)), dtype=bool)
         for i, c in enumerate(self._conds):
-            out[:, i] = self._eval(c, x, y) != 0.0
+            out[:, i] = self._eval(c, p) != 0.0
         return out
 
     def _region_bits(self, region, n: int) -> np.ndarray:
@@ -341,20 +362,20 @@ class AnalyticField(_Shiftable):
         return (r[:, None] >> np.arange(len(self._conds), dtype=np.int64)) & 1 == 1
 
     # ------------------------------------------------------------------ evaluation
-    @staticmethod
-    def _eval(e, x: np.ndarray, y: np.ndarray, **conds) -> np.ndarray:
-        v = np.asarray(e(x=x, y=y, **conds), dtype=float)
-        return np.broadcast_to(v, x.shape)
+    def _eval(self, e, p: np.ndarray, **conds) -> np.ndarray:
+        """``e`` at the global points ``p (N, d)``, as ``(N,)`` floats."""
+        v = np.asarray(e(**{n: p[:, i] for i, n in enumerate(self._vars)}, **conds),
+                       dtype=float)
+        return np.broadcast_to(v, (len(p),))
 
     def _values(self, p: np.ndarray, bits: np.ndarray | None) -> np.ndarray:
         """The given constituents' formulas ``(N, g)`` at global points ``p``, with the
         conditions fixed to ``bits`` ``(N, k)`` (piecewise fields) or as written (smooth
         ones)."""
-        x, y = p[:, 0], p[:, 1]
         if not self._conds:
-            return np.column_stack([self._eval(e, x, y) for e in self._exprs])
+            return np.column_stack([self._eval(e, p) for e in self._exprs])
         conds = dict(zip(self._cond_names, bits.T))
-        return np.column_stack([self._eval(e, x, y, **conds) for e in self._fixed])
+        return np.column_stack([self._eval(e, p, **conds) for e in self._fixed])
 
     def _continued(self, p: np.ndarray, bits: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``v`` with its non-finite rows (a branch undefined just past its boundary) taken
@@ -364,11 +385,12 @@ class AnalyticField(_Shiftable):
         if not len(bad):
             return v
         v = v.copy()
+        dirs = probe_directions(self.dim)
         base = np.maximum(16.0 * np.spacing(np.abs(p[bad]).max(axis=1)), 1e-15)
         for k in range(_PROBE_ROUNDS):
-            q = (p[bad][:, None, :] + (base * 4.0 ** k)[:, None, None] * _DIRECTIONS)
-            w = self._values(q.reshape(-1, 2), np.repeat(bits[bad], len(_DIRECTIONS), axis=0))
-            w = w.reshape(len(bad), len(_DIRECTIONS), -1)
+            q = (p[bad][:, None, :] + (base * 4.0 ** k)[:, None, None] * dirs)
+            w = self._values(q.reshape(-1, self.dim), np.repeat(bits[bad], len(dirs), axis=0))
+            w = w.reshape(len(bad), len(dirs), -1)
             ok = np.isfinite(w).all(axis=2)
             hit = ok.any(axis=1)
             v[bad[hit]] = w[hit, ok[hit].argmax(axis=1)]
@@ -378,7 +400,7 @@ class AnalyticField(_Shiftable):
         return v
 
     def composition(self, points, region=None) -> np.ndarray:
-        """Volume fractions ``(N, m)`` at ``points`` ``(N, 2)``.
+        """Volume fractions ``(N, m)`` at ``points`` ``(N, d)``.
 
         ``region`` (ids ``(N,)`` or one id) selects, for a piecewise field, the subregion
         whose smooth field is evaluated; a smooth field ignores it.
@@ -391,35 +413,30 @@ class AnalyticField(_Shiftable):
             v = self._values(p, bits)
             out[:, self._given] = v if own else self._continued(p, bits, v)
         else:
-            x, y = p[:, 0], p[:, 1]
             for j, e in zip(self._given, self._exprs):
-                out[:, j] = self._eval(e, x, y)
+                out[:, j] = self._eval(e, p)
         if self._derived_col is not None:
             out[:, self._derived_col] = 1.0 - out[:, self._given].sum(axis=1)
         return out
 
     def gradient(self, points, region=None) -> np.ndarray:
-        """Gradients ``(N, m, 2)`` at ``points`` ``(N, 2)``: exact, or finite differences
+        """Gradients ``(N, m, d)`` at ``points`` ``(N, d)``: exact, or finite differences
         where the exact ones are not finite.
 
         ``region`` as for :meth:`composition`; the differences are taken in the point's
         subregion (or the given one), never across a jump.
         """
-        local = as_points(points, "AnalyticField")
+        local = as_points(points, "AnalyticField", self.dim)
         p = self._global(local)
-        x, y = p[:, 0], p[:, 1]
-        out = np.empty((len(p), len(self.constituents), 2))
+        out = np.empty((len(p), len(self.constituents), self.dim))
         bits = None
+        conds = {}
         if self._conds:
             bits = self._bits(p) if region is None else self._region_bits(region, len(p))
             conds = dict(zip(self._cond_names, bits.T))
-            for j, (dx, dy) in zip(self._given, self._fixed_grads):
-                out[:, j, 0] = self._eval(dx, x, y, **conds)
-                out[:, j, 1] = self._eval(dy, x, y, **conds)
-        else:
-            for j, (dx, dy) in zip(self._given, self._grads):
-                out[:, j, 0] = self._eval(dx, x, y)
-                out[:, j, 1] = self._eval(dy, x, y)
+        for j, grads in zip(self._given, self._fixed_grads if self._conds else self._grads):
+            for a, da in enumerate(grads):
+                out[:, j, a] = self._eval(da, p, **conds)
         given = out[:, self._given]
         bad = ~np.isfinite(given)
         if bad.any():

@@ -1,9 +1,10 @@
 """The material field interface and its validation.
 
-A material field maps points ``(N, 2)`` to compositions ``(N, m)`` (volume fractions of the
-``m`` constituents, rows summing to 1) and their gradients ``(N, m, 2)``. Any object with
-``constituents``, ``composition`` and ``gradient`` is a field (duck typing; see
-:class:`MaterialField`). :func:`check_field` samples a field densely over a domain and raises
+A material field maps points ``(N, d)`` (d = 2 or 3, its ``dim``) to compositions ``(N, m)``
+(volume fractions of the ``m`` constituents, rows summing to 1) and their gradients
+``(N, m, d)``. Any object with ``constituents``, ``composition`` and ``gradient`` is a field
+(duck typing; see :class:`MaterialField`; without a ``dim`` it is a 2D field). A field with
+subregions (a feature tree, formulas with jumps) is a :class:`PiecewiseField`. :func:`check_field` samples a field densely over a domain and raises
 :class:`~hetmesh.errors.MaterialError` naming the constituent and a coordinate where it is
 not a valid composition.
 """
@@ -17,7 +18,8 @@ import numpy as np
 
 from ..errors import MaterialError
 
-__all__ = ["MaterialField", "check_field", "sample_domain", "as_points", "TOLERANCE", "JUMP",
+__all__ = ["MaterialField", "PiecewiseField", "field_dim", "has_subregions",
+           "element_subregions", "check_field", "sample_domain", "as_points", "TOLERANCE", "JUMP",
            "JUMP_REACH"]
 
 logger = logging.getLogger(__name__)
@@ -42,6 +44,9 @@ class MaterialField(Protocol):
     ----------
     constituents : tuple of str
         Names of the ``m`` constituents, in column order.
+    dim : int
+        The dimension ``d`` of the points (2 or 3; see :func:`field_dim` for fields
+        without the attribute).
 
     Examples
     --------
@@ -54,22 +59,70 @@ class MaterialField(Protocol):
     constituents: tuple[str, ...]
 
     def composition(self, points: np.ndarray) -> np.ndarray:
-        """Volume fractions ``(N, m)`` at ``points`` ``(N, 2)``."""
+        """Volume fractions ``(N, m)`` at ``points`` ``(N, d)``."""
         ...
 
     def gradient(self, points: np.ndarray) -> np.ndarray:
-        """Gradients ``(N, m, 2)`` of the volume fractions (d/dx, d/dy last)."""
+        """Gradients ``(N, m, d)`` of the volume fractions (d/dx, d/dy[, d/dz] last)."""
         ...
 
 
-def as_points(points, where: str = "points") -> np.ndarray:
-    """``points`` as a float64 ``(N, 2)`` array; a single ``(2,)`` point becomes ``(1, 2)``."""
+@runtime_checkable
+class PiecewiseField(MaterialField, Protocol):
+    """A field smooth in each of several subregions and discontinuous between them
+    (a feature tree, formulas with ``where``): what the mesher needs to keep every element
+    inside one subregion.
+
+    ``composition`` and ``gradient`` take ``region=`` ids ``(N,)`` to evaluate each point
+    in a given subregion (continued past its boundary), ``region(points)`` gives the
+    subregion that owns each point, ``n_regions`` bounds the ids and
+    ``describe_jump(ra, rb)`` names, for error messages, what tells two subregions apart.
+
+    >>> from hetmesh.material import AnalyticField
+    >>> isinstance(AnalyticField({"metal": "where(x < 0.5, 0.2, 0.8)"},
+    ...                          ["ceramic", "metal"]), PiecewiseField)
+    True
+    """
+
+    n_regions: int
+
+    def region(self, points: np.ndarray) -> np.ndarray:
+        """The subregion id ``(N,)`` of each point."""
+        ...
+
+    def describe_jump(self, ra: int, rb: int) -> str:
+        """What tells subregions ``ra`` and ``rb`` apart, for messages."""
+        ...
+
+
+def as_points(points, where: str = "points", dim: int = 2) -> np.ndarray:
+    """``points`` as a float64 ``(N, dim)`` array; a single ``(dim,)`` point becomes
+    ``(1, dim)``."""
     p = np.asarray(points, dtype=float)
-    if p.ndim == 1 and p.shape[0] == 2:
+    if p.ndim == 1 and p.shape[0] == dim:
         p = p[None, :]
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise MaterialError(f"{where}: expected points of shape (N, 2), got shape {p.shape}")
+    if p.ndim != 2 or p.shape[1] != dim:
+        raise MaterialError(f"{where}: expected points of shape (N, {dim}), got shape {p.shape}")
     return p
+
+
+def has_subregions(field) -> bool:
+    """Whether ``field`` divides the domain into subregions (a feature tree with more than
+    one, a formula field with jumps): a :class:`PiecewiseField` with ``n_regions > 1``."""
+    return callable(getattr(field, "region", None)) and getattr(field, "n_regions", 1) > 1
+
+
+def element_subregions(field, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """The subregion owning each element ``cells (M, d + 1)``: that of its centroid (no
+    element straddles a discontinuity once they are embedded, so any interior point would
+    do)."""
+    return np.asarray(field.region(points[cells].mean(axis=1)), dtype=np.int64)
+
+
+def field_dim(field) -> int:
+    """The dimension of the points ``field`` takes: its ``dim`` attribute, 2 without one
+    (a duck-typed 2D field)."""
+    return int(getattr(field, "dim", 2))
 
 
 def _fmt(v: float) -> str:

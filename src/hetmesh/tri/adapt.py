@@ -33,8 +33,8 @@ from scipy.spatial import cKDTree
 
 from .. import density as dens
 from .corners import corner_exempt, sharp_corners, shell_split
-from .discontinuity import (FIT_TOL, crossing_elements, element_subregions,
-                            embed_discontinuities, has_subregions)
+from .discontinuity import FIT_TOL, crossing_elements, embed_discontinuities
+from ..material.field import element_subregions, has_subregions
 from ..errors import BudgetError, MeshDataError, MeshingError, OptionError, VerificationError
 from .frame import local_field, local_frame
 from .sizecap import variation_cap
@@ -578,8 +578,8 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
                         "the angle refinement was stopped to keep the loop finite",
                         int(low.sum()), min_angle_deg, float(ang.min()))
     interfaces = ws.E[~ctx.boundary_curve[ws.ecurve]]
-    mesh = Mesh(points=frame.to_user(P), triangles=tris, regions=local.pieces(interfaces),
-                edges=ws.E, edge_markers=ws.ecurve + 1,
+    mesh = Mesh(points=frame.to_user(P), cells=tris, regions=local.pieces(interfaces),
+                facets=ws.E, facet_markers=ws.ecurve + 1,
                 marker_names={i + 1: ci.curve.name or ci.owner  # one group per name
                               for i, ci in enumerate(ctx.domain.curves)},
                 named_points=_named_nodes(P, ctx.domain),

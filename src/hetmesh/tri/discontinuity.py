@@ -39,12 +39,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 import shapely
 
+from ..material.field import element_subregions, has_subregions
 from ..errors import GeometryError, MaterialError, MeshingError
 from .geometry import Arc, Path, Segment, make_domain
 
-__all__ = ["Discontinuity", "DISCONTINUITY", "has_subregions", "trace_discontinuities",
-           "fit_curves", "embed_discontinuities", "embedded_count", "crossing_elements",
-           "element_subregions"]
+__all__ = ["Discontinuity", "DISCONTINUITY", "trace_discontinuities",
+           "fit_curves", "embed_discontinuities", "embedded_count", "crossing_elements"]
 
 log = logging.getLogger(__name__)
 
@@ -67,18 +67,6 @@ class Discontinuity:
     points: np.ndarray
     regions: tuple[int, int]
     closed: bool = False
-
-
-def has_subregions(field) -> bool:
-    """Whether ``field`` divides the domain into subregions (a feature tree with more than
-    one, a formula field with jumps): it has ``region(points)`` and ``n_regions > 1``."""
-    return callable(getattr(field, "region", None)) and getattr(field, "n_regions", 1) > 1
-
-
-def element_subregions(field, points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """The subregion owning each element: that of its centroid (no element straddles a
-    discontinuity once they are embedded, so any interior point would do)."""
-    return np.asarray(field.region(points[triangles].mean(axis=1)), dtype=np.int64)
 
 
 # ----------------------------------------------------------------------------- tracing

@@ -73,6 +73,7 @@ class _LocalField:
     def __init__(self, base, frame: LocalFrame):
         self.base, self.frame = base, frame
         self.constituents = base.constituents
+        self.dim = 2
         if callable(getattr(base, "region", None)):
             self.region = self._region
             self.n_regions = base.n_regions

@@ -51,7 +51,7 @@ import logging
 
 import numpy as np
 
-from .discontinuity import element_subregions, has_subregions
+from ..material.field import element_subregions, has_subregions
 from ..mesh import any_corner, edge_keys, edge_order
 from ..metrics import element_delta, signed_area2, triangle_areas2
 from ..parallel import block_concat

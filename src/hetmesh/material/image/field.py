@@ -63,6 +63,9 @@ class ImageField:
     steps and size fields see the same field as the delta checks.
     """
 
+    #: the dimension of the points the field takes (a 2D image)
+    dim = 2
+
     def __init__(self, fractions: np.ndarray, image: Image, constituents: Sequence[str], *,
                  interpolation: str = "linear", smoothing: float = 0.0):
         if interpolation not in INTERPOLATIONS:
@@ -249,6 +252,9 @@ class LabelField:
     names : list of str
         The subregion names (``"label 3"``).
     """
+
+    #: the dimension of the points the field takes (a 2D image)
+    dim = 2
 
     def __init__(self, regions, phases: list, names: list[str],
                  constituents: Sequence[str], source: str = "labels"):
