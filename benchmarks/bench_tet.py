@@ -40,7 +40,8 @@ try:
 except ImportError:
     sys.path.insert(0, str(ROOT / "src"))
 
-from hetmesh.tet import Field3D, box, generate_tets, n_iso3, quality_summary  # noqa: E402
+from hetmesh.material import AnalyticField  # noqa: E402
+from hetmesh.tet import box, generate_tets, n_iso3, quality_summary  # noqa: E402
 from hetmesh.tet.quality import delta_tets, volumes  # noqa: E402
 
 logging.getLogger("hetmesh").setLevel(logging.WARNING)
@@ -49,7 +50,8 @@ FORMULA = "(1 - z)**2"
 
 
 def unit_cube():
-    return box((0, 0, 0), (1, 1, 1)), Field3D({"metal": FORMULA}, ["ceramic", "metal"])
+    field = AnalyticField({"metal": FORMULA}, ["ceramic", "metal"], dim=3)
+    return box((0, 0, 0), (1, 1, 1)), field
 
 
 def figures(points, tets, field, d0, niso, wall):

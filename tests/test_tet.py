@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import GeometryError, OptionError
-from hetmesh.tet import Field3D, box, cylinder, generate_tets
+from hetmesh.material import AnalyticField
+from hetmesh.tet import box, cylinder, generate_tets
 from hetmesh.tet.quality import dihedral_angles, radius_ratio
 
 
@@ -69,7 +70,7 @@ def check_tet_mesh(points, tets, composition, threshold, *, box_bounds=None,
 
 
 def cube_field():
-    return Field3D({"metal": "(1 - z)**2"}, ["ceramic", "metal"])
+    return AnalyticField({"metal": "(1 - z)**2"}, ["ceramic", "metal"], dim=3)
 
 
 @pytest.mark.parametrize("d0", [0.2, 0.1])
@@ -92,7 +93,7 @@ def test_deterministic():
 
 
 def test_box_offset_and_three_constituents():
-    f = Field3D({"a": "0.5*(x - 10)/2", "b": "0.4*(y + 3)/3"}, ["a", "b", "c"])
+    f = AnalyticField({"a": "0.5*(x - 10)/2", "b": "0.4*(y + 3)/3"}, ["a", "b", "c"], dim=3)
     lo, hi = (10, -3, 5), (12, 0, 6)
     res = generate_tets(box(lo, hi), f, 0.15)
     comp = f.composition
@@ -102,7 +103,7 @@ def test_box_offset_and_three_constituents():
 
 
 def test_graded_cylinder_axial():
-    f = Field3D({"metal": "z/2"}, ["ceramic", "metal"])
+    f = AnalyticField({"metal": "z/2"}, ["ceramic", "metal"], dim=3)
     solid = cylinder((0, 0), 0.5, 0.0, 2.0)
     res = generate_tets(solid, f, 0.2, chord_tol=0.01)
     check_tet_mesh(res.points, res.tets, lambda p: p[:, 2] / 2, 0.2,
@@ -111,7 +112,7 @@ def test_graded_cylinder_axial():
 
 def test_graded_cylinder_radial():
     # levels are cylinders: the curved placement, repaired by edge bisection
-    f = Field3D({"metal": "(x**2 + y**2)/0.25"}, ["ceramic", "metal"])
+    f = AnalyticField({"metal": "(x**2 + y**2)/0.25"}, ["ceramic", "metal"], dim=3)
     solid = cylinder((0, 0), 0.5, 0.0, 1.0)
     res = generate_tets(solid, f, 0.25, chord_tol=0.01)
     assert res.info["placement"] == "curved"

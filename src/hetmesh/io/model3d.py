@@ -24,7 +24,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import FormulaError, GeometryError, HetmeshError, MaterialError, ModelFileError
-from ..tet.field3d import VARIABLES, Field3D, check_field3d
+from ..material import AnalyticField
+from ..tet.field3d import VARIABLES, check_field3d
 from ..tet.solid import AXES, Prism, box, cylinder
 
 __all__ = ["Model3D", "parse_model3d", "SOLID_TYPES"]
@@ -235,7 +236,8 @@ def _material(ctx, value, solid: Prism, parameters, top):
         if not isinstance(text, str):
             raise ctx.fail(k, "expected a formula string")
         formulas[name] = text
-    field3 = Field3D(formulas, cons, parameters, where=ctx.where)
+    field3 = AnalyticField(formulas, cons, parameters, where=ctx.where,
+                           length=solid.diameter, dim=3)
     if solid.axis == 2 and "domain" in top and "z" not in _formula_names(formulas, parameters):
         # an extruded 2D model: the section's field (subregions of formulas with jumps)
         f2 = material2d(ctx, value, solid.section, parameters)
