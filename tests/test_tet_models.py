@@ -147,7 +147,8 @@ def test_through_hole(tmp_path):
 
 
 @pytest.mark.parametrize("ext, fmt", [(".vtu", None), (".vtk", None), (".msh", None),
-                                      (".msh", "gmsh22"), (".xdmf", None), (".inp", None)])
+                                      (".msh", "gmsh22"), (".xdmf", None), (".inp", None),
+                                      (".mesh", None)])
 def test_cli_writes_and_reads_back(tmp_path, capsys, ext, fmt):
     model = write(tmp_path, CUBE, "cube.toml")
     out = tmp_path / f"cube{ext}"
@@ -156,7 +157,16 @@ def test_cli_writes_and_reads_back(tmp_path, capsys, ext, fmt):
         argv += ["--format", fmt]
     code, o, err = run(argv, capsys)
     assert code == 0, err
-    m = meshio.read(out)
+    if ext == ".xdmf":  # dolfinx's layout: mesh, cell_tags and facet_tags grids
+        from hetmesh.io.xdmf import read_xdmf
+        hm = read_xdmf(out)
+        m = meshio.Mesh(hm.points, [("tetra", hm.cells)], field_data={
+            n: None for n in hm.marker_names.values()})
+        assert set(hm.marker_names.values()) == {"xmin", "xmax", "ymin", "ymax", "zmin",
+                                                 "zmax"}
+        assert hm.point_data["metal"].shape == (len(hm.points),)
+    else:
+        m = meshio.read(out)
     tets = np.concatenate([c.data for c in m.cells if c.type == "tetra"])
     res = mesh_model(load_model(model), 0.2)
     assert len(tets) == len(res.tets)
@@ -213,7 +223,7 @@ def test_cli_bad_model_exit_2(tmp_path, capsys):
 
 def test_cli_unknown_extension_exit_2(tmp_path, capsys):
     model = write(tmp_path, CUBE, "cube.toml")
-    code, o, err = run(["mesh", model, "--threshold", 0.2, "--output", tmp_path / "c.mesh"],
+    code, o, err = run(["mesh", model, "--threshold", 0.2, "--output", tmp_path / "c.stl"],
                        capsys)
-    assert code == 2 and "tetrahedral" in err
-    assert not (tmp_path / "c.mesh").exists()
+    assert code == 2 and "c.stl" in err
+    assert not (tmp_path / "c.stl").exists()

@@ -140,16 +140,29 @@ def _register_abaqus_types() -> None:
 
 _register_abaqus_types()
 
-_GMSH41 = MeshFormat("gmsh41", "gmsh", {}, gmsh_msh.write_msh41)
+def _or_tets(writer2d: Callable, name3d: str) -> Callable:
+    """``writer2d`` for 2D meshes, :func:`hetmesh.tet.export.write_tet_file` for 3D ones."""
+    def write(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
+        if mesh.dim == 3:
+            from ..tet.export import write_tet_file
+            write_tet_file(mesh, path, name3d)
+        else:
+            writer2d(mesh, path, fmt)
+    return write
+
+
+_GMSH41 = MeshFormat("gmsh41", "gmsh", {}, _or_tets(gmsh_msh.write_msh41, "gmsh"), dims=(2, 3))
 FILE_FORMATS: dict[str, MeshFormat] = {
     "vtu": MeshFormat("vtu", "vtu", {"binary": True, "compression": "zlib"}, _write_meshio,
                       dims=(2, 3)),
     "vtk": MeshFormat("vtk", "vtk", {"binary": True}, _write_meshio, "vtk42", dims=(2, 3)),
-    "xdmf": MeshFormat("xdmf", "xdmf", {}, xdmf.write_xdmf),
+    "xdmf": MeshFormat("xdmf", "xdmf", {}, xdmf.write_xdmf, dims=(2, 3)),
     "gmsh": _GMSH41,
     "gmsh41": _GMSH41,
-    "gmsh22": MeshFormat("gmsh22", "gmsh", {}, gmsh_msh.write_msh22),
-    "abaqus": MeshFormat("abaqus", "abaqus", {}, abaqus.write_inp),
+    "gmsh22": MeshFormat("gmsh22", "gmsh", {}, _or_tets(gmsh_msh.write_msh22, "gmsh22"),
+                         dims=(2, 3)),
+    "abaqus": MeshFormat("abaqus", "abaqus", {}, _or_tets(abaqus.write_inp, "abaqus"),
+                         dims=(2, 3)),
     "medit": MeshFormat("medit", "medit", {}, _write_medit, dims=(2, 3)),
 }
 """Every format by its ``file_format`` name."""

@@ -19,10 +19,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import OptionError
+from ..mesh import Mesh
 from .extrude import generate_extruded
 from .mesher import TetResult, generate_tets
+from .quality import radius_ratio
 
-__all__ = ["mesh_model", "DEFAULT_MAX_ELEMENTS"]
+__all__ = ["mesh_model", "to_mesh", "DEFAULT_MAX_ELEMENTS"]
 
 DEFAULT_MAX_ELEMENTS = 20_000_000
 
@@ -34,7 +36,8 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     element's delta below ``threshold``, verified.
 
     ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002.
-    The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``.
+    The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``, its
+    ``mesh`` the :class:`~hetmesh.mesh.Mesh` (:func:`to_mesh`), which ``write`` saves.
     """
     if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) \
             or not 0 < threshold < 1:
@@ -57,4 +60,21 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
                                 max_elements=max_elements, check=check, name=model.name)
     res.info["composition"] = np.asarray(model.material.composition(res.points),
                                          dtype=np.float64)
+    res.mesh = to_mesh(res, model.constituents)
     return res
+
+
+def to_mesh(res: TetResult, constituents) -> Mesh:
+    """The :class:`~hetmesh.mesh.Mesh` of a tetrahedral result: the boundary triangles as
+    facets with their face markers and names, the compositions as point data (one array per
+    constituent), ``delta`` and ``quality`` (radius ratio) as cell data, and the subregions
+    of an extruded feature-tree model as regions (and cell data ``subregion``)."""
+    comp = res.info.get("composition")
+    pd = {} if comp is None else {c: comp[:, j] for j, c in enumerate(constituents)}
+    cd = {"delta": res.delta, "quality": radius_ratio(res.points, res.tets)}
+    regions = res.info.get("regions")
+    if regions is not None:
+        cd["subregion"] = regions
+    return Mesh(res.points, res.tets, regions=regions, facets=res.faces,
+                facet_markers=res.face_markers, point_data=pd, cell_data=cd,
+                marker_names={m: n for m, n in enumerate(res.face_names, start=1)})

@@ -14,7 +14,6 @@ import numpy as np
 
 from ..errors import OptionError, OutputError
 from .api import mesh_model
-from .export import TET_FORMATS, _NAMED, write_tets
 from .mesher import n_iso3
 from .quality import quality_summary, volumes
 
@@ -33,14 +32,11 @@ def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
     if kwargs.get("sampling", "vertices") != "vertices":
         raise OptionError(f"--sampling {kwargs['sampling']} is not available for 3D models "
                           f"(vertices only)")
-    fmt = getattr(args, "format", None)
-    if fmt is not None and fmt.lower() not in _NAMED:
-        raise OutputError(f"--format {fmt}: not available for a tetrahedral mesh (known: "
-                          f"{', '.join(sorted(_NAMED))})")
-    if fmt is None and args.output.suffix.lower() not in TET_FORMATS:
-        raise OutputError(f"--output {args.output}: unknown format "
-                          f"{args.output.suffix or '(no extension)'!r} for a tetrahedral mesh "
-                          f"(known: {', '.join(sorted(TET_FORMATS))})")
+    from ..io.export import _resolve
+    fmt = _resolve(args.output, getattr(args, "format", None))
+    if 3 not in fmt.dims:
+        raise OutputError(f"--output {args.output}: {fmt.name} does not take tetrahedral "
+                          f"meshes")
     return {k: kwargs[k] for k in ("seed", "chord_tol", "max_elements") if k in kwargs}
 
 
@@ -139,7 +135,8 @@ def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
     t0 = time.perf_counter()
     res = mesh_model(model, args.threshold, **kw)
     seconds = time.perf_counter() - t0
-    written = [write_tets(res, args.output, model.constituents, file_format=args.format)]
+    from ..io.export import write_mesh
+    written = [write_mesh(res.mesh, args.output, file_format=args.format)]
     stats = tet_statistics(model, res)
     if args.plot is not None:
         plot_tets(model, res, args.plot,

@@ -75,6 +75,7 @@ class TetResult:
     delta: np.ndarray           # (M,) delta(T) over the vertices
     threshold: float
     info: dict = field(default_factory=dict)
+    mesh: object = None         # the hetmesh.mesh.Mesh (hetmesh.tet.api.to_mesh)
 
 
 def n_iso3(solid, field, threshold: float, n: int = 48) -> float:
