@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import meshio
@@ -15,6 +16,7 @@ from hetmesh.errors import GeometryError, ModelFileError, FormulaError
 from hetmesh.io.model import load_model
 from hetmesh.tet.api import mesh_model
 from hetmesh.tet.mesher import CHORD
+from hetmesh.tet.revolve import Revolution
 
 from conftest import EXAMPLES_3D
 from test_tet import check_tet_mesh
@@ -58,7 +60,7 @@ def run(argv, capsys):
 
 def test_the_3d_examples_exist():
     names = {p.stem for p in EXAMPLES_3D}
-    assert {"unit_cube", "graded_cylinder", "fgm_plate_3d", "blade_3d"} <= names
+    assert {"unit_cube", "graded_cylinder", "fgm_plate_3d", "blade_3d", "graded_ring"} <= names
 
 
 @pytest.mark.parametrize("path", EXAMPLES_3D, ids=lambda p: p.stem)
@@ -86,6 +88,9 @@ def test_every_3d_example_meets_the_guarantee(path):
     # the boundary: every triangle on a face of the solid, the caps' area exact
     assert len(faces) == len(res.faces)
     assert (res.face_markers >= 1).all()
+    if isinstance(m.solid, Revolution):
+        check_revolution(m.solid, res.points, res.tets, faces)
+        return
     area = 0.5 * np.linalg.norm(np.cross(*(res.points[res.faces[:, k]]
                                            - res.points[res.faces[:, 0]] for k in (1, 2))),
                                 axis=1)
@@ -94,6 +99,73 @@ def test_every_3d_example_meets_the_guarantee(path):
     # (arc length x tolerance)
     arcs = sum(c.curve.length for c in m.solid.section.curves if hasattr(c.curve, "radius"))
     assert abs(cap - m.solid.section.area) <= arcs * CHORD * m.solid.diameter + 1e-9 * cap
+
+
+def check_revolution(solid, points, tets, faces):
+    """Boundary vertices on the profile's curves, volume within the chord tolerance."""
+    if not solid.full:  # triangles on the planar ends (angle 0 and the sweep) aside
+        t = solid.sweep
+        tol = 1e-9 * solid.diameter
+        on0 = np.abs(points[faces][..., 1]) <= tol
+        on1 = np.abs(-np.sin(t) * points[faces][..., 0]
+                     + np.cos(t) * points[faces][..., 1]) <= tol
+        faces = faces[~(on0.all(axis=1) | on1.all(axis=1))]
+    p = points[np.unique(faces)]
+    q = np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]])
+    assert solid.profile.distance_to_boundary(q).max() <= 1e-9 * solid.diameter
+    a, b, c, d = (points[tets[:, k]] for k in range(4))
+    vol = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)).sum() / 6.0
+    perim = sum(cv.curve.length for cv in solid.profile.curves)
+    bound = CHORD * solid.diameter * perim * solid.sweep * float(np.abs(q[:, 0]).max())
+    assert abs(vol - solid.volume) <= bound + 1e-9 * solid.volume
+
+
+SPHERE = """
+[solid]
+type = "revolution"
+angle = {angle}
+
+[domain.outer]
+start = [0, -1]
+path = [{{ to = [0, 1], name = "axis" }},
+        {{ to = [0, -1], center = [0, 0], direction = "cw", name = "surface" }}]
+
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "x**2 + y**2 + z**2"
+"""
+
+
+@pytest.mark.parametrize("angle", [360, 90])
+def test_graded_sphere(tmp_path, angle):
+    m = load_model(write(tmp_path, SPHERE.format(angle=angle)))
+    res = mesh_model(m, 0.25)
+    assert res.info["placement"] == "revolved"
+    faces = check_tet_mesh(res.points, res.tets, lambda p: (p ** 2).sum(axis=1), 0.25)
+    check_revolution(m.solid, res.points, res.tets, faces)
+    names = {res.face_names[k - 1] for k in res.face_markers}
+    assert names == ({"surface"} if angle == 360 else {"surface", "start", "end"})
+
+
+@pytest.mark.parametrize("snippet, contains", [
+    ('angle = 0', "revolution angle must be in (0, 360]"),
+    ('angle = 400', "revolution angle must be in (0, 360]"),
+])
+def test_bad_revolutions(tmp_path, snippet, contains):
+    text = SPHERE.format(angle=360).replace("angle = 360", snippet)
+    with pytest.raises(GeometryError, match=re.escape(contains)):
+        load_model(write(tmp_path, text))
+
+
+def test_revolution_profile_crossing_the_axis(tmp_path):
+    text = ('[solid]\ntype = "revolution"\n[domain.outer]\nstart = [-0.5, 0]\n'
+            'path = [{ to = [1, 0] }, { to = [1, 1] }, { to = [-0.5, 1] }, { to = [-0.5, 0] }]\n'
+            + SOLID_ONLY.format(formula="z"))
+    with pytest.raises(GeometryError, match="crosses the axis") as e:
+        load_model(write(tmp_path, text))
+    assert "\n" not in str(e.value)
 
 
 def test_deterministic_swept():

@@ -32,20 +32,21 @@ __all__ = ["Model3D", "parse_model3d", "SOLID_TYPES"]
 
 log = logging.getLogger(__name__)
 
-SOLID_TYPES = ("box", "cylinder", "extrusion")
+SOLID_TYPES = ("box", "cylinder", "extrusion", "revolution")
 
 
 @dataclass(frozen=True, eq=False)
 class Model3D:
     """A heterogeneous solid: its geometry and its material field.
 
-    ``solid`` is a :class:`~hetmesh.tet.solid.Prism`; ``material`` evaluates on ``(N, 3)``
+    ``solid`` is a :class:`~hetmesh.tet.solid.Prism` or a
+    :class:`~hetmesh.tet.revolve.Revolution`; ``material`` evaluates on ``(N, 3)``
     points; ``material2d`` is the section's field when the composition does not depend on
     the extrusion coordinate (an extruded 2D model), else None.
     """
 
     name: str
-    solid: Prism
+    solid: Any
     material: Any
     material2d: Any = None
     parameters: dict = field(default_factory=dict)
@@ -186,6 +187,23 @@ def _solid(ctx, value, top) -> Prism:
                 raise ctx.fail("domain.interfaces", "interfaces are not supported in "
                                                     "extrusions yet")
             solid = Prism(dom, 2, s0, s0 + length, where=ctx.where)
+        elif kind == "revolution":
+            t = ctx.table(value, key, optional=("type", "angle"))
+            angle = ctx.number(t.get("angle", 360.0), "solid.angle")
+            if not 0 < angle <= 360:
+                raise GeometryError(f"{ctx.pre}solid.angle: revolution angle must be in "
+                                    f"(0, 360] degrees, got {angle:g}")
+            if "domain" not in top:
+                raise ModelFileError(f"{ctx.pre}missing key 'domain' (a revolution turns the "
+                                     f"2D profile of the [domain] table, x = r, y = z, about "
+                                     f"the z axis)")
+            from .model import _domain
+            from ..tet.revolve import Revolution
+            dom = _domain(ctx, top["domain"])
+            try:
+                return Revolution(dom, angle, where=ctx.where)
+            except GeometryError as exc:
+                raise GeometryError(f"{ctx.pre}solid: {str(exc)[len(ctx.pre):]}") from None
         else:
             raise ctx.fail("solid.type", f"expected one of: {', '.join(SOLID_TYPES)}; got "
                                          f"{kind!r}")
@@ -213,8 +231,9 @@ def _material(ctx, value, solid: Prism, parameters, top):
     if not isinstance(value, Mapping):
         raise ctx.fail("material", "expected a table")
     kind = value.get("type", "analytic")
+    prism = isinstance(solid, Prism)
     if kind != "analytic":
-        if solid.axis != 2 or "domain" not in top:
+        if not prism or solid.axis != 2 or "domain" not in top:
             raise ctx.fail("material.type", f"a {kind!r} material needs an extrusion of a "
                                             f"2D domain (it is a 2D field, swept along z)")
         f2 = material2d(ctx, value, solid.section, parameters)
@@ -238,7 +257,8 @@ def _material(ctx, value, solid: Prism, parameters, top):
         formulas[name] = text
     field3 = AnalyticField(formulas, cons, parameters, where=ctx.where,
                            length=solid.diameter, dim=3)
-    if solid.axis == 2 and "domain" in top and "z" not in _formula_names(formulas, parameters):
+    if prism and solid.axis == 2 and "domain" in top and \
+            "z" not in _formula_names(formulas, parameters):
         # an extruded 2D model: the section's field (subregions of formulas with jumps)
         f2 = material2d(ctx, value, solid.section, parameters)
         from ..tet.extrude import SectionField
@@ -261,9 +281,10 @@ def parse_model3d(data: Mapping, where: str = "model", *, source: Path | None = 
     parameters = _parameters(ctx, top.get("parameters", {}))
     if "z" in parameters:
         raise ctx.fail("parameters.z", "name 'z' is reserved (a coordinate)")
-    if "domain" in top and top["solid"].get("type") != "extrusion" \
+    if "domain" in top and top["solid"].get("type") not in ("extrusion", "revolution") \
             if isinstance(top["solid"], Mapping) else False:
-        raise ctx.fail("domain", "a [domain] table goes with solid.type = \"extrusion\" only")
+        raise ctx.fail("domain", "a [domain] table goes with solid.type = \"extrusion\" or "
+                                 "\"revolution\" only")
     solid = _solid(ctx, top["solid"], top)
     material, material2d = _material(ctx, top["material"], solid, parameters, top)
     if check:

@@ -6,7 +6,9 @@
 * a convex prism (box, cylinder): layers on the level surfaces
   (:func:`hetmesh.tet.mesher.generate_tets`);
 * any other prism (a section with holes or concave parts) with a composition varying along
-  the axis: the swept section mesh with thin layers, repaired by edge bisection.
+  the axis: the swept section mesh with thin layers, repaired by edge bisection;
+* a solid of revolution: the profile's 2D mesh swept about the axis
+  (:func:`hetmesh.tet.revolve.generate_revolved`).
 
 >>> import hetmesh
 >>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
@@ -48,7 +50,11 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         raise OptionError(f"max_elements must be positive, got {max_elements!r}")
     solid = model.solid
     chord = None if chord_tol is None else chord_tol * solid.diameter
-    if model.material2d is not None:
+    from .revolve import Revolution, generate_revolved
+    if isinstance(solid, Revolution):
+        res = generate_revolved(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, check=check, name=model.name)
+    elif model.material2d is not None:
         res = generate_extruded(solid, model.material, threshold, field2d=model.material2d,
                                 seed=seed, chord_tol=chord, max_elements=max_elements,
                                 check=check, name=model.name)

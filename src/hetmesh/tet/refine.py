@@ -19,9 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .quality import TET_EDGES
+from ..errors import BudgetError, MeshingError
+from .quality import TET_EDGES, delta_tets
 
-__all__ = ["unique_edges", "bisect_edges", "select_edges"]
+#: repair passes before giving up
+MAX_PASSES = 60
+
+__all__ = ["unique_edges", "bisect_edges", "select_edges", "repair"]
 
 
 def unique_edges(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,3 +100,27 @@ def bisect_edges(points: np.ndarray, tets: np.ndarray, split: np.ndarray,
     keep[rows] = False
     out = np.concatenate([tets[keep].astype(np.int64), a, b])
     return pts, out
+
+
+def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
+           comp: np.ndarray | None = None, max_elements: int | None = None):
+    """Bisect largest-jump edges of the tetrahedra with delta >= ``threshold`` until there
+    are none: ``(points, tets, comp, delta, passes)``. :class:`BudgetError` past
+    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes."""
+    comp = field.composition(points) if comp is None else comp
+    delta = delta_tets(comp, tets)
+    passes = 0
+    while (delta >= threshold).any():
+        if passes >= MAX_PASSES:
+            raise MeshingError(f"delta repair did not converge in {MAX_PASSES} passes "
+                               f"({int((delta >= threshold).sum())} tetrahedra left)")
+        if max_elements is not None and len(tets) > max_elements:
+            raise BudgetError(f"the mesh exceeds the budget of {max_elements} tetrahedra "
+                              f"before delta < {threshold} everywhere")
+        split = select_edges(tets, comp, delta >= threshold)
+        n0 = len(points)
+        points, tets = bisect_edges(points, tets, split)
+        comp = np.concatenate([comp, field.composition(points[n0:])])
+        delta = delta_tets(comp, tets)
+        passes += 1
+    return points, tets, comp, delta, passes
