@@ -63,7 +63,13 @@ def test_the_3d_examples_exist():
     assert {"unit_cube", "graded_cylinder", "fgm_plate_3d", "blade_3d", "graded_ring"} <= names
 
 
-@pytest.mark.parametrize("path", EXAMPLES_3D, ids=lambda p: p.stem)
+#: the examples meshed in the default run; the others (larger at any threshold) run with -m slow
+FAST_3D = ("unit_cube", "graded_cylinder")
+
+
+@pytest.mark.parametrize("path", [p if p.stem in FAST_3D else
+                                  pytest.param(p, marks=pytest.mark.slow)
+                                  for p in EXAMPLES_3D], ids=lambda p: p.stem)
 def test_every_3d_example_meets_the_guarantee(path):
     m = load_model(path)
     assert m.dim == 3 and m.name == path.stem
@@ -141,7 +147,7 @@ metal = "x**2 + y**2 + z**2"
 @pytest.mark.parametrize("angle", [360, 90])
 def test_graded_sphere(tmp_path, angle):
     m = load_model(write(tmp_path, SPHERE.format(angle=angle)))
-    res = mesh_model(m, 0.25)
+    res = mesh_model(m, 0.25, chord_tol=0.01)
     assert res.info["placement"] == "revolved"
     faces = check_tet_mesh(res.points, res.tets, lambda p: (p ** 2).sum(axis=1), 0.25)
     check_revolution(m.solid, res.points, res.tets, faces)
@@ -168,6 +174,7 @@ def test_revolution_profile_crossing_the_axis(tmp_path):
     assert "\n" not in str(e.value)
 
 
+@pytest.mark.slow
 def test_deterministic_swept():
     m = load_model(hetmesh.example_path("fgm_plate_3d"))
     a, b = mesh_model(m, 0.3), mesh_model(m, 0.3)
@@ -224,7 +231,7 @@ def test_through_hole(tmp_path):
 def test_cli_writes_and_reads_back(tmp_path, capsys, ext, fmt):
     model = write(tmp_path, CUBE, "cube.toml")
     out = tmp_path / f"cube{ext}"
-    argv = ["mesh", model, "--threshold", 0.2, "--output", out, "--quiet"]
+    argv = ["mesh", model, "--threshold", 0.3, "--output", out, "--quiet"]
     if fmt:
         argv += ["--format", fmt]
     code, o, err = run(argv, capsys)
@@ -240,13 +247,13 @@ def test_cli_writes_and_reads_back(tmp_path, capsys, ext, fmt):
     else:
         m = meshio.read(out)
     tets = np.concatenate([c.data for c in m.cells if c.type == "tetra"])
-    res = mesh_model(load_model(model), 0.2)
+    res = mesh_model(load_model(model), 0.3)
     assert len(tets) == len(res.tets)
     # the same points (Gmsh 4.1 orders them by entity; text formats round the last digit)
     a = m.points[np.lexsort(m.points.T[::-1])]
     b = res.points[np.lexsort(res.points.T[::-1])]
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
-    check_tet_mesh(m.points, tets, lambda p: (1 - p[:, 2]) ** 2, 0.2,
+    check_tet_mesh(m.points, tets, lambda p: (1 - p[:, 2]) ** 2, 0.3,
                    box_bounds=((0, 0, 0), (1, 1, 1)))
     if ext == ".msh":
         names = set(m.field_data)
