@@ -3,10 +3,12 @@
 * an extruded 2D model (composition independent of the extrusion coordinate): the 2D mesh of
   the section swept along the axis (:func:`hetmesh.tet.extrude.generate_extruded`), which keeps
   the subregions of feature-tree and piecewise fields;
-* a convex prism (box, cylinder): layers on the level surfaces
+* a convex prism (box, cylinder) whose composition varies along its axis only (for a box,
+  along any of the three axes): layers on the level planes
   (:func:`hetmesh.tet.mesher.generate_tets`);
-* any other prism (a section with holes or concave parts) with a composition varying along
-  the axis: the swept section mesh with thin layers, repaired by edge bisection;
+* any other prism: the swept section mesh (the 2D mesher's placement follows the in-plane
+  variation), in layers thin enough for the variation along the axis, repaired by edge
+  bisection where needed;
 * a solid of revolution: the profile's 2D mesh swept about the axis
   (:func:`hetmesh.tet.revolve.generate_revolved`).
 
@@ -58,8 +60,8 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         res = generate_extruded(solid, model.material, threshold, field2d=model.material2d,
                                 seed=seed, chord_tol=chord, max_elements=max_elements,
                                 check=check, name=model.name)
-    elif solid.convex:
-        res = generate_tets(solid, model.material, threshold, seed=seed, chord_tol=chord,
+    elif solid.convex and (layered := _planar_prism(solid, model.material)) is not None:
+        res = generate_tets(layered, model.material, threshold, seed=seed, chord_tol=chord,
                             max_elements=max_elements, check=check)
     else:
         res = generate_extruded(solid, model.material, threshold, seed=seed, chord_tol=chord,
@@ -68,6 +70,26 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
                                          dtype=np.float64)
     res.mesh = to_mesh(res, model.constituents)
     return res
+
+
+def _planar_prism(solid, field):
+    """``solid`` (or, for a box, the same box along another axis) if the composition varies
+    along its axis only, else None: the layered placement's best case. Compositions that
+    vary across the axis go to the swept section mesh, which keeps its quality."""
+    from .mesher import _is_planar
+    from .solid import box
+
+    if _is_planar(field, solid, solid.sample(16)):
+        return solid
+    names = solid.face_names
+    if len(names) == 6 and set(names) == {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"}:
+        lo, hi = solid.bounds
+        for axis in (0, 1, 2):
+            if axis != solid.axis:
+                other = box(lo, hi, axis=axis, where=solid.where)
+                if _is_planar(field, other, other.sample(16)):
+                    return other
+    return None
 
 
 def to_mesh(res: TetResult, constituents) -> Mesh:

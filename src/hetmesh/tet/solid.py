@@ -168,10 +168,15 @@ class Prism:
         return out
 
 
-def box(lo, hi, *, where: str = "") -> Prism:
+def box(lo, hi, *, axis: int = 2, where: str = "") -> Prism:
     """The box ``[lo, hi]`` (three coordinates each), faces ``xmin, xmax, ...``.
 
-    Extruded along z; the section is the rectangle in ``(x, y)``.
+    A prism along ``axis`` (default z) whose section is the rectangle across it; the face
+    names do not depend on the axis.
+
+    >>> [box((0, 0, 0), (1, 2, 3), axis=k).face_names for k in (0, 2)]  # doctest: +NORMALIZE_WHITESPACE
+    [('xmin', 'xmax', 'zmin', 'ymax', 'zmax', 'ymin'),
+     ('zmin', 'zmax', 'ymin', 'xmax', 'ymax', 'xmin')]
     """
     lo = np.asarray(lo, dtype=float)
     hi = np.asarray(hi, dtype=float)
@@ -184,12 +189,14 @@ def box(lo, hi, *, where: str = "") -> Prism:
         k = int(np.argmax(size <= 0))
         raise GeometryError(f"{pre}box size along {'xyz'[k]} must be positive, got "
                             f"{_fmt(size[k])}")
-    corners = [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
-    names = ("ymin", "xmax", "ymax", "xmin")
+    u, v = _UV[axis]
+    corners = [(lo[u], lo[v]), (hi[u], lo[v]), (hi[u], hi[v]), (lo[u], hi[v])]
+    names = (f"{'xyz'[v]}min", f"{'xyz'[u]}max", f"{'xyz'[v]}max", f"{'xyz'[u]}min")
     loop = Loop(tuple(Segment(a, b, name=n) for (a, b), n in
                       zip(zip(corners, corners[1:] + corners[:1]), names)), "outer")
-    return Prism(make_domain(loop), 2, float(lo[2]), float(hi[2]), ("zmin", "zmax"),
-                 where=where)
+    c = "xyz"[axis]
+    return Prism(make_domain(loop), axis, float(lo[axis]), float(hi[axis]),
+                 (f"{c}min", f"{c}max"), where=where)
 
 
 def cylinder(center, radius: float, s0: float, s1: float, axis: int = 2, *,
