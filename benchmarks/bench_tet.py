@@ -4,6 +4,7 @@
     PYTHONPATH=src python benchmarks/bench_tet.py              # unit_cube at 0.1 and 0.05
     PYTHONPATH=src python benchmarks/bench_tet.py --quick      # 0.1 only, 1 repeat
     PYTHONPATH=src python benchmarks/bench_tet.py --big        # also a ~1M-tetrahedron run
+                                                               # (delta_0 = 0.021, no peers)
 
 For each threshold delta_0, on unit_cube (the cube [0, 1]^3, metal fraction (1 - z)^2):
 
@@ -204,7 +205,7 @@ def main(argv=None) -> int:
                 print(f"  {'':<10} hetmesh / {name}: elements {ours['Ne'] / fig['Ne']:.3f}, "
                       f"time {ours['time'] / fig['time']:.3f}")
     if a.big:
-        d0 = 0.025
+        d0 = 0.021  # about 1,000,000 tetrahedra
         niso = n_iso3(solid, field, d0, n=96)
         t0 = time.perf_counter()
         res = generate_tets(solid, field, d0)
@@ -212,6 +213,8 @@ def main(argv=None) -> int:
         print(f"\nbig run, delta_0 = {d0}: N_iso3 = {niso:,.0f}")
         print(head)
         print(row("hetmesh", figures(res.points, res.tets, field, d0, niso, wall)))
+        import resource
+        print(f"  peak memory (max RSS) {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB")
     print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
     return 0
 

@@ -306,3 +306,27 @@ def test_cli_unknown_extension_exit_2(tmp_path, capsys):
                        capsys)
     assert code == 2 and "c.stl" in err
     assert not (tmp_path / "c.stl").exists()
+
+
+def test_cli_stats_of_a_3d_mesh(tmp_path, capsys):
+    model = write(tmp_path, CUBE, "cube.toml")
+    out = tmp_path / "c.msh"
+    assert run(["mesh", model, "--threshold", 0.3, "--output", out, "-q"], capsys)[0] == 0
+    code, o, err = run(["stats", out, "--model", model, "--threshold", 0.3, "--json"], capsys)
+    assert code == 0, err
+    doc = json.loads(o)
+    assert doc["delta_max"] < 0.3 and doc["n_over_threshold"] == 0
+    assert doc["volume"] == pytest.approx(1.0, rel=1e-12)
+    # a mesh that does not fit the model: one line, exit 2
+    shifted = CUBE.replace("min = [0, 0, 0]\nmax = [1, 1, 1]", "min = [2, 0, 0]\nmax = [3, 1, 1]")
+    other = write(tmp_path, shifted, "other.toml")
+    code, o, err = run(["stats", out, "--model", other], capsys)
+    assert code == 2 and "outside the solid" in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_uniform_3d_is_an_error(tmp_path, capsys):
+    model = write(tmp_path, CUBE, "cube.toml")
+    code, o, err = run(["uniform", model, "--threshold", 0.3, "--output", tmp_path / "u.vtu"],
+                       capsys)
+    assert code == 2 and "not available for 3D models" in err
+    assert not (tmp_path / "u.vtu").exists()

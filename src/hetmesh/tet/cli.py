@@ -17,7 +17,7 @@ from .api import mesh_model
 from .mesher import n_iso3
 from .quality import quality_summary, volumes
 
-__all__ = ["run_tet", "tet_statistics", "plot_tets"]
+__all__ = ["run_tet", "run_tet_stats", "tet_statistics", "plot_tets"]
 
 #: options of ``hetmesh mesh`` that the 2D mesher has and the 3D one does not
 _2D_ONLY = {"min_angle": "--min-angle", "max_size": "--max-size", "method": "--method",
@@ -131,6 +131,9 @@ def plot_tets(model, res, path: Path, title: str) -> None:
 
 def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
     """Mesh a 3D model as ``hetmesh mesh`` asked; returns the exit status."""
+    if args.command != "mesh":
+        raise OptionError(f"hetmesh {args.command} is not available for 3D models yet "
+                          f"(hetmesh mesh is)")
     kw = check_tet_options(args, kwargs)
     t0 = time.perf_counter()
     res = mesh_model(model, args.threshold, **kw)
@@ -171,4 +174,62 @@ def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
             f"{stats['radius_ratio_mean']:.3f}, {seconds:.2f} s")
         for p in written:
             console.print(f"wrote {p}")
+    return 0
+
+
+def run_tet_stats(args: argparse.Namespace, model) -> int:
+    """``hetmesh stats MESH --model MODEL3D``: the tetrahedra of ``MESH`` (any format meshio
+    reads) against the model: delta recomputed from the material, quality, volume against
+    the solid's, every point inside the solid."""
+    import meshio
+
+    from ..errors import MeshDataError
+    from ..io.xdmf import read_xdmf
+    from .quality import delta_tets
+
+    path = Path(args.mesh)
+    if not path.is_file():
+        raise OutputError(f"no such mesh file: {path}")
+    mesh = read_xdmf(path) if path.suffix.lower() == ".xdmf" else None
+    if mesh is not None:
+        points, tets = np.asarray(mesh.points), np.asarray(mesh.cells)
+    else:
+        try:
+            m = meshio.read(path)
+        except Exception as exc:  # meshio raises many kinds on bad files
+            raise OutputError(f"cannot read {path}: {' '.join(str(exc).split())}") from None
+        blocks = [c.data for c in m.cells if c.type == "tetra"]
+        points, tets = np.asarray(m.points, np.float64), (np.concatenate(blocks)
+                                                          if blocks else None)
+    if tets is None or points.ndim != 2 or points.shape[1] != 3 or not len(tets):
+        raise MeshDataError(f"{path}: no tetrahedra; {model.name} is a 3D model")
+    inside = model.solid.contains(points)
+    if not inside.all():
+        i = int(np.flatnonzero(~inside)[0])
+        x, y, z = points[i]
+        raise MeshDataError(f"{path}: point {i} at ({x:.6g}, {y:.6g}, {z:.6g}) is outside "
+                            f"the solid of {model.name}")
+    v = volumes(points, tets)
+    tets = tets.copy()
+    tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
+    delta = delta_tets(model.material.composition(points), tets)
+    stats = {"n_points": int(len(points)), "n_elements": int(len(tets)),
+             "delta_max": float(delta.max()), "delta_avg": float(delta.mean()),
+             "volume": float(np.abs(v).sum()), "solid_volume": float(model.solid.volume),
+             **quality_summary(points, tets)}
+    if args.threshold is not None:
+        stats["threshold"] = args.threshold
+        stats["n_over_threshold"] = int((delta >= args.threshold).sum())
+    if args.quiet:
+        return 0
+    if args.json:
+        print(json.dumps({"mesh": str(path), "model": str(args.model), **stats}, indent=2))
+    else:
+        from rich.console import Console
+
+        console = Console(highlight=False, markup=False)
+        console.print(f"{path}: model {model.name}, delta from the vertices")
+        for k, val in stats.items():
+            console.print(f"  {k:<20} {val:.6g}" if isinstance(val, float)
+                          else f"  {k:<20} {val}")
     return 0

@@ -125,6 +125,9 @@ class Revolution:
     def contains(self, points) -> np.ndarray:
         q, th = self.to2d(points)
         ok = self.profile.contains(q)
+        edge = ~ok
+        if edge.any():  # the profile's boundary belongs to it
+            ok[edge] = self.profile.distance_to_boundary(q[edge]) <= 1e-9 * self.diameter
         if not self.full:
             ok &= (th <= self.sweep + 1e-12) | (q[:, 0] <= 1e-12 * self.diameter)
         return ok

@@ -132,8 +132,13 @@ class Prism:
     def contains(self, points) -> np.ndarray:
         """Whether each point ``(N, 3)`` lies in the solid (closed)."""
         q, s = self.to2d(points)
-        tol = 1e-12 * self.diameter
-        return (s >= self.s0 - tol) & (s <= self.s1 + tol) & self.section.contains(q)
+        tol = 1e-9 * self.diameter
+        ok = (s >= self.s0 - tol) & (s <= self.s1 + tol)
+        inside = self.section.contains(q)
+        edge = ok & ~inside
+        if edge.any():  # the section's boundary belongs to it
+            inside[edge] = self.section.distance_to_boundary(q[edge]) <= tol
+        return ok & inside
 
     def sample(self, n: int = 24) -> np.ndarray:
         """About ``n**3`` points of a regular grid inside the solid, plus its corners."""
