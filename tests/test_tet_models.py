@@ -279,6 +279,7 @@ def test_cli_plot_and_stats(tmp_path, capsys):
     (["--method", "cvt"], "--method is not available for 3D models"),
     (["--sampling", "dense"], "--sampling dense is not available"),
     (["--threshold", "0"], "threshold"),
+    (["--threshold", "0.01", "--max-elements", "1000"], "but the budget is 1000"),
 ])
 def test_cli_bad_options_exit_2(tmp_path, capsys, extra, contains):
     model = write(tmp_path, CUBE, "cube.toml")

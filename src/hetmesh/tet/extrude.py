@@ -148,8 +148,6 @@ def generate_extruded(solid, field3d, threshold: float, *, field2d=None, seed: i
     kw = {}
     if chord_tol is not None:
         kw["chord_tol"] = min(max(chord_tol / sec.diameter, 1e-7), 0.05)
-    if max_elements is not None:
-        kw["max_elements"] = max(1, max_elements // 3)
     model2 = Model(name=name, domain=sec, material=field2d)
     r2 = generate(model2, threshold, seed=seed, min_angle=min_angle, **kw)
     m2 = r2.mesh
@@ -159,6 +157,10 @@ def generate_extruded(solid, field3d, threshold: float, *, field2d=None, seed: i
     if gs > 0:
         h = min(h, BETA * threshold / gs)
     nl = max(1, int(np.ceil(solid.length / h - 1e-9)))
+    if max_elements is not None and 3 * len(t2) * nl > max_elements:
+        raise BudgetError(f"about {3 * len(t2) * nl} tetrahedra are needed for delta_0 = "
+                          f"{threshold} ({len(t2)} triangles in the section x 3 x {nl} "
+                          f"layers) but the budget is {max_elements}")
     levels = solid.s0 + solid.length * np.arange(nl + 1) / nl
     levels[-1] = solid.s1
     pl, tets, layer = prism_tets(p2, t2, levels)

@@ -181,8 +181,6 @@ def generate_revolved(solid: Revolution, field, threshold: float, *, field2d=Non
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
     # across both deviates by at most the sum
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
-    if max_elements is not None:
-        kw["max_elements"] = max(1, max_elements // 3)
     r2 = generate(Model(name=name, domain=prof, material=f2), threshold, seed=seed, **kw)
     m2 = r2.mesh
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
@@ -194,6 +192,11 @@ def generate_revolved(solid: Revolution, field, threshold: float, *, field2d=Non
     step_chord = 2.0 * math.acos(max(-1.0, 1.0 - 0.5 * chord / max(r_max, 1e-300)))
     step = min(step_chord, h / max(r_mid, 1e-300))
     n = max(3 if solid.full else 1, int(math.ceil(solid.sweep / step - 1e-9)))
+    if max_elements is not None and 3 * len(t2) * n > max_elements:
+        from ..errors import BudgetError
+        raise BudgetError(f"about {3 * len(t2) * n} tetrahedra are needed for delta_0 = "
+                          f"{threshold} ({len(t2)} triangles in the profile x 3 x {n} "
+                          f"angular steps) but the budget is {max_elements}")
     theta = solid.sweep * np.arange(n + 1) / n
     pl, tets, _ = prism_tets(p2, t2, theta)
     n2 = len(p2)
