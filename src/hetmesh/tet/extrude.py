@@ -132,7 +132,8 @@ def generate_extruded(solid, field3d, threshold: float, *, field2d=None, seed: i
     """
     from ..io.model import Model
     from ..material import CallableField
-    from ..tri.adapt import CHORD_TOL, generate
+    from .. import generate
+    from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
 
     t0 = time.perf_counter()
     sec = solid.section

@@ -171,7 +171,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, *, field2d=Non
     (default :data:`CHORD` x the diameter).
     """
     from ..io.model import Model
-    from ..tri.adapt import CHORD_TOL, generate
+    from .. import generate
+    from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
 
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
