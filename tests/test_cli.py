@@ -295,14 +295,14 @@ def test_every_error_class_has_its_exit_code(cls, model, tmp_path, capsys, monke
 
 def test_a_verification_failure_on_valid_input_is_an_internal_error(model, tmp_path, capsys,
                                                                    monkeypatch):
-    import hetmesh.tri.adapt
+    import hetmesh.tri.pipeline
     from hetmesh.errors import VerificationError
 
     def failing_finish(*a, **k):
         raise VerificationError("the mesh failed verification: 3 degenerate or inverted "
                                 "triangles (first #7)")
 
-    monkeypatch.setattr(hetmesh.tri.adapt, "finish", failing_finish)
+    monkeypatch.setattr(hetmesh.tri.pipeline, "finish", failing_finish)
     out = tmp_path / "o.vtu"
     code, _, err = run(mesh_argv(model, out), capsys)
     assert code == 1
@@ -319,13 +319,13 @@ def test_a_stalled_refinement_is_internal_and_a_budget_overrun_bad_input(model, 
                                                                          capsys, monkeypatch):
     code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "--max-elements", "10"), capsys)
     assert code == 2 and "budget" in err and "internal" not in err
-    import hetmesh.tri.adapt
+    import hetmesh.tri.pipeline
     from hetmesh.errors import MeshingError
 
     def stalled(*a, **k):
         raise MeshingError("refinement stalled in round 3 with 2 elements at delta >= 0.1")
 
-    monkeypatch.setattr(hetmesh.tri.adapt, "repair", stalled)
+    monkeypatch.setattr(hetmesh.tri.pipeline, "repair", stalled)
     code, _, err = run(mesh_argv(model, tmp_path / "o.vtu", "--method", "cvt"), capsys)
     assert code == 1 and len(err.strip().splitlines()) == 1
     assert err.startswith("hetmesh: error: internal error: refinement stalled")
@@ -344,7 +344,7 @@ def _noisy(then=None):
 
     def load(path, *a, **k):
         for _ in range(2):
-            logging.getLogger("hetmesh.tri.adapt").warning("the angle floor was given up\nsomewhere")
+            logging.getLogger("hetmesh.tri.pipeline").warning("the angle floor was given up\nsomewhere")
             logging.getLogger("somelib").warning("a library warning")
             np.log(np.array([-1.0]))  # RuntimeWarning: invalid value encountered in log
         if then is not None:
@@ -411,7 +411,7 @@ def meshed(model, tmp_path_factory):
 
 
 def test_mesh_writes_mesh_stats_and_plot(meshed):
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     out, stats, plot = meshed
     doc = json.loads(stats.read_text())
@@ -469,7 +469,7 @@ def test_uniform_writes_mesh_and_stats(model, meshed, tmp_path, capsys):
     assert doc["stats"]["delta_max"] < THRESHOLD
     adaptive = json.loads(meshed[1].read_text())
     assert doc["stats"]["n_elements"] > adaptive["stats"]["n_elements"]
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     assert read_mesh(out).n_elements == doc["stats"]["n_elements"]
 
@@ -555,7 +555,7 @@ def _example(name: str, tmp_path: Path) -> Path:
 def test_max_size_bounds_every_edge(tmp_path, capsys):
     import numpy as np
 
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     square, out = _example("unit_square", tmp_path), tmp_path / "s.vtu"
     code, _, err = run(["mesh", square, "-d", "0.1", "--max-size", "0.05", "-o", out, "-q"],
@@ -651,7 +651,7 @@ def fsync(tmp):  # the mesh is in the temporary file, not yet renamed: terminate
     os.kill(os.getpid(), signal.SIGTERM)
     time.sleep(5)
 
-atomic._fsync = fsync
+atomic.fsync = fsync
 sys.exit(main(sys.argv[1:]))
 """
 
@@ -723,7 +723,7 @@ def test_scaled_models_mesh_the_same_up_to_the_scale(tmp_path, capsys):
     coordinates in their last bits, and the element count by a few per cent at most."""
     import numpy as np
 
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     text = (resources.files("hetmesh") / "examples" / "unit_square.toml").read_text()
     meshes = {}

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import hetmesh
+from hetmesh.material import has_subregions
 from hetmesh.tri.discontinuity import (crossing_elements, embed_discontinuities, embedded_count,
-                                   fit_curves, has_subregions, trace_discontinuities)
+                                   fit_curves, trace_discontinuities)
 from hetmesh.tri.geometry import Arc, CurveBatch, Segment
 from hetmesh.errors import MaterialError
 from hetmesh.io.model import Model

@@ -11,7 +11,8 @@ import pytest
 from hetmesh.errors import OptionError, OutputError
 from hetmesh.io import textio
 from hetmesh.io.atomic import atomic_path, atomic_write
-from hetmesh.io.export import FILE_FORMATS, FORMATS, read_mesh, region_tag_offset, write_mesh
+from hetmesh.io.export import FILE_FORMATS, FORMATS, region_tag_offset, write_mesh
+from hetmesh.io.read import read_mesh
 from hetmesh.mesh import Mesh
 
 # (extension, file_format, keeps point data, keeps cell data, keeps marker names)

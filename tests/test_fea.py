@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import hetmesh
+import hetmesh.io.read
 import hetmesh.fea as fea
 from hetmesh.cli import main
 from hetmesh.errors import FEAError, ModelFileError
-from hetmesh.fea.analysis import _p1, elastic, p1_gradient, pieces, stresses
+from hetmesh.fea.analysis import p1_basis, elastic, p1_gradient, pieces, stresses
 from hetmesh.fea.config import rigid_rank
 from hetmesh.fea.mixing import lame, mix_linear, mix_mori_tanaka, thermal_modulus
 from hetmesh.io.model import parse_model
@@ -211,7 +212,7 @@ def test_elasticity_patch_test():
     U = np.column_stack([u[vb.nodal_dofs[0]], u[vb.nodal_dofs[1]]])
     assert len(bnd) < len(P)
     np.testing.assert_allclose(U, exact, rtol=0, atol=1e-14)
-    grads, _ = _p1(P, t)
+    grads, _ = p1_basis(P, t)
     s = stresses(p1_gradient(grads, U, t), lam, mu, zero, zero, "strain")
     eps = 0.5 * (G + G.T)
     tr = np.trace(eps)
@@ -233,7 +234,7 @@ def test_recovered_stress_is_exact_for_linear_fields_and_splits_pieces():
     lam = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
     xq = np.einsum("qi,mid->mqd", lam, P[t])
     f = np.where(groups[:, None, None] == 1, 3 * xq[..., :1] - xq[..., 1:] + 2, xq[..., 1:])
-    _, areas = _p1(P, t)
+    _, areas = p1_basis(P, t)
     out = recover(dofs, len(node), areas, lam.T, np.full(3, 1 / 3), f)
     vals = out[dofs][..., 0]  # (M, 3)
     want = np.where(groups[:, None] == 1, 3 * P[t][..., 0] - P[t][..., 1] + 2, P[t][..., 1])
@@ -479,7 +480,7 @@ def test_fgm_plate_from_a_mesh_file_gives_the_same_answer(plate, tmp_path):
     model, meshed = plate
     path = meshed.mesh.write(tmp_path / "plate.vtu")
     a = fea.solve(meshed.mesh, model)
-    b = fea.solve(hetmesh.io.export.read_mesh(path), model)
+    b = fea.solve(hetmesh.io.read.read_mesh(path), model)
     for k in a.probes:
         assert b.probes[k]["von_mises"] == pytest.approx(a.probes[k]["von_mises"], rel=1e-9)
 
@@ -513,7 +514,7 @@ def test_cli_writes_results(plate, tmp_path, capsys):
     assert doc["model"] == "fgm_plate" and doc["elements"] == meshed.mesh.n_elements
     assert set(doc["probes"]) >= {"P1", "Q6"}
     assert png.stat().st_size > 1000
-    back = hetmesh.io.export.read_mesh(out)
+    back = hetmesh.io.read.read_mesh(out)
     assert {"temperature", "von_mises", "stress_zz", "displacement"} <= set(back.point_data)
     assert "von_mises" in back.cell_data
     np.testing.assert_allclose(back.point_data["von_mises"],

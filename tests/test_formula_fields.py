@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import hetmesh
+import hetmesh.io.read
 from hetmesh.cli import main
 from hetmesh.material import has_subregions
 from hetmesh.errors import MaterialError, MeshingError
@@ -228,7 +229,7 @@ def test_jump_formulas_from_the_command_line(tmp_path, capsys, name):
     out = tmp_path / "m.vtu"
     code, err = mesh_cli(path, out, capsys)
     assert code == 0 and err == "", err
-    mesh = hetmesh.io.export.read_mesh(out)
+    mesh = hetmesh.io.read.read_mesh(out)
     assert "subregion" in mesh.cell_data
 
 

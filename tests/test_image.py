@@ -17,9 +17,9 @@ import tifffile
 
 from hetmesh.cli import main
 from hetmesh.errors import MaterialError
-from hetmesh.tri.geometry.trace import (OUTSIDE, _polygons, _rings, _to_xy, label_domain,
-                                    mask_domain, region_lookup, simplify_chains,
-                                    trace_labels)
+from hetmesh.tri.geometry.trace import (OUTSIDE, label_domain, label_rings, mask_domain,
+                                        pixel_to_xy, region_lookup, ring_polygons,
+                                        simplify_chains, trace_labels)
 from hetmesh.io.model import load_model
 from hetmesh.material.image import (Image, channel_map, element_pixel_delta,
                                     image_field, linear_map, pixel_centres_in_triangles,
@@ -309,8 +309,8 @@ def test_label_domain_interfaces_and_region_lookup():
     p = rng.uniform([0, 0], [120, 80], (5000, 2))
     slow = np.full(len(p), -1)
     for k, label in enumerate((1, 2, 3, 4)):
-        geom = shapely.MultiPolygon(_polygons([_to_xy(rg, (0.5, 0.5), (1, 1)) for rg in
-                                               _rings(chains, lambda v, L=label: v == L)]))
+        geom = shapely.MultiPolygon(ring_polygons([pixel_to_xy(rg, (0.5, 0.5), (1, 1)) for rg in
+                                                   label_rings(chains, lambda v, L=label: v == L)]))
         slow[shapely.contains_xy(geom, p[:, 0], p[:, 1])] = k
     ok = slow >= 0
     np.testing.assert_array_equal(reg(p)[ok], slow[ok])
@@ -702,7 +702,7 @@ def test_pixel_sampling_statistics_and_frame(stripe):
     pixel_delta: the elements reach the field in its coordinates."""
     import hetmesh
     from hetmesh.tri.frame import local_field, local_frame
-    from hetmesh.metrics import element_delta
+    from hetmesh.delta import element_delta
 
     m = load_model(stripe)
     P = np.array([[1.9, 0.0], [2.1, 0.0], [2.0, 0.3], [2.0, 0.5]])
@@ -720,7 +720,7 @@ def test_pixel_sampling_statistics_and_frame(stripe):
 
 
 def test_pixel_sampling_cli(stripe, capsys):
-    from hetmesh.io.export import read_mesh
+    from hetmesh.io.read import read_mesh
 
     out = stripe.parent / "out.vtu"
     code = main(["mesh", str(stripe), "-d", "0.1", "--sampling", "pixels", "--method",

@@ -1,10 +1,16 @@
-"""Node placement on iso-composition rows (hetmesh.tri.layers): the rows' phase."""
+"""Node placement on iso-composition rows (hetmesh.tri.layers): the rows' phase, and the
+levels, band passages and sub-bands of the grading on synthetic gradient paths."""
 
 import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri import adapt, layers
+from hetmesh.tri import layers
+from hetmesh.tri import pipeline as adapt
+from hetmesh.tri.layers.grading import (GRADE, EventKind, banding, path_crossings, path_events,
+                                        piece_spans, sub_band_bounds)
+from hetmesh.tri.layers.levels import Levels
+from hetmesh.tri.layers.paths import GradientPaths
 from hetmesh.tri.workset import FREE, triangulate
 
 
@@ -24,7 +30,8 @@ def test_adjacent_rows_are_staggered(unit_square_rows):
     """In a row-to-row triangle (base on one row, apex on the next) the apex sits above the
     base's midpoint: offsets along the rows (horizontal in the unit square) are a small
     fraction of the base. Rows traced at their own step drift out of phase (median offset
-    0.22 of the base, 75th percentile 0.33, before the rows were re-spaced; 0.035 and 0.063 after)."""
+    0.22 of the base, 75th percentile 0.33, before the rows were re-spaced; 0.035 and 0.063
+    after)."""
     _, ws, tris = unit_square_rows
     P, L = ws.P, ws.level[tris]
     offsets = []
@@ -70,9 +77,72 @@ def test_placement_alone_meets_the_threshold_on_graded_plates():
     (19 and 5 violators before the rows were re-spaced); at the default 0.85 it leaves at
     most a handful for the repair loop (power_plate 0.03: 10 of 4,994, where rows meet the
     curved top)."""
-    from hetmesh.metrics import element_delta
+    from hetmesh.delta import element_delta
     for name, thr in (("unit_square", 0.02), ("power_plate", 0.03)):
         ctx, ws, tris = _placed(name, thr)
         assert element_delta(ctx.field, ws.P, tris).max() < thr, name
         ctx, ws, tris = _placed(name, thr, row_spacing=0.85)
         assert (element_delta(ctx.field, ws.P, tris) >= thr).mean() < 0.005, name
+
+
+def _one_piece_levels(values, dprime=0.1):
+    values = np.asarray(values, float)
+    return Levels.of(np.zeros(len(values), np.int64), values, np.full(len(values), dprime))
+
+
+def _paths(samples):
+    """Gradient paths from ``[(f samples, direction)]`` on f = s^2 (s the arc length)."""
+    path = np.concatenate([np.full(len(f), i) for i, (f, _) in enumerate(samples)])
+    f = np.concatenate([f for f, _ in samples])
+    arc = np.sqrt(f)
+    n = len(samples)
+    return GradientPaths(path, arc, f, 2 * arc, np.zeros(n, np.int64), np.zeros(n, np.int64),
+                         np.array([d for _, d in samples], float))
+
+
+def test_levels_are_searched_within_their_piece():
+    lv = Levels.of([0, 0, 1, 1, 1], [0.2, 0.4, 0.1, 0.3, 0.5], np.full(5, 0.1))
+    assert np.all(np.diff(lv.key) > 0)
+    assert lv.index_after(np.array([0, 0, 1, 1]), np.array([0.3, 0.9, 0.0, 0.35])).tolist() \
+        == [1, 2, 2, 4]
+    assert lv.parity(np.array([1, 1]), np.array([0.1, 0.3])).tolist() == [0, 1]
+
+
+def test_band_passages_from_piece_ends_levels_and_open_ends():
+    """A path from the piece's minimum (f = 0) to its maximum (0.55) passes through every
+    band whole: the band below the first level and the one above the last end at the
+    piece's ends. A path that starts inside the lowest band but well above the piece's
+    minimum (f = 0.05, a boundary across the rows) passes through that band in part: it
+    counts only from its first level on."""
+    levels = _one_piece_levels([0.1, 0.2, 0.3, 0.4, 0.5])
+    paths = _paths([(np.linspace(0.0, 0.55, 221), 1.0), (np.linspace(0.05, 0.55, 201), 1.0)])
+    cross = path_crossings(paths, levels)
+    assert sorted(cross.level.tolist()) == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]
+    spans = piece_spans(paths, cross, 1, len(levels))
+    assert (spans.first[0], spans.last[0]) == (0, 4)
+    ev = path_events(paths, levels, cross, spans)
+    kinds = [(int(p), EventKind(k).name) for p, k in zip(ev.path, ev.kind)
+             if k != EventKind.LEVEL]
+    assert kinds == [(0, "PIECE_END"), (0, "PIECE_END"), (1, "OPEN_END"), (1, "PIECE_END")]
+    b = banding(paths, levels, 1)
+    assert b.bands.low.tolist() == [-1, 0, 1, 2, 3, 4]
+    assert np.bincount(b.band_of).tolist() == [1, 2, 2, 2, 2, 2]
+    want = np.diff(np.sqrt([0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.55]))
+    assert np.allclose(b.bands.height, want, rtol=1e-2)
+    assert b.is_piece_end(0, upper=False) and b.is_piece_end(5, upper=True)
+    assert not b.is_piece_end(2, upper=False) and not b.is_piece_end(2, upper=True)
+
+
+def test_sub_bands_grow_from_both_ends_up_to_the_cap():
+    H, h_end, cap = 1.0, 0.02, 0.15
+    pos = sub_band_bounds(H, h_end, h_end, cap)
+    hs = np.diff(np.r_[0.0, pos, H])
+    assert np.isclose(hs.sum(), H)
+    assert np.allclose(hs, hs[::-1], rtol=1e-6)  # the same wanted height at both ends
+    half = hs[: len(hs) // 2]
+    assert np.all(np.diff(half) >= -1e-12) and hs.max() <= 1.05 * cap
+    # one sub-band per unit of the integral of dt / sigma, sigma = h_end + GRADE t: from
+    # one sub-band to the next the height grows by about exp(GRADE)
+    assert h_end < hs[0] < 1.3 * h_end
+    assert np.all(hs[1:len(hs) // 2] / half[:-1] < 1.05 * np.exp(GRADE))
+    assert sub_band_bounds(0.1, 0.08, 0.08, cap) is None  # about one sub-band: left whole

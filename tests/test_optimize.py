@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri import adapt
+from hetmesh.tri import pipeline as adapt
 from hetmesh.material import element_subregions, has_subregions
 from hetmesh.tri.discontinuity import embed_discontinuities
-from hetmesh.metrics import element_delta, quality, signed_area2
-from hetmesh.tri.optimize import _Eval, _sweep, independent_sets, optimize
+from hetmesh.metrics import quality, signed_area2
+from hetmesh.delta import element_delta
+from hetmesh.tri.optimize import DeltaEvaluator, sweep, independent_sets, optimize
 from hetmesh.tri.workset import FIXED
 
 from conftest import check_invariants
@@ -82,15 +83,15 @@ def test_one_independent_set_never_lowers_a_star_minimum(case, request):
     moved node's star minimum quality (and every star element's delta) is checked."""
     ws0, ctx, tris = request.getfixturevalue(case)
     ws = copy.deepcopy(ws0)
-    ev = _Eval(ctx, "vertices")
+    ev = DeltaEvaluator(ctx, "vertices")
     comp, _, reg = ev.full(ws.P, tris)
     e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
     movable = ~ws.pinned & (ws.vcurve != FIXED)
     one = independent_sets(ws.n, e, movable)[0]
     active = np.zeros(ws.n, bool)
     active[one] = True
-    moved = _sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=30.0,
-                   steps=(1.0, 0.5, 0.25), grad_steps=(0.1, 0.03), salt=0)
+    moved = sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=30.0,
+                  steps=(1.0, 0.5, 0.25), grad_steps=(0.1, 0.03), salt=0)
     assert moved.sum() > 0 and not (moved & ~active).any()
     q0, q1 = quality(ws0.P, tris), quality(ws.P, tris)
     star0 = np.ones(ws.n)

@@ -118,7 +118,7 @@ def test_band_flood_matches_full_flood():
     nbr[h1 % m, h1 // m] = h2 % m
     nbr[h2 % m, h2 // m] = h1 % m
     area = 0.5 * np.abs(tr.triangle_areas2(P, full))
-    a = tr._all_components(P, full, nbr, E[bnd], inside, area)
-    b = tr._band_components(P, full, nbr, E[bnd], inside, area)
+    a = tr.inside_full_flood(P, full, nbr, E[bnd], inside, area)
+    b = tr.inside_band_flood(P, full, nbr, E[bnd], inside, area)
     assert b is not None and np.array_equal(a, b)
     assert _same(full[a], t)

@@ -122,7 +122,7 @@ def test_regions_follow_the_closed_interface():
 
 
 def test_a_mesh_that_lost_an_interface_edge_is_rejected(monkeypatch):
-    import hetmesh.tri.adapt as A
+    import hetmesh.tri.pipeline as A
     from hetmesh.errors import MeshingError
     from hetmesh.mesh import edge_keys
 
@@ -153,7 +153,7 @@ def test_a_mesh_with_a_hole_or_a_triangle_outside_is_rejected(monkeypatch, what)
     """Coverage is checked by the boundary edges, not only by the area (which now allows the
     chords' loss): one interior triangle removed, or one triangle added outside a boundary
     edge, fails the verification."""
-    import hetmesh.tri.adapt as A
+    import hetmesh.tri.pipeline as A
     from hetmesh.errors import MeshingError
 
     model = hetmesh.load_model(hetmesh.example_path("power_plate"))

@@ -111,11 +111,11 @@ def test_unknown_image_format(tmp_path):
 @pytest.mark.parametrize("threshold,top", [(0.05, 0.0499), (0.03, 0.0299999), (0.1, 0.14),
                                            (0.003, 0.0028)])
 def test_delta_histogram_bins_have_an_edge_on_the_threshold(threshold, top):
-    from hetmesh.plot import _bin_edges
+    from hetmesh.plot import bin_edges
 
     rng = np.random.default_rng(1)
     d = np.r_[rng.uniform(0, top, 400), top]
-    edges = _bin_edges([("a", d)], threshold, None)
+    edges = bin_edges([("a", d)], threshold, None)
     assert np.isclose(edges, threshold, rtol=0, atol=1e-15).sum() == 1
     assert edges[0] == 0 and edges[-1] > max(top, threshold) and 20 <= len(edges) - 1 <= 60
     # the bars right of the threshold hold exactly the elements at or above it
@@ -140,9 +140,9 @@ def test_mesh_figure_axes_carry_the_model_units_and_a_legend_for_interfaces():
 
 
 def test_point_labels_of_close_points_do_not_overlap():
-    from hetmesh.plot import _new_figure, label_points
+    from hetmesh.plot import new_figure, label_points
 
-    fig = _new_figure(7, 3)
+    fig = new_figure(7, 3)
     ax = fig.add_subplot()
     xy = np.array([[6.0, 0.0], [7.0, 0.0], [15.0, 8.0], [15.0, 9.0], [45.0, 8.0]])
     ax.plot(xy[:, 0], xy[:, 1], "o")

@@ -502,12 +502,12 @@ def test_table7_accepts_the_benchmark_keys():
 
 def test_misprint_footnotes_are_numbered_once():
     from hetmesh.metrics import MeshStats
-    from hetmesh.reproduce.report import _stats_table
+    from hetmesh.reproduce.report import stats_table
     from hetmesh.reproduce.runs import CaseRun, MeshRun
 
     st = MeshStats(10, 20, 0.5, 0.9, 0.0, 0.01, 0.05, 30.0)
     run = CaseRun("hft_ring", 0.10, adaptive=MeshRun(st, 1.0), uniform=MeshRun(st, 1.0))
-    text = "\n".join(_stats_table([run]))
+    text = "\n".join(stats_table([run]))
     (headers, rows), = tables(text)
     uni = dict(zip(headers, rows[1]))
     assert uni["q_min paper"] == "0.5356 [1]" and uni["q_avg paper"] == "0.9247 [1]"

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.io.export import read_mesh, write_mesh
+from hetmesh.io.read import read_mesh
+from hetmesh.io.export import write_mesh
 from hetmesh.io.groups import curve_groups
 from hetmesh.metrics import quality
 

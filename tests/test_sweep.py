@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 import hetmesh
+import hetmesh.io.read
 from hetmesh.cli import main
 from hetmesh.errors import OptionError
 from hetmesh.study import load_study, parse_study, run_one, rows_to_frame, sweep
@@ -200,7 +201,7 @@ def test_cli_sweep_writes_and_resumes(tmp_path, capsys):
     t = pd.read_parquet(out / "results.parquet")
     meshes = [out / f for f in t["mesh_file"]]
     assert all(m.suffix == ".vtu" and m.stat().st_size > 0 for m in meshes)
-    assert hetmesh.io.export.read_mesh(meshes[0]).n_elements == t["n_elements"][0]
+    assert hetmesh.io.read.read_mesh(meshes[0]).n_elements == t["n_elements"][0]
     assert main(["sweep", str(study), "--serial", "--out", str(out)]) == 0
     assert "2 runs (0 failed, 2 found done)" in capsys.readouterr().out
 

@@ -238,7 +238,8 @@ def test_cli_writes_and_reads_back(tmp_path, capsys, ext, fmt):
     assert code == 0, err
     if ext == ".xdmf":  # dolfinx's layout: mesh, cell_tags and facet_tags grids
         from hetmesh.io.xdmf import read_xdmf
-        hm = read_xdmf(out)
+        from hetmesh.mesh import Mesh
+        hm = Mesh(**read_xdmf(out))
         m = meshio.Mesh(hm.points, [("tetra", hm.cells)], field_data={
             n: None for n in hm.marker_names.values()})
         assert set(hm.marker_names.values()) == {"xmin", "xmax", "ymin", "ymax", "zmin",

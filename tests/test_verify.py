@@ -1,5 +1,5 @@
 """The final verification against the domain's curves (``hetmesh.tri.verify``), its use by
-``adapt.finish``, and the chord bound through the whole pipeline."""
+``hetmesh.tri.finish.finish``, and the chord bound through the whole pipeline."""
 
 from __future__ import annotations
 
@@ -138,7 +138,7 @@ def test_the_disc_hole_is_meshed_within_the_chord_tolerance(disc):
 def test_verification_rejects_a_chord_beyond_the_tolerance(disc, monkeypatch):
     """A hole node slid along its circle towards a neighbour, as an unchecked optimisation
     could: the other chord now strays beyond the tolerance, and finish() says which curve."""
-    import hetmesh.tri.adapt as A
+    import hetmesh.tri.pipeline as A
 
     real = A.optimize_mesh
 

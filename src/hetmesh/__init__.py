@@ -12,19 +12,16 @@ well-shaped elements as possible; every mesh returned is verified.
 
 from __future__ import annotations
 
-from importlib.resources import files
-from pathlib import Path
-
-from .tri.adapt import Result, generate, mesh_statistics
+from .kernel import Result, mesh_statistics
+from .tri.pipeline import generate
 from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, MaterialError,
                      MeshingError, ModelFileError, OptionError, OutputError)
-from .io.model import Model, load_model
+from .io.model import Model, example_path, load_model
 from .mesh import Mesh
 from .study import sweep
 from .metrics import MeshStats
 from .tri.uniform import uniform
-
-__version__ = "0.1.0"
+from .version import __version__
 
 __all__ = [
     "generate", "uniform", "sweep", "mesh_statistics", "load_model", "example_path", "Model",
@@ -33,8 +30,3 @@ __all__ = [
     "__version__",
 ]
 
-
-def example_path(name: str) -> Path:
-    """Path of a packaged example model, e.g. ``example_path("power_plate")``."""
-    p = files("hetmesh") / "examples" / f"{name}.toml"
-    return Path(str(p))

@@ -83,14 +83,14 @@ class BudgetError(MeshingError):
 
 
 class VerificationError(MeshingError):
-    """The finished mesh failed a check of the final verification (:func:`hetmesh.tri.adapt.finish`):
+    """The finished mesh failed a check of the final verification (:func:`hetmesh.tri.finish.finish`):
     a claim hetmesh makes about every mesh it returns does not hold. Internal (exit code 1)."""
 
 
 class MeshDataError(MeshingError):
     """Arrays given to :class:`hetmesh.mesh.Mesh` (or read from a mesh file) are inconsistent:
     shapes, indices out of range, data of the wrong length (exit code 2). On the mesher's own
-    arrays it is a bug: :func:`hetmesh.tri.adapt.finish` raises :class:`VerificationError`."""
+    arrays it is a bug: :func:`hetmesh.tri.finish.finish` raises :class:`VerificationError`."""
 
     exit_code = 2
     internal = False

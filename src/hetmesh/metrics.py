@@ -25,7 +25,6 @@ __all__ = [
     "triangle_angles",
     "signed_area2",
     "triangle_areas2",
-    "element_delta",
     "delta_vertices",
     "delta_dense",
     "lattice_barycentric",
@@ -269,56 +268,6 @@ def triangle_areas2(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
     return block_concat(block, len(triangles))
-
-
-def element_delta(field, points: np.ndarray, triangles: np.ndarray, sampling: str = "vertices",
-                  composition: np.ndarray | None = None,
-                  regions: np.ndarray | None = None,
-                  threshold: float | None = None) -> np.ndarray:
-    """delta(T) of every element, from the vertices (Eqs. 14-15), with ``sampling="dense"``
-    also from a lattice inside it, with ``sampling="certified"`` an upper bound on its
-    variation over the whole element (:func:`hetmesh.certify.certified_delta`);
-    with ``sampling="pixels"`` also from every pixel centre it covers (``field.pixel_delta``:
-    image fields only, :func:`hetmesh.options.check_sampling`);
-    ``composition`` at the points if already known; ``threshold`` (delta_0, optional) lets
-    the certified bound stop refining an element once it is decided against delta_0.
-
-    ``regions`` (the subregion of every element, for a feature-tree field) makes every
-    element use its own subregion's composition at all its vertices: a vertex on a material
-    discontinuity takes, in each element around it, the value of that element's side.
-    """
-    comp = field.composition(points) if composition is None else composition
-    delta = delta_vertices(comp, triangles)
-    if regions is not None:
-        delta = _delta_own_region(field, points, triangles, comp, regions, delta)
-    if sampling == "dense":
-        delta = np.maximum(delta, delta_dense(field, points, triangles, regions=regions))
-    elif sampling == "certified":
-        from .certify import certified_delta
-        delta = np.maximum(delta, certified_delta(field, points, triangles, regions=regions,
-                                                      threshold=threshold))
-    elif sampling == "pixels":
-        from .options import check_sampling
-        check_sampling(field, sampling)
-        delta = np.maximum(delta, field.pixel_delta(points, triangles, regions=regions,
-                                                    composition=comp))
-    return delta
-
-
-def _delta_own_region(field, points, triangles, comp, regions, delta) -> np.ndarray:
-    """:func:`delta_vertices` redone for the elements with a vertex owned by another
-    subregion (on a discontinuity), with that vertex evaluated in the element's subregion."""
-    vreg = field.region(points)
-    e, k = np.nonzero(vreg[triangles] != regions[:, None])
-    if len(e) == 0:
-        return delta
-    rows, inv = np.unique(e, return_inverse=True)
-    c = comp if comp.ndim == 2 else comp[:, None]
-    v = c[triangles[rows]].copy()  # (R, 3, m)
-    v[inv, k] = field.composition(points[triangles[e, k]], region=regions[e])
-    out = delta.copy()
-    out[rows] = (v.max(axis=1) - v.min(axis=1)).max(axis=1)
-    return out
 
 
 def delta_vertices(composition: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -433,7 +433,7 @@ PEERS: dict[str, Callable[..., PeerMesh]] = {"gmsh": gmsh_mesh, "triangle": tria
 def peer_statistics(model, mesh: PeerMesh) -> MeshStats:
     """Np, Ne, q and delta of a peer mesh, evaluated like hetmesh's own
     (:func:`hetmesh.mesh_statistics`)."""
-    from .tri.adapt import mesh_statistics
+    from .kernel import mesh_statistics
     from .mesh import Mesh
 
     return mesh_statistics(Mesh(mesh.points, mesh.triangles), model)

@@ -24,7 +24,8 @@ from .io.atomic import atomic_path
 from .mesh import Mesh
 
 __all__ = ["mesh_figure", "plot_mesh", "delta_histogram_figure", "plot_delta_histogram",
-           "interface_markers", "label_points", "axis_labels"]
+           "interface_markers", "label_points", "axis_labels", "new_figure", "figure_size",
+           "save_figure", "bin_edges"]
 
 log = logging.getLogger(__name__)
 
@@ -40,7 +41,9 @@ DeltaLike = np.ndarray | Sequence[float] | Mesh
 
 # -- the mesh ----------------------------------------------------------------------------
 
-def _new_figure(width: float, height: float) -> Figure:
+def new_figure(width: float, height: float) -> Figure:
+    """A Matplotlib figure of ``width`` x ``height`` inches drawn off screen (Agg), with the
+    constrained layout; no pyplot state is involved."""
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
@@ -62,7 +65,9 @@ def _point_values(mesh: Mesh, data: str | None) -> tuple[str, np.ndarray] | None
     return data, values
 
 
-def _figure_size(mesh: Mesh) -> tuple[float, float]:
+def figure_size(mesh: Mesh) -> tuple[float, float]:
+    """``(width, height)`` in inches of a mesh figure: 7 wide, as tall as the mesh's aspect
+    asks (between 2.5 and 10)."""
     span = np.ptp(mesh.points, axis=0) if mesh.n_points else np.ones(2)
     aspect = float(span[1] / span[0]) if span[0] > 0 else 1.0
     width = 7.0
@@ -141,9 +146,9 @@ def mesh_figure(mesh: Mesh, *, data: str | None = None, title: str | None = None
     """
     interface_markers = list(interface_markers)
     constituents = tuple(constituents)
-    width, height = _figure_size(mesh)
+    width, height = figure_size(mesh)
     legend = bool(len(mesh.edges)) and bool(np.isin(mesh.edge_markers, interface_markers).any())
-    fig = _new_figure(width, height + (0.45 if legend else 0.0))  # room for the legend
+    fig = new_figure(width, height + (0.45 if legend else 0.0))  # room for the legend
     ax = fig.add_subplot()
     tri = Triangulation(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles)
     picked = _point_values(mesh, data)
@@ -199,7 +204,7 @@ def plot_mesh(mesh: Mesh, path: str | Path, *, data: str | None = None, title: s
     """
     fig = mesh_figure(mesh, data=data, title=title, interface_markers=interface_markers,
                       show_edges=show_edges, units=units, constituents=constituents)
-    return _save(fig, path, dpi)
+    return save_figure(fig, path, dpi)
 
 
 # -- delta histograms --------------------------------------------------------------------
@@ -223,7 +228,7 @@ def _series(delta, other, labels: Sequence[str]) -> list[tuple[str, np.ndarray]]
     return [(labels[i], _delta_values(d, labels[i])) for i, d in enumerate(items)]
 
 
-def _bin_edges(series: list[tuple[str, np.ndarray]], threshold: float, bins) -> np.ndarray:
+def bin_edges(series: list[tuple[str, np.ndarray]], threshold: float, bins) -> np.ndarray:
     """Bins from 0 whose edges fall on the threshold: ``k`` equal bins up to delta_0 (about
     ``bins`` in all over the data), then as many of the same width as the values above it
     need; no bin straddles delta_0, so the bars left of its line hold the elements below it
@@ -275,8 +280,8 @@ def delta_histogram_figure(delta, *, threshold: float, other: DeltaLike | None =
     if not (np.isfinite(threshold) and threshold > 0):
         raise OptionError(f"threshold must be a positive number, got {threshold!r}")
     series = _series(delta, other, labels)
-    edges = _bin_edges(series, float(threshold), bins)
-    fig = _new_figure(7.0, 4.2)
+    edges = bin_edges(series, float(threshold), bins)
+    fig = new_figure(7.0, 4.2)
     ax = fig.add_subplot()
     for i, (label, d) in enumerate(series):
         if not d.size:
@@ -316,12 +321,12 @@ def plot_delta_histogram(delta, path: str | Path, *, threshold: float,
     """
     fig = delta_histogram_figure(delta, threshold=threshold, other=other, labels=labels,
                                  bins=bins, title=title)
-    return _save(fig, path, dpi)
+    return save_figure(fig, path, dpi)
 
 
 # -- saving ------------------------------------------------------------------------------
 
-def _save(fig: Figure, path: str | Path, dpi: int) -> Path:
+def save_figure(fig: Figure, path: str | Path, dpi: int) -> Path:
     """Save atomically in the format of the extension, then release the figure."""
     path = Path(path)
     known = fig.canvas.get_supported_filetypes()

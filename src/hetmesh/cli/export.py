@@ -62,7 +62,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 def run(args: argparse.Namespace) -> int:
     from ..errors import OutputError
     from ..io.deck import write_deck
-    from ..io.export import read_mesh
+    from ..io.read import read_mesh
     from ..io.model import load_model
 
     if args.output.exists() and not args.output.is_dir():

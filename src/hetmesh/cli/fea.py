@@ -76,7 +76,8 @@ def probe_table(result) -> Table:
 def run(args: argparse.Namespace) -> int:
     from ..errors import FEAError
     from ..fea import plot_von_mises, solve, write_report
-    from ..io.export import read_mesh, write_mesh
+    from ..io.read import read_mesh
+    from ..io.export import write_mesh
     from ..io.model import load_model
 
     from .examples import check_model_path

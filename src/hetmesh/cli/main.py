@@ -28,7 +28,7 @@ import warnings
 from contextlib import contextmanager
 from typing import Iterator, NoReturn, Sequence
 
-from .. import __version__
+from ..version import __version__
 from ..errors import HetmeshError, OptionError
 from . import demo, examples, export, fea, mesh, reproduce, stats, sweep, uniform
 

@@ -225,7 +225,7 @@ def run_pipeline(func: Callable, model, threshold: float, kwargs: dict[str, Any]
 
 def stats_document(args: argparse.Namespace, model, result, seconds: float) -> dict[str, Any]:
     """The ``--stats`` JSON: everything needed to reproduce and judge the run."""
-    from .. import __version__
+    from ..version import __version__
 
     return jsonable({
         "hetmesh_version": __version__,
@@ -306,7 +306,7 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
 
 
 def _generate() -> Callable:
-    from ..tri.adapt import generate
+    from ..tri.pipeline import generate
 
     return generate
 

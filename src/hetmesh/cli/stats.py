@@ -113,7 +113,8 @@ def with_bounds(stats, mesh, model, sampling: str | None):
     import dataclasses
 
     from ..material.field import element_subregions, has_subregions
-    from ..metrics import delta_dense, element_delta
+    from ..metrics import delta_dense
+    from ..delta import element_delta
 
     fld = model.material
     regions = None
@@ -146,9 +147,10 @@ def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> Non
 
 
 def _statistics(mesh, model, sampling: str, threshold: float | None):
-    """:func:`hetmesh.tri.adapt.mesh_statistics`, with ``threshold`` for certified sampling."""
+    """:func:`hetmesh.mesh_statistics`, with ``threshold`` for certified sampling."""
     from ..material.field import element_subregions, has_subregions
-    from ..metrics import element_delta, statistics
+    from ..metrics import statistics
+    from ..delta import element_delta
 
     fld = model.material
     regions = (element_subregions(fld, mesh.points, mesh.triangles) if has_subregions(fld)
@@ -159,7 +161,7 @@ def _statistics(mesh, model, sampling: str, threshold: float | None):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io.export import read_mesh
+    from ..io.read import read_mesh
     from ..io.model import load_model
 
     from .examples import check_model_path

@@ -13,7 +13,7 @@ triangles:
 
 The properties ``k, E, nu, alpha`` are mixed from the composition **at every quadrature
 point** (3 per element for P1, 6 for P2), each element evaluated in its own feature-tree
-subregion (:func:`hetmesh.tri.discontinuity.element_subregions`), by the rule of ``[fea] mixing``
+subregion (:func:`hetmesh.material.element_subregions`), by the rule of ``[fea] mixing``
 (:mod:`hetmesh.fea.mixing`). Boundary conditions are found geometrically -- the mesh nodes
 within ``1e-6`` x the domain diameter of the named curves, the node at a named point -- so any
 mesh file of the model works. Stresses are recovered at the nodes by an L2 projection onto
@@ -108,7 +108,7 @@ class FEAResult:
 
 # ----------------------------------------------------------------------------- geometry
 
-def _p1(P: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def p1_basis(P: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(gradients (M, 3, 2), areas (M,))`` of the P1 basis functions of every triangle."""
     a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
     d = signed_area2(a, b, c)
@@ -362,7 +362,7 @@ def von_mises(s: np.ndarray) -> np.ndarray:
 
 def p1_gradient(grads: np.ndarray, u: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Displacement gradients ``(M, 1, 2, 2)`` (``du_c/dx_d``) of P1 nodal values ``u (N, 2)``
-    with basis gradients ``grads (M, 3, 2)`` (:func:`_p1`)."""
+    with basis gradients ``grads (M, 3, 2)`` (:func:`p1_basis`)."""
     return np.einsum("mic,mid->mcd", u[t], grads)[:, None]
 
 
@@ -474,7 +474,7 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     ----------
     mesh : Mesh
         Any triangle mesh of the model's domain (from :func:`hetmesh.generate`,
-        :func:`hetmesh.uniform` or :func:`hetmesh.io.export.read_mesh`), in the model's
+        :func:`hetmesh.uniform` or :func:`hetmesh.io.read.read_mesh`), in the model's
         coordinates.
     model : Model
         With an ``[fea]`` table (``model.fea``), or pass ``config``.

@@ -147,7 +147,7 @@ def uniform_mesher(model) -> Callable[[float], Any]:
     """A function ``h -> Mesh``: uniform quality meshes of edge ~h of ``model`` (its
     feature-tree discontinuities embedded, :func:`hetmesh.tri.uniform.uniform_at`), sharing
     one prepared domain."""
-    from ..tri.adapt import prepare
+    from ..tri.pipeline import prepare
     from ..tri.discontinuity import embed_discontinuities
     from ..mesh import Mesh
     from ..tri.uniform import uniform_at
@@ -235,7 +235,7 @@ def measure(model, cfg, kind: str, p: float, *, uniform_mesh=None) -> dict:
     ``{"error": message}`` if meshing or solving raised a :class:`HetmeshError`.
     ``uniform_mesh`` is a :func:`uniform_mesher` of ``model`` to reuse (default: a new one).
     """
-    from ..tri.adapt import generate
+    from ..tri.pipeline import generate
     from .analysis import solve
 
     t0 = time.perf_counter()

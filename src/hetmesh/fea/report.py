@@ -22,7 +22,7 @@ log = logging.getLogger(__name__)
 
 def report_document(result, **extra) -> dict[str, Any]:
     """:meth:`FEAResult.report` plus ``extra`` keys (file names, version), JSON-ready."""
-    from .. import __version__
+    from ..version import __version__
 
     return jsonable({"hetmesh_version": __version__, **extra, **result.report()},
                     infinity_as_string=False)
@@ -51,10 +51,10 @@ def von_mises_figure(result, *, title: str | None = None, show_probes: bool = Tr
     """
     from matplotlib.tri import Triangulation
 
-    from ..plot import _figure_size, _new_figure, axis_labels, label_points
+    from ..plot import figure_size, new_figure, axis_labels, label_points
 
     mesh = result.mesh
-    fig = _new_figure(*_figure_size(mesh))
+    fig = new_figure(*figure_size(mesh))
     ax = fig.add_subplot()
     tri = Triangulation(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles)
     art = ax.tripcolor(tri, result.von_mises / 1e6, shading="gouraud", cmap="inferno")
@@ -75,6 +75,6 @@ def von_mises_figure(result, *, title: str | None = None, show_probes: bool = Tr
 def plot_von_mises(result, path: str | Path, *, title: str | None = None,
                    dpi: int = 150, units: str = "") -> Path:
     """Save :func:`von_mises_figure` to ``path`` (format from the extension, atomically)."""
-    from ..plot import _save
+    from ..plot import save_figure
 
-    return _save(von_mises_figure(result, title=title, units=units), path, dpi)
+    return save_figure(von_mises_figure(result, title=title, units=units), path, dpi)

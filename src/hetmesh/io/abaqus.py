@@ -28,18 +28,22 @@ from __future__ import annotations
 import logging
 import re
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import numpy as np
 
 from ..errors import OutputError
-from ..mesh import Mesh
 from . import textio
 from .groups import curve_groups
 from .textio import check_ids
 
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
+
 __all__ = ["format_reals", "abaqus_name", "element_type", "quadratic_nodes", "write_inp",
-           "write_inp_mesh", "write_materials", "edge_sides", "set_names", "MAX_FIELD"]
+           "write_inp_mesh", "write_materials", "write_id_list", "edge_sides", "set_names",
+           "MAX_FIELD"]
 
 log = logging.getLogger(__name__)
 
@@ -118,7 +122,7 @@ def quadratic_nodes(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (mesh.points[u[:, 0]] + mesh.points[u[:, 1]]), mid
 
 
-def _write_id_list(f: TextIO, ids: np.ndarray) -> None:
+def write_id_list(f: TextIO, ids: np.ndarray) -> None:
     """Ids (1-based), 16 per line as Abaqus wants."""
     full = len(ids) // 16 * 16
     textio.write_rows(f, "%d," * 15 + "%d\n", ids[:full].reshape(-1, 16))
@@ -168,7 +172,7 @@ def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str],
                 if ids.size:
                     faces.append(f"_M{mk}_S{s + 1}")
                     f.write(f"*ELSET, ELSET={faces[-1]}, INTERNAL\n")
-                    _write_id_list(f, ids + 1)
+                    write_id_list(f, ids + 1)
         if faces:
             f.write(f"*SURFACE, TYPE=ELEMENT, NAME={name}\n"
                     + "".join(f"{s}, {s[-2:]}\n" for s in faces))
@@ -178,7 +182,7 @@ def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str],
             ok = sel & (tri >= 0)
             nodes = np.concatenate([nodes, mid[tri[ok], side[ok]]])
         f.write(f"*NSET, NSET={name}\n")
-        _write_id_list(f, np.unique(nodes) + 1)
+        write_id_list(f, np.unique(nodes) + 1)
 
 
 def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", order: int = 1,
@@ -203,7 +207,7 @@ def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", 
     regions = np.unique(mesh.regions)
     for r in regions:
         f.write(f"*ELSET, ELSET=REGION_{r}\n")
-        _write_id_list(f, np.flatnonzero(mesh.regions == r) + 1)
+        write_id_list(f, np.flatnonzero(mesh.regions == r) + 1)
     curves, pts = set_names(mesh)
     _write_edges(f, mesh, path, curves, mid)
     for name, node in mesh.named_points.items():
@@ -220,7 +224,7 @@ def write_materials(f: TextIO, bins, *, thickness: float = 1.0,
     for b in range(bins.count):
         name = f"MAT_{b + 1}"
         f.write(f"*ELSET, ELSET={name}\n")
-        _write_id_list(f, np.flatnonzero(bins.index == b) + 1)
+        write_id_list(f, np.flatnonzero(bins.index == b) + 1)
         E, nu, alpha, k = format_reals(np.array([p["youngs_modulus"][b], p["poisson_ratio"][b],
                                                  p["expansion"][b], p["conductivity"][b]]))
         comp = ", ".join(f"{c:.6f}" for c in bins.composition[b])

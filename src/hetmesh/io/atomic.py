@@ -80,7 +80,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             if not tmp.is_file():
                 raise OutputError(f"cannot write {target}: the temporary file {tmp.name} "
                                   f"vanished")
-            _fsync(tmp)
+            fsync(tmp)
             os.replace(tmp, target)
         except OSError as exc:
             _discard(tmp)
@@ -211,7 +211,12 @@ def _remove_stale(target: Path) -> None:
             _discard(path)
 
 
-def _fsync(tmp: Path) -> None:
+def fsync(tmp: Path) -> None:
+    """Flush the written temporary file ``tmp`` to disk before its rename.
+
+    :func:`atomic_path` calls it through this module's global name: a test may replace
+    ``hetmesh.io.atomic.fsync`` to act at the moment the data is written but not renamed.
+    """
     fd = os.open(tmp, os.O_RDONLY)
     try:
         os.fsync(fd)

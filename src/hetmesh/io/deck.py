@@ -109,7 +109,7 @@ def section_thickness(model) -> float:
 
 def _write_id_set(f, name: str, ids: np.ndarray) -> None:
     f.write(f"*NSET, NSET={name}\n")
-    abaqus._write_id_list(f, np.asarray(ids, np.int64) + 1)
+    abaqus.write_id_list(f, np.asarray(ids, np.int64) + 1)
 
 
 def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: str) -> bool:

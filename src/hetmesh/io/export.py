@@ -31,18 +31,21 @@ import logging
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import meshio
 import numpy as np
 
 from ..errors import OutputError
-from ..mesh import Mesh
 from . import abaqus, gmsh_msh, xdmf
 from .atomic import atomic_path, atomic_write  # atomic_write re-exported (docs/internals.md)
 from .textio import float_pad, region_tag_offset
 
-__all__ = ["FORMATS", "FILE_FORMATS", "MeshFormat", "write_mesh", "read_mesh", "region_tag_offset",
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
+
+__all__ = ["FORMATS", "FILE_FORMATS", "MeshFormat", "write_mesh", "read_mesh_arrays", "region_tag_offset",
            "atomic_write"]
 
 log = logging.getLogger(__name__)
@@ -391,43 +394,22 @@ def _tag_order(m: meshio.Mesh, path: Path, tri: list[int]) -> meshio.Mesh:
                        field_data=m.field_data)
 
 
-def read_mesh(path: str | Path) -> Mesh:
-    """Read a mesh written by :func:`write_mesh` (or any triangle mesh meshio reads).
-
-    Parameters
-    ----------
-    path : str or Path
-        The format follows the extension (``.msh`` of either Gmsh version).
-
-    Returns
-    -------
-    Mesh
-        Points (x, y), the triangles, their regions (``region`` cell data, Gmsh physical
-        surfaces, Medit references, dolfinx cell tags or Abaqus ``REGION_<id>`` sets), the
-        edges and their markers and names, and the named points, where the format keeps
-        them; point data and the triangles' cell data. Files written by :func:`write_mesh`
-        read back in the mesh's own node and triangle order (``.msh`` 4.1 by its tags).
-
-    Raises
-    ------
-    OutputError
-        Unknown extension, missing file, unreadable content or no triangles.
-
-    Examples
-    --------
-    >>> mesh = read_mesh("plate.vtu")   # doctest: +SKIP
-    """
+def read_mesh_arrays(path: str | Path) -> dict:
+    """The arrays of a mesh file as the keyword arguments of :class:`hetmesh.mesh.Mesh`
+    (``points``, ``cells``, ``regions``, ``facets``, ``facet_markers``, ``point_data``,
+    ``cell_data``, ``marker_names``, ``named_points``); :func:`hetmesh.io.read.read_mesh`
+    builds the mesh. What is read, from which format, and the errors: see there."""
     path = Path(path)
     fmt = _resolve(path, None)
     if not path.is_file():
         raise OutputError(f"cannot read {path}: no such file")
     if fmt.name == "xdmf":
         try:
-            mesh = xdmf.read_xdmf(path)
+            arrays = xdmf.read_xdmf(path)
         except (OSError, KeyError, ValueError, AttributeError) as exc:
             raise OutputError(f"cannot read {path} as xdmf: {_one_line(exc)}") from exc
-        if mesh is not None:
-            return mesh
+        if arrays is not None:
+            return arrays
     # the format's own reader: meshio.read() prints and calls sys.exit(1) on a bad file
     reader = getattr(meshio, fmt.meshio_format).read
     try:
@@ -457,6 +439,6 @@ def read_mesh(path: str | Path) -> Mesh:
     cell_data = {k: _gather(m, k, tri) for k in m.cell_data
                  if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
     point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}
-    return Mesh(np.asarray(m.points, np.float64)[:, :2], triangles, regions=regions, facets=edges,
-                facet_markers=markers, point_data=point_data, cell_data=cell_data,
-                marker_names=names, named_points=named)
+    return dict(points=np.asarray(m.points, np.float64)[:, :2], cells=triangles,
+                regions=regions, facets=edges, facet_markers=markers, point_data=point_data,
+                cell_data=cell_data, marker_names=names, named_points=named)

@@ -23,7 +23,7 @@ and elements are listed in tag order, a block for each run of one entity (the fo
 several blocks per entity), so readers that number by position (meshio, scikit-fem) get
 the same numbering as Gmsh, which reads the tags. :func:`msh41_order` recovers the tag
 order of files listed otherwise (as Gmsh writes them) for
-:func:`hetmesh.io.export.read_mesh`.
+:func:`hetmesh.io.read.read_mesh`.
 
 MSH 2.2 has no node entities: nodes in tag order, elements with their physical and
 geometric tags (the curve's marker, the region's surface), named points as point elements.
@@ -34,14 +34,18 @@ from __future__ import annotations
 import logging
 from itertools import islice
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import numpy as np
 
-from ..mesh import Mesh, edge_keys
+from ..topology import edge_keys
 from . import textio
 from .groups import curve_ends, curve_groups, node_entities, point_entities
 from .textio import check_ids, float_pad, region_tag_offset
+
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
 
 __all__ = ["write_msh41", "write_msh22", "point_tag_offset", "msh41_order", "physical_names"]
 

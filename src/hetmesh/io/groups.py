@@ -12,11 +12,16 @@ Pure numpy; shared by the Gmsh, Abaqus and XDMF writers.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..mesh import Mesh
+
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
 
 __all__ = ["CurveGroup", "curve_groups", "curve_ends", "point_entities", "node_entities"]
 
@@ -44,6 +49,7 @@ class CurveGroup:
 def curve_groups(mesh: Mesh) -> list[CurveGroup]:
     """One :class:`CurveGroup` per name among the markers of ``mesh.edges``, by tag.
 
+    >>> from hetmesh.mesh import Mesh
     >>> m = Mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], facets=[[0, 1], [1, 2], [2, 0]],
     ...          facet_markers=[3, 5, 4], marker_names={3: "a", 4: "b", 5: "a"})
     >>> [(g.name, g.tag, g.markers) for g in curve_groups(m)]

@@ -24,12 +24,15 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 
 from ..errors import FEAError, OptionError
-from ..mesh import Mesh
+
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
 
 __all__ = ["ElementMaterial", "MaterialBins", "element_material", "bin_material",
            "with_material", "material_config", "PROPERTY_NAMES"]

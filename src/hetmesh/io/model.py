@@ -11,28 +11,29 @@ The format is documented in ``docs/model-format.md``.
 
 from __future__ import annotations
 
-import json
 import keyword
 import logging
 import math
 import os
 import tomllib
 from dataclasses import dataclass, field
+from importlib.resources import files
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
-from ..errors import GeometryError, HetmeshError, MaterialError, ModelFileError
+from ..errors import GeometryError, MaterialError, ModelFileError
 from ..expr import FUNCTIONS
 from ..fea.config import FEAConfig, parse_fea
-from ..tri.geometry import Arc, Loop, Segment, make_domain
+from .schema import SchemaContext, describe
+from ..tri.geometry import Arc, Domain, Loop, Segment, make_domain
 from ..tri.geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
 from ..material.hft import parse_hft
 from ..material.image.parse import parse_image, parse_image_model
 
-__all__ = ["Model", "load_model", "parse_model", "MATERIAL_TYPES", "MAX_FILE_BYTES"]
+__all__ = ["Model", "load_model", "parse_model", "example_path", "MATERIAL_TYPES", "MAX_FILE_BYTES"]
 
 logger = logging.getLogger(__name__)
 
@@ -78,7 +79,7 @@ class Model:
     """
 
     name: str
-    domain: Any
+    domain: Domain
     material: MaterialField
     parameters: dict = field(default_factory=dict)
     source: Path | None = None
@@ -108,6 +109,12 @@ class Model:
 
 
 # --------------------------------------------------------------------------------- reading
+
+def example_path(name: str) -> Path:
+    """Path of a packaged example model, e.g. ``example_path("power_plate")``."""
+    p = files("hetmesh") / "examples" / f"{name}.toml"
+    return Path(str(p))
+
 
 def load_model(path: str | os.PathLike, *, check: bool = True) -> Model:
     """Read a model file.
@@ -173,7 +180,7 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
         from .model3d import parse_model3d
         return parse_model3d(data, where, source=source, default_name=default_name,
                              check=check)
-    ctx = _Ctx(where)
+    ctx = SchemaContext(where)
     ctx.base = source.parent if source is not None else Path(".")
     top = ctx.table(data, "", required=("domain", "material"),
                     optional=("model", "parameters", "fea"))
@@ -197,108 +204,13 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
     return model
 
 
-# ------------------------------------------------------------------------- schema helpers
-
-def _toml(value) -> str:
-    """``value`` written as in a TOML file (``true``, ``"text"``, ``[1, 2]``, ``{ a = 1 }``)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    if isinstance(value, Mapping):
-        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
-    return repr(value)
-
-
-def _describe(value) -> str:
-    """A short description of a wrong value: ``[0, true] (array)``."""
-    kind = {bool: "boolean", int: "integer", float: "number", str: "string", list: "array",
-            dict: "table"}.get(type(value), type(value).__name__)
-    text = _toml(value)
-    if len(text) > 40:
-        text = text[:37] + "..."
-    return f"{text} ({kind})"
-
-
-def _join(prefix: str, key: str) -> str:
-    return f"{prefix}.{key}" if prefix else key
-
-
-class _Ctx:
-    """Builds error messages ``<where>: <key path>: <problem>`` for one file."""
-
-    def __init__(self, where: str):
-        self.where = where
-        self.pre = f"{where}: " if where else ""
-
-    def fail(self, key: str, problem: str, cls=ModelFileError):
-        return cls(f"{self.pre}{key}: {problem}" if key else f"{self.pre}{problem}")
-
-    def table(self, value, key: str, required=(), optional=()) -> dict:
-        if not isinstance(value, Mapping):
-            raise self.fail(key or "model file", f"expected a table, got {_describe(value)}")
-        allowed = tuple(required) + tuple(optional)
-        for k in value:
-            if k not in allowed:
-                raise ModelFileError(f"{self.pre}unknown key {_join(key, str(k))!r} "
-                                     f"(expected one of: {', '.join(allowed)})")
-        for k in required:
-            if k not in value:
-                raise ModelFileError(f"{self.pre}missing key {_join(key, k)!r}")
-        return dict(value)
-
-    def string(self, table: Mapping, key: str, name: str, default=None) -> str:
-        if name not in table:
-            return default
-        v = table[name]
-        if not isinstance(v, str):
-            raise self.fail(_join(key, name), f"expected a string, got {_describe(v)}")
-        return v
-
-    def number(self, value, key: str, positive: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(key, f"expected a number, got {_describe(value)}")
-        v = float(value)
-        if not math.isfinite(v):
-            raise self.fail(key, f"expected a finite number, got {value!r}")
-        if positive and v <= 0:
-            raise self.fail(key, f"expected a positive number, got {value!r}")
-        return v
-
-    def point(self, value, key: str) -> tuple[float, float]:
-        ok = (isinstance(value, list) and len(value) == 2
-              and all(isinstance(c, (int, float)) and not isinstance(c, bool)
-                      and math.isfinite(c) for c in value))
-        if not ok:
-            raise self.fail(key, f"expected a point [x, y] of 2 finite numbers, got "
-                                 f"{_describe(value)}")
-        return (float(value[0]), float(value[1]))
-
-    def ccw(self, table: Mapping, key: str) -> bool:
-        """The optional ``direction`` of ``table``: True for ``"ccw"`` (the default)."""
-        direction = self.string(table, key, "direction", default="ccw")
-        if direction not in ("ccw", "cw"):
-            raise self.fail(f"{key}.direction", f"expected \"ccw\" or \"cw\", got "
-                                                f"{direction!r}")
-        return direction == "ccw"
-
-    def wrap(self, key: str, exc: HetmeshError) -> HetmeshError:
-        """Re-raise a geometry/material error with this file's prefix and ``key``."""
-        msg = str(exc)
-        if self.where and msg.startswith(self.where):
-            return exc
-        return type(exc)(f"{self.pre}{key}: {msg}" if key else f"{self.pre}{msg}")
-
-
 # ------------------------------------------------------------------------------ parameters
 
 def _reserved() -> frozenset[str]:
     return RESERVED_NAMES | frozenset(FUNCTIONS) | frozenset(keyword.kwlist)
 
 
-def _parameters(ctx: _Ctx, value) -> dict[str, float]:
+def _parameters(ctx: SchemaContext, value) -> dict[str, float]:
     table = ctx.table(value, "parameters", optional=tuple(value) if isinstance(value, Mapping)
                       else ())
     reserved = _reserved()
@@ -317,13 +229,13 @@ def _parameters(ctx: _Ctx, value) -> dict[str, float]:
 
 # -------------------------------------------------------------------------------- geometry
 
-def _curves(ctx: _Ctx, key: str, start, path) -> list:
+def _curves(ctx: SchemaContext, key: str, start, path) -> list:
     """Segments and arcs of ``path`` (a list of tables ``{to, name, through, center,
     direction}``) starting at ``start``."""
     p0 = ctx.point(start, f"{key}.start")
     if not isinstance(path, list) or not path:
         raise ctx.fail(f"{key}.path", f"expected a non-empty array of "
-                                      f"{{ to = [x, y], ... }} tables, got {_describe(path)}")
+                                      f"{{ to = [x, y], ... }} tables, got {describe(path)}")
     curves = []
     for i, item in enumerate(path):
         k = f"{key}.path[{i}]"
@@ -352,7 +264,7 @@ def _curves(ctx: _Ctx, key: str, start, path) -> list:
     return curves
 
 
-def _circle(ctx: _Ctx, key: str, value):
+def _circle(ctx: SchemaContext, key: str, value):
     t = ctx.table(value, f"{key}.circle", required=("center", "radius"))
     c = ctx.point(t["center"], f"{key}.circle.center")
     r = ctx.number(t["radius"], f"{key}.circle.radius", positive=True)
@@ -362,7 +274,7 @@ def _circle(ctx: _Ctx, key: str, value):
         raise ctx.wrap(f"{key}.circle", exc) from None
 
 
-def _chain(ctx: _Ctx, key: str, value, closed: bool, default_name: str):
+def _chain(ctx: SchemaContext, key: str, value, closed: bool, default_name: str):
     """``(name, curves)`` of an outer/hole (``closed``) or interface table."""
     t = ctx.table(value, key, optional=("name", "start", "path", "circle"))
     name = ctx.string(t, key, "name", default=default_name)
@@ -398,7 +310,7 @@ _REL_TOL = 1e-9  # geometry's relative tolerance (times the length scale)
 _EPS = float(np.finfo(float).eps)
 
 
-def _domain(ctx: _Ctx, value):
+def _domain(ctx: SchemaContext, value):
     t = ctx.table(value, "domain", required=("outer",),
                   optional=("holes", "interfaces", "points"))
     used: dict[str, str] = {}  # loop / interface name -> key
@@ -424,7 +336,7 @@ def _domain(ctx: _Ctx, value):
         items = t.get(kind, [])
         if not isinstance(items, list):
             raise ctx.fail(f"domain.{kind}", f"expected an array of tables ([[domain.{kind}]]),"
-                                             f" got {_describe(items)}")
+                                             f" got {describe(items)}")
         for i, item in enumerate(items):
             key = f"domain.{kind}[{i}]"
             name, curves = _chain(ctx, key, item, closed, f"{default}[{i}]")
@@ -455,13 +367,13 @@ def _owner_key(message: str, owners: Mapping[str, str]) -> str:
 
 # -------------------------------------------------------------------------------- material
 
-def _analytic(ctx: _Ctx, table: dict, domain, parameters: dict) -> MaterialField:
+def _analytic(ctx: SchemaContext, table: dict, domain, parameters: dict) -> MaterialField:
     t = ctx.table(table, "material", required=("constituents", "composition"),
                   optional=("type",))
     cons = t["constituents"]
     key = "material.constituents"
     if not isinstance(cons, list) or not all(isinstance(c, str) for c in cons):
-        raise ctx.fail(key, f"expected an array of names, got {_describe(cons)}")
+        raise ctx.fail(key, f"expected an array of names, got {describe(cons)}")
     seen = set()
     for c in cons:
         if not c.strip():
@@ -474,7 +386,7 @@ def _analytic(ctx: _Ctx, table: dict, domain, parameters: dict) -> MaterialField
     comp = t["composition"]
     if not isinstance(comp, Mapping):
         raise ctx.fail("material.composition", f"expected a table of formulas, got "
-                                               f"{_describe(comp)}")
+                                               f"{describe(comp)}")
     formulas = {}
     for name, text in comp.items():
         k = f"material.composition.{name}"
@@ -484,7 +396,7 @@ def _analytic(ctx: _Ctx, table: dict, domain, parameters: dict) -> MaterialField
         if isinstance(text, (int, float)) and not isinstance(text, bool):
             text = repr(ctx.number(text, k))
         if not isinstance(text, str):
-            raise ctx.fail(k, f"expected a formula string, got {_describe(text)}")
+            raise ctx.fail(k, f"expected a formula string, got {describe(text)}")
         formulas[name] = text
     missing = [c for c in cons if c not in formulas]
     if len(missing) > 1:
@@ -501,9 +413,9 @@ MATERIAL_TYPES["hft"] = parse_hft  # feature trees (paper Sec. 3.3)
 MATERIAL_TYPES["image"] = parse_image  # images and voxel data (docs/model-format.md)
 
 
-def _material(ctx: _Ctx, value, domain, parameters: dict) -> MaterialField:
+def _material(ctx: SchemaContext, value, domain, parameters: dict) -> MaterialField:
     if not isinstance(value, Mapping):
-        raise ctx.fail("material", f"expected a table, got {_describe(value)}")
+        raise ctx.fail("material", f"expected a table, got {describe(value)}")
     kind = value.get("type", "analytic")
     if kind not in MATERIAL_TYPES:
         raise ctx.fail("material.type", f"unknown material type {kind!r} (expected one of: "

@@ -62,8 +62,8 @@ class Model3D:
 
 
 def _ctx(where: str):
-    from .model import _Ctx
-    return _Ctx(where)
+    from .schema import SchemaContext
+    return SchemaContext(where)
 
 
 def _point3(ctx, value, key) -> np.ndarray:
@@ -71,9 +71,9 @@ def _point3(ctx, value, key) -> np.ndarray:
           and all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c)
                   for c in value))
     if not ok:
-        from .model import _describe
+        from .schema import describe
         raise ctx.fail(key, f"expected a point [x, y, z] of 3 finite numbers, got "
-                            f"{_describe(value)}")
+                            f"{describe(value)}")
     return np.array(value, dtype=float)
 
 

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import numpy as np
 
 from ..errors import OutputError
-from ..mesh import Mesh
+
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
 
 __all__ = ["write_rows", "float_pad", "check_ids", "region_tag_offset", "ROWS_PER_CHUNK"]
 

@@ -24,6 +24,8 @@ does. :func:`read_xdmf` reads this layout (ElementTree + h5py).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -31,9 +33,12 @@ import h5py
 import numpy as np
 
 from ..errors import OutputError
-from ..mesh import Mesh
 from .atomic import atomic_path
 from .groups import curve_groups
+
+
+if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
+    from ..mesh import Mesh
 
 __all__ = ["write_xdmf", "read_xdmf", "GEOMETRY_XPOINTER"]
 
@@ -136,7 +141,7 @@ def _data(item: ET.Element, base: Path) -> np.ndarray:
     return np.array(item.text.split(), kind).reshape(shape)
 
 
-def read_xdmf(path: Path) -> Mesh | None:
+def read_xdmf(path: Path) -> dict | None:
     """Read the layout of :func:`write_xdmf`; None if ``path`` has no grid named ``mesh``
     (then it is some other XDMF file)."""
     path = Path(path)
@@ -178,5 +183,6 @@ def read_xdmf(path: Path) -> Mesh | None:
         vals = _data(f.find("Attribute/DataItem"), base).ravel()
         named = {label.get(int(v), f"point_{v}"): int(n) for n, v in zip(nodes, vals)}
     xyz = g.find("Geometry").get("GeometryType") == "XYZ" and t.shape[1] == 4
-    return Mesh(p if xyz else p[:, :2], t, regions=regions, facets=edges, facet_markers=markers,
+    return dict(points=p if xyz else p[:, :2], cells=t, regions=regions, facets=edges,
+                facet_markers=markers,
                 point_data=pd, cell_data=cd, marker_names=names, named_points=named)

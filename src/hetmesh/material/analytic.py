@@ -32,7 +32,7 @@ from ..errors import MaterialError
 from ..expr import compile_expr, split_conditions
 from .field import as_points
 
-__all__ = ["AnalyticField", "CallableField", "check_constituents", "SINGULAR_STEP",
+__all__ = ["AnalyticField", "CallableField", "Shiftable", "check_constituents", "SINGULAR_STEP",
            "MAX_CONDITIONS", "difference_step"]
 
 #: Where the exact derivative is not finite, the finite difference spans this fraction of
@@ -148,7 +148,7 @@ def _difference(values, local: np.ndarray, offset: np.ndarray, h: np.ndarray,
     return out
 
 
-class _Shiftable:
+class Shiftable:
     """Shared ``offset`` handling: fields evaluate at ``points + offset``."""
 
     _offset_xy: np.ndarray = np.zeros(2)
@@ -160,7 +160,7 @@ class _Shiftable:
         """The offset added to the points before evaluation (zeros unless shifted)."""
         return self._offset_xy.copy()
 
-    def shifted(self, offset) -> "_Shiftable":
+    def shifted(self, offset) -> "Shiftable":
         """The same field evaluated at ``points + offset``.
 
         ``f.shifted(a).composition(p)`` equals ``f.composition(p + a)``; shifts add up.
@@ -176,7 +176,7 @@ class _Shiftable:
         return p
 
 
-class AnalyticField(_Shiftable):
+class AnalyticField(Shiftable):
     """Compositions given by formulas in ``x``, ``y`` and named parameters.
 
     Formulas are compiled by :func:`hetmesh.expr.compile_expr` (never ``eval``); gradients
@@ -480,7 +480,7 @@ class _RegionNames(_SequenceABC):
         return " and ".join(c if r >> i & 1 else f"not {c}" for i, c in enumerate(self._conds))
 
 
-class CallableField(_Shiftable):
+class CallableField(Shiftable):
     """A material field from a Python function of whole coordinate arrays.
 
     Parameters

@@ -40,7 +40,7 @@ from typing import Callable, Optional, Sequence
 from ..errors import HetmeshError, OptionError
 from ..io.atomic import output_dir
 from .paper import CASES, Case
-from .runs import CaseRun, draw_figures, mesh_pair, run_peer, uniform_like, MeshRun
+from .runs import CaseRun, mesh_record
 
 __all__ = ["run", "Report", "CASES", "plan", "fea_study_function"]
 
@@ -100,7 +100,7 @@ def fea_study_function():
 def _environment(command: str | None) -> dict:
     import numpy
 
-    from .. import __version__
+    from ..version import __version__
 
     return {"hetmesh": __version__, "python": platform.python_version(),
             "numpy": numpy.__version__, "platform": platform.platform(),
@@ -149,7 +149,7 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
     OutputError
         ``out`` cannot be created or written.
     """
-    from .. import example_path, load_model
+    from ..io.model import example_path, load_model
     from .. import peers as peer_module
     from .report import render, write_report
 
@@ -175,7 +175,7 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
         if dask_client is None:
             for case, threshold in pairs:
                 step(f"{case.name} delta_0={threshold:g}: adaptive and uniform")
-                record = _mesh_record(out, case, threshold, models[case.name], quick,
+                record = mesh_record(out, case, threshold, models[case.name], quick,
                                       installed, step, figures)
                 runs.append(record)
         else:
@@ -193,41 +193,10 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
     return report
 
 
-def _mesh_record(out: Path, case: Case, threshold: float, model, quick: bool,
-                 installed: list[str], step, figures: list[Path]) -> CaseRun:
-    """Adaptive + uniform meshes, N_iso, figures and peers of one model at one threshold."""
-    from ..density import n_iso
-
-    record = CaseRun(case.name, threshold)
-    record.n_iso = float(n_iso(model.material, model.domain, threshold))
-    try:
-        adaptive, t_a, uni, t_u = mesh_pair(model, threshold)
-    except HetmeshError as exc:
-        record.error = str(exc).splitlines()[0]
-        log.warning("%s at delta_0 = %g: %s", case.name, threshold, record.error)
-        for _ in installed:
-            step(f"{case.name} delta_0={threshold:g}: skipped")
-        return record
-    record.adaptive = MeshRun(adaptive.stats, t_a)
-    record.uniform = MeshRun(uni.stats, t_u)
-    hist = quick or threshold in case.histogram_thresholds
-    delta_u = None
-    if hist:
-        delta_u = uniform_like(adaptive.model, threshold, adaptive.stats.n_elements)
-        record.histogram_uniform_elements = int(len(delta_u))
-    record.mesh_figure, record.histogram = draw_figures(out, case.name, threshold, adaptive,
-                                                        histogram=hist, histogram_delta=delta_u)
-    figures += [out / p for p in (record.mesh_figure, record.histogram) if p]
-    for peer in installed:
-        step(f"{case.name} delta_0={threshold:g}: {peer}")
-        record.peers[peer] = run_peer(peer, adaptive.model, threshold)
-    return record
-
-
 def _fea_study(study, models: dict, quick: bool, progress, done: list, steps: int,
                client) -> tuple[object, str | None]:
     """The Table 7 study (on ``client`` if given): ``(result, error message)``."""
-    from .. import example_path, load_model
+    from ..io.model import example_path, load_model
 
     if not study:
         return None, None

@@ -98,7 +98,7 @@ def paper_row(case, kind: str, threshold: float):
     return None
 
 
-def _stats_table(runs) -> list[str]:
+def stats_table(runs) -> list[str]:
     headers = ["model", "δ0", "mesh"]
     for label, _, _ in STAT_COLUMNS:
         headers += [label, f"{label} paper"]
@@ -174,7 +174,7 @@ def _case_sections(report) -> list[str]:
         figs = ", ".join(CASES[n].figures for n in names)
         out += [f"## {table} analog: {', '.join(names)}", ""]
         out += [f"- `{n}`: {CASES[n].title}" for n in names] + [""]
-        out += _stats_table(runs) + [""]
+        out += stats_table(runs) + [""]
         out += [f"Element counts against N_iso and the uniform baseline ({table}):", ""]
         out += _ratio_table(runs) + [""]
         out += [f"Figures ({figs} analogs): meshes coloured by the last constituent's fraction, "

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import HetmeshError
 from ..metrics import MeshStats
+from .paper import Case
 
 __all__ = ["MeshRun", "PeerRun", "CaseRun", "mesh_pair", "uniform_like",
            "draw_figures", "run_peer", "case_record"]
@@ -77,7 +78,7 @@ def _timed(func, *args, **kwargs):
 def mesh_pair(model, threshold: float):
     """hetmesh's adaptive mesh and uniform baseline of ``model``: ``(adaptive Result,
     seconds, uniform Result, seconds)``."""
-    from ..tri.adapt import generate
+    from ..tri.pipeline import generate
     from ..tri.uniform import uniform
 
     adaptive, t_a = _timed(generate, model, threshold)
@@ -94,7 +95,8 @@ def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
     equilateral elements tiling the area, ``h = sqrt(4 A / (sqrt(3) n))``, and is corrected
     by the square root of the count ratio until within ``tol``.
     """
-    from ..tri.adapt import evaluate, prepare
+    from ..tri.pipeline import prepare
+    from ..tri.refine import evaluate
     from ..tri.uniform import uniform_at
 
     ctx, frame = prepare(model, threshold, None)
@@ -146,6 +148,41 @@ def run_peer(peer: str, model, threshold: float) -> PeerRun:
                    s=r.s, tries=len(r.trace))
 
 
+def mesh_record(out: Path, case: Case, threshold: float, model, quick: bool,
+                 installed: list[str], step, figures: list[Path]) -> CaseRun:
+    """Adaptive + uniform meshes, N_iso, figures and peers of one model at one threshold.
+
+    ``step(stage)`` is called before every peer's run; the figures written are appended to
+    ``figures``. A failing mesh is recorded in the returned :class:`CaseRun`, not raised.
+    """
+    from ..density import n_iso
+
+    record = CaseRun(case.name, threshold)
+    record.n_iso = float(n_iso(model.material, model.domain, threshold))
+    try:
+        adaptive, t_a, uni, t_u = mesh_pair(model, threshold)
+    except HetmeshError as exc:
+        record.error = str(exc).splitlines()[0]
+        log.warning("%s at delta_0 = %g: %s", case.name, threshold, record.error)
+        for _ in installed:
+            step(f"{case.name} delta_0={threshold:g}: skipped")
+        return record
+    record.adaptive = MeshRun(adaptive.stats, t_a)
+    record.uniform = MeshRun(uni.stats, t_u)
+    hist = quick or threshold in case.histogram_thresholds
+    delta_u = None
+    if hist:
+        delta_u = uniform_like(adaptive.model, threshold, adaptive.stats.n_elements)
+        record.histogram_uniform_elements = int(len(delta_u))
+    record.mesh_figure, record.histogram = draw_figures(out, case.name, threshold, adaptive,
+                                                        histogram=hist, histogram_delta=delta_u)
+    figures += [out / p for p in (record.mesh_figure, record.histogram) if p]
+    for peer in installed:
+        step(f"{case.name} delta_0={threshold:g}: {peer}")
+        record.peers[peer] = run_peer(peer, adaptive.model, threshold)
+    return record
+
+
 def case_record(out: str, case: str, threshold: float, quick: bool,
                 peers: list[str]) -> CaseRun:
     """Everything the report measures for one model at one threshold, as a plain function
@@ -157,10 +194,9 @@ def case_record(out: str, case: str, threshold: float, quick: bool,
     Returns the :class:`CaseRun` (statistics, times, figure paths, peers' results); a
     failing mesh is recorded in it, not raised.
     """
-    from .. import example_path, load_model
-    from . import _mesh_record
+    from ..io.model import example_path, load_model
     from .paper import CASES
 
     model = load_model(example_path(case))
-    return _mesh_record(Path(out), CASES[case], float(threshold), model, bool(quick),
+    return mesh_record(Path(out), CASES[case], float(threshold), model, bool(quick),
                         list(peers), lambda stage: None, [])

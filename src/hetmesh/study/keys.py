@@ -40,7 +40,7 @@ def content_key(model_digest: str, options: Mapping[str, Any], version: str | No
     False
     """
     if version is None:
-        from .. import __version__ as version
+        from ..version import __version__ as version
     doc = {"model": model_digest, "options": options, "hetmesh": version}
     text = json.dumps(doc, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:KEY_LENGTH]

@@ -51,7 +51,7 @@ def mesh_file_name(spec: dict) -> str:
 
 
 def _base_row(spec: dict) -> dict[str, Any]:
-    from .. import __version__
+    from ..version import __version__
 
     opts = spec["options"]
     return {"index": int(spec.get("index", 0)), "key": spec["key"], "model": spec["model"],
@@ -87,7 +87,7 @@ def _model(spec: dict):
 
 
 def _mesh(spec: dict, model):
-    from .. import generate
+    from ..tri.pipeline import generate
     from ..tri import uniform
 
     opts = dict(spec["options"])

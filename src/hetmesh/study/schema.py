@@ -301,7 +301,7 @@ def resolve_model(ref: str, base: Path, w: _Where | None = None,
 
     The model is loaded once here, so that a bad model fails the study before any run.
     """
-    from .. import example_path, load_model
+    from ..io.model import example_path, load_model
     from ..errors import HetmeshError
 
     w = w or _Where("study")
@@ -330,7 +330,7 @@ def _cost_model(base: Path, ref: str):
     """``(threshold, max_size) -> expected elements`` of a model (the a-priori count of
     equilateral elements of side ``min(delta_0 / |grad f|, max_size)``), so that a cluster can
     start the longest runs first and no long run is left alone at the end."""
-    from .. import example_path, load_model
+    from ..io.model import example_path, load_model
     from ..density import background_points, gradient_norm, integrate, size_at
 
     is_path = ref.endswith(".toml") or "/" in ref or os.sep in ref

@@ -190,9 +190,9 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
     path = Path(args.mesh)
     if not path.is_file():
         raise OutputError(f"no such mesh file: {path}")
-    mesh = read_xdmf(path) if path.suffix.lower() == ".xdmf" else None
-    if mesh is not None:
-        points, tets = np.asarray(mesh.points), np.asarray(mesh.cells)
+    arrays = read_xdmf(path) if path.suffix.lower() == ".xdmf" else None
+    if arrays is not None:
+        points, tets = np.asarray(arrays["points"]), np.asarray(arrays["cells"])
     else:
         try:
             m = meshio.read(path)

@@ -175,12 +175,12 @@ def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
     As for the depth flood (:func:`_odd_depth`), only the triangles touching a boundary
     vertex are flooded, the others taken as one region; the result stands if every
     boundary edge then has exactly one kept side (none outside the hull), else the whole
-    graph is flooded (:func:`_all_components`).
+    graph is flooded (:func:`inside_full_flood`).
     """
     area = 0.5 * np.abs(triangle_areas2(pts, tris))
-    keep = _band_components(pts, tris, nbr, boundary_edges, inside, area)
+    keep = inside_band_flood(pts, tris, nbr, boundary_edges, inside, area)
     if keep is None:
-        keep = _all_components(pts, tris, nbr, boundary_edges, inside, area)
+        keep = inside_full_flood(pts, tris, nbr, boundary_edges, inside, area)
     return keep
 
 
@@ -206,7 +206,7 @@ def _classify(pts, tris, label, n, area, inside) -> np.ndarray:
     return comp_inside
 
 
-def _all_components(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray:
+def inside_full_flood(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray:
     """:func:`_inside_components` over the whole adjacency graph."""
     m = len(tris)
     # the kernel's neighbour k lies across the edge (v_k, v_k+1)
@@ -223,7 +223,7 @@ def _all_components(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray:
     return _classify(pts, tris, label, int(label.max()) + 1, area, inside)[label]
 
 
-def _band_components(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray | None:
+def inside_band_flood(pts, tris, nbr, boundary_edges, inside, area) -> np.ndarray | None:
     """:func:`_inside_components` flooding only the triangles that touch a boundary vertex
     (the others one region R, joined to the band through their shared sides); None if some
     boundary edge does not then have exactly one kept side."""

@@ -85,8 +85,8 @@ def boundary_size(vertices: np.ndarray, edges: np.ndarray, h_max: float,
     >>> v = np.array([[0, 0], [1, 0], [1, 0.05], [0, 0.05]], float)
     >>> e = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
     >>> bs = boundary_size(v, e, h_max=1.0)
-    >>> bs(np.array([[1.0, 0.0], [0.5, 0.5]])).round(3)
-    array([0.05 , 0.25])
+    >>> bs(np.array([[1.0, 0.0], [0.5, 0.5]])).round(3)   # 0.05 + GRADE x distance
+    array([0.05 , 0.285])
     """
     h = vertex_sizes(vertices, edges)
     keep = h < ACTIVE * h_max

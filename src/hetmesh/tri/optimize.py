@@ -53,7 +53,8 @@ import numpy as np
 
 from ..material.field import element_subregions, has_subregions
 from ..mesh import any_corner, edge_keys, edge_order
-from ..metrics import element_delta, signed_area2, triangle_areas2
+from ..metrics import signed_area2, triangle_areas2
+from ..delta import element_delta
 from ..parallel import block_concat
 from .workset import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
@@ -66,7 +67,7 @@ DELTA_MARGIN = 1e-3  # relative: moves keep delta(T) < (1 - DELTA_MARGIN) delta_
 
 
 # --------------------------------------------------------------------------- helpers
-class _Eval:
+class DeltaEvaluator:
     """delta(T) of element batches, computed the repair loop's way."""
 
     def __init__(self, ctx: Context, sampling: str):
@@ -208,8 +209,8 @@ class _Star:
         return g
 
 
-def _sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: _Eval, active, *, min_angle_deg,
-           steps, grad_steps, salt, wake=0.0, shifted=None) -> np.ndarray:
+def sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: DeltaEvaluator, active, *,
+          min_angle_deg, steps, grad_steps, salt, wake=0.0, shifted=None) -> np.ndarray:
     """One Gauss-Seidel sweep of the ``active`` nodes over independent sets; returns the
     mask of the nodes moved with a star mean quality gain above ``wake``. ``shifted``, a
     mask if given, gets every node moved set."""
@@ -385,7 +386,7 @@ def _half_edges(tris):
     return order, keys[order]
 
 
-def _flip_round(ws: WorkSet, tris, comp, reg, ev: _Eval, *, min_angle_deg, ckeys,
+def _flip_round(ws: WorkSet, tris, comp, reg, ev: DeltaEvaluator, *, min_angle_deg, ckeys,
                 q_active, half=None, qt=None) -> np.ndarray:
     """Flip the interior non-constraint edges that raise the pair's minimum quality (of
     pairs with a triangle below ``q_active``); ``half`` = :func:`_half_edges` and ``qt``
@@ -505,7 +506,7 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
     Returns ``(triangles, composition, delta)`` of the optimised mesh, as the loop does.
     ``sweeps`` rounds each of ``flips`` flip rounds and one smoothing sweep.
     """
-    ev = _Eval(ctx, sampling)
+    ev = DeltaEvaluator(ctx, sampling)
     ckeys = np.unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
     if comp is None or delta is None:
         comp, delta, _ = ev.full(ws.P, tris)
@@ -536,8 +537,8 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
         low[tris[q < q_active].ravel()] = True
         active = low & near
         shifted = np.zeros(ws.n, bool)
-        moved = _sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=min_angle_deg,
-                       steps=steps, grad_steps=grad_steps, salt=it, wake=wake, shifted=shifted)
+        moved = sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=min_angle_deg,
+                      steps=steps, grad_steps=grad_steps, salt=it, wake=wake, shifted=shifted)
         touched = np.flatnonzero(any_corner(shifted, tris))
         q[touched] = _qa(ws.P[tris[touched]])[0]
         nm = int(moved.sum())

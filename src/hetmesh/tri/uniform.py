@@ -13,7 +13,10 @@ import time
 
 import numpy as np
 
-from .adapt import CHORD_TOL, Result, evaluate, finish, prepare, repair
+from ..kernel import Result
+from .finish import CHORD_TOL, finish
+from .pipeline import prepare
+from .refine import evaluate, repair
 from .discontinuity import embed_discontinuities
 from ..errors import BudgetError
 from ..options import DEFAULT_MAX_ELEMENTS, check_options

@@ -1,6 +1,6 @@
 """Checks of the final verification that compare the mesh with the domain's curves.
 
-:func:`hetmesh.tri.adapt.finish` re-checks every claim before a mesh is returned; the checks
+:func:`hetmesh.tri.finish.finish` re-checks every claim before a mesh is returned; the checks
 here concern the curves and are pure functions of arrays:
 
 * **chords** (:func:`chord_sagitta`, :func:`chord_problems`): every boundary and interface

@@ -13,15 +13,23 @@ from __future__ import annotations
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from . import cvt
 from .. import density as dens
-from ..mesh import any_corner, points_near
+from ..material.field import field_dim
+from ..topology import any_corner, points_near
 from ..parallel import BLOCK, block_concat
 from .cdt import constrained_delaunay, patch
+
+if TYPE_CHECKING:
+    from ..material.field import MaterialField
+    from .geometry import Curve, Domain
+    from .geosize import BoundarySize
+    from .sizecap import VariationCap
 
 __all__ = ["WorkSet", "Context", "triangulate", "lineage", "split_constraint_edges",
            "add_free_points", "smooth"]
@@ -33,11 +41,11 @@ FREE, FIXED = -2, -1
 class Context:
     """Everything the local operations need to know about the model (read-only)."""
 
-    domain: object
-    curves: list  # Curve objects, index = curve id
+    domain: Domain
+    curves: list[Curve]  # index = curve id
     closed: np.ndarray  # (C,) bool: curve start == end
     boundary_curve: np.ndarray  # (C,) bool: outer or hole (not interface)
-    field: object
+    field: MaterialField
     threshold: float
     h_max: float
     scalar: int | None = None  # constituent whose level sets carry nodes (layers)
@@ -48,12 +56,12 @@ class Context:
     h_min: float = 0.0
     #: a local cap on |grad f| from the composition's sampled variation (a
     #: :class:`~hetmesh.tri.sizecap.VariationCap`), or None
-    variation_cap: object = None
+    variation_cap: VariationCap | None = None
     #: step in composition between the rows of the layers placement, over delta_0
     row_spacing: float = 0.985
     #: the geometric size bound near small boundary features (a
     #: :class:`~hetmesh.tri.geosize.BoundarySize`), or None
-    geo_size: object = None
+    geo_size: BoundarySize | None = None
     #: the longest edge allowed (``max_size`` given), or None: no bound beyond ``h_max``'s
     #: placement size
     max_edge: float | None = None
@@ -109,7 +117,8 @@ class Context:
     def rho(self, pts: np.ndarray) -> np.ndarray:
         if len(pts) > BLOCK:
             return block_concat(lambda s: self.rho(pts[s]), len(pts), serial=True)
-        return dens.density(self.g(pts), self.h_at(pts), self.threshold)  # Eq. (9)
+        return dens.density(self.g(pts), self.h_at(pts), self.threshold,
+                            field_dim(self.field))  # Eq. (9)
 
     # the scalar composition whose level curves carry node rows (two constituents)
     def f(self, pts: np.ndarray) -> np.ndarray:

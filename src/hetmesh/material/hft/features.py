@@ -50,7 +50,7 @@ def _empty_eval(n: int, m: int, geometric: bool) -> _Eval:
 
 # ------------------------------------------------------------------------------- leaves
 
-class _Leaf:
+class LeafFeature:
     """Base of leaf features: composition ``c0 + t (c1 - c0)``, ``t`` the nearest-point
     arc-length parameter in [0, 1]."""
 
@@ -105,7 +105,7 @@ class _Leaf:
         return []
 
 
-class PointFeature(_Leaf):
+class PointFeature(LeafFeature):
     """A point with a constant composition."""
 
     def __init__(self, fid: str, at, composition):
@@ -122,7 +122,7 @@ class PointFeature(_Leaf):
         return np.zeros(n), q, z, z
 
 
-class CurveFeature(_Leaf):
+class CurveFeature(LeafFeature):
     """A :class:`~hetmesh.tri.geometry.Segment` or :class:`~hetmesh.tri.geometry.Arc` whose
     composition goes linearly in arc length from ``start`` to ``end`` (constant if
     ``end`` is None)."""
@@ -266,7 +266,7 @@ class _Parent:
 
 
 def _width(feature) -> int:
-    while not isinstance(feature, _Leaf):
+    while not isinstance(feature, LeafFeature):
         feature = feature.children[0]
     return len(feature.c0)
 
@@ -274,7 +274,7 @@ def _width(feature) -> int:
 def _constant(feature) -> np.ndarray | None:
     """The composition of a feature that is the same at every point (a leaf with one
     composition, or a uniform :class:`NearestFeature`), else None."""
-    if isinstance(feature, _Leaf):
+    if isinstance(feature, LeafFeature):
         return None if np.any(feature.dc) else feature.c0
     return getattr(feature, "constant", None)
 
@@ -543,28 +543,30 @@ class BlendFeature:
 
 
 
-def _walk(feature, seen=None):
+def walk(feature, seen=None):
+    """Every feature of the tree under ``feature`` once, parents before their children (a
+    blend's distance features included); ``seen`` holds the ids already visited."""
     seen = set() if seen is None else seen
     if id(feature) in seen:
         return
     seen.add(id(feature))
     yield feature
     for c in feature.children:
-        yield from _walk(c, seen)
+        yield from walk(c, seen)
     if isinstance(feature, BlendFeature):
         for f in feature.distances.values():
-            yield from _walk(f, seen)
+            yield from walk(f, seen)
 
 
-def _reached(feature, p):
+def reached(feature, p):
     """``(feature, points)`` for every node that evaluating ``feature`` at ``p`` visits, with
     the points routed to it: a parent passes each child the points it owns, a blend passes
     all of its points to its two children and its distance features."""
     yield feature, p
     if isinstance(feature, _Parent):
         for _, child, idx in feature._groups(feature._owner(p)):
-            yield from _reached(child, p[idx])
+            yield from reached(child, p[idx])
     elif isinstance(feature, BlendFeature):
         for child in dict.fromkeys([feature.first, feature.second,
                                     *feature.distances.values()]):
-            yield from _reached(child, p)
+            yield from reached(child, p)

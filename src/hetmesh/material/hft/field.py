@@ -9,16 +9,16 @@ from typing import Sequence
 import numpy as np
 
 from ...errors import MaterialError
-from ..analytic import _Shiftable, check_constituents
+from ..analytic import Shiftable, check_constituents
 from ..field import as_points, sample_domain
-from .features import BlendFeature, PointFeature, _Leaf, _reached, _walk
+from .features import BlendFeature, PointFeature, LeafFeature, reached, walk
 
 __all__ = ["HFTField", "OUTSIDE_TOL"]
 
 OUTSIDE_TOL = 1e-6  # a feature sample farther than this x diameter outside the domain is an error
 
 
-class HFTField(_Shiftable):
+class HFTField(Shiftable):
     """A material field given by a feature tree.
 
     Parameters
@@ -119,7 +119,7 @@ class HFTField(_Shiftable):
         """
         pre = f"{where}: " if where else ""
         tol = OUTSIDE_TOL * float(domain.diameter)
-        for leaf in (f for f in _walk(self.root) if isinstance(f, _Leaf)):
+        for leaf in (f for f in walk(self.root) if isinstance(f, LeafFeature)):
             pts = leaf.sample(n)
             out = ~np.asarray(domain.contains(pts), dtype=bool)
             if out.any():
@@ -146,7 +146,7 @@ class HFTField(_Shiftable):
         """Raise :class:`MaterialError` if a blend's W leaves [0, 1] at one of ``points``
         where it applies (a blend under a ``select`` only sees the points routed to it)."""
         pre = f"{where}: " if where else ""
-        for feat, p in _reached(self.root, as_points(points)):
+        for feat, p in reached(self.root, as_points(points)):
             if not isinstance(feat, BlendFeature):
                 continue
             e1, e2 = feat._children(p, None)

@@ -12,7 +12,8 @@ import numpy as np
 from ...errors import MaterialError
 from ..field import as_points
 from .maps import ValueMap
-from .read import Image, _fail
+from .sampling import element_pixel_delta
+from .read import Image, image_error
 
 __all__ = ["ImageField", "LabelField", "image_field", "covers", "INTERPOLATIONS"]
 
@@ -99,6 +100,12 @@ class ImageField:
         self._offset = np.zeros(self.dim)
         self._cache = None
 
+    @property
+    def local_origin(self) -> np.ndarray:
+        """The centre of the first pixel in the coordinates the field is evaluated at
+        (:attr:`origin` moved by the opposite of every :meth:`shifted` offset)."""
+        return self.origin - self._offset
+
     def __repr__(self) -> str:
         return (f"ImageField({self.source!r}, shape={self.shape}, "
                 f"interpolation={self.interpolation!r}, smoothing={self.smoothing:g})")
@@ -123,8 +130,6 @@ class ImageField:
         """delta(T) over every pixel centre each element covers and its vertices
         (:func:`~hetmesh.material.image.element_pixel_delta`); ``composition`` ``(N, m)``:
         the fractions at ``points`` if known; ``regions`` is ignored."""
-        from .sampling import element_pixel_delta
-
         vc = composition
         if vc is not None and (np.ndim(vc) != 2 or len(vc) != len(points)):
             vc = None
@@ -231,9 +236,9 @@ def covers(image: Image, bounds, where: str = "") -> None:
         def fmt(v):
             return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
         bad = b[0] if (b[0] < lo - tol).any() else b[1]
-        raise _fail(where or image.source,
-                    f"the image covers {fmt(lo)} - {fmt(hi)} but the domain reaches "
-                    f"{fmt(bad)}: it must lie inside the image (check origin and spacing)")
+        raise image_error(where or image.source,
+                          f"the image covers {fmt(lo)} - {fmt(hi)} but the domain reaches "
+                          f"{fmt(bad)}: it must lie inside the image (check origin and spacing)")
 
 
 # ---------------------------------------------------------------------------- label fields
@@ -318,8 +323,6 @@ class LabelField:
         phase, default that of its centroid) and, in a graded phase, every pixel centre it
         covers (its elements lie inside the phase, so those pixels are the phase's).
         ``composition`` is ignored: a vertex on a phase boundary has one value per phase."""
-        from .sampling import element_pixel_delta
-
         P = np.asarray(points, float)
         T = np.asarray(triangles, np.int64)
         own = (self.region(P[T].mean(axis=1)) if regions is None

@@ -11,7 +11,7 @@ from typing import Sequence
 import numpy as np
 
 from ...errors import MaterialError
-from .read import _fail, _index
+from .read import image_error, pixel_index
 
 __all__ = ["ValueMap", "linear_map", "table_map", "channel_map", "TOL"]
 
@@ -114,7 +114,7 @@ def _apply_table(vm: ValueMap, values, where, mask):
         k = int(np.argmax(np.maximum(row - 1.0, -row) + 1e-9 * (row > 1)))
         how = (f"maps to {row[k]:.6g}, outside [0, 1]" if len(vm.levels) == 2
                else f"is outside the table's levels [{lo:g}, {hi:g}]")
-        raise _fail(where, f"value {v[idx]:g} at pixel {_index(idx)} {how}")
+        raise image_error(where, f"value {v[idx]:g} at pixel {pixel_index(idx)} {how}")
     vc = np.clip(v, lo, hi)
     m = vm.fractions.shape[1]
     res = np.empty((m,) + v.shape)
@@ -130,7 +130,7 @@ def _apply_channels(vm: ValueMap, values, where, mask):
     nc = v.shape[-1]
     bad = [i for i in vm.index if i >= nc]
     if bad:
-        raise _fail(where, f"channel {bad[0]} does not exist (the image has {nc} channels)")
+        raise image_error(where, f"channel {bad[0]} does not exist (the image has {nc} channels)")
     shape = v.shape[:-1]
     sel = np.ones(shape, bool) if mask is None else mask
     m = len(vm.index)
@@ -142,8 +142,9 @@ def _apply_channels(vm: ValueMap, values, where, mask):
             out = ((res[k] < -TOL) | (res[k] > 1 + TOL)) & sel
             if out.any():
                 idx = _first_bad(out)
-                raise _fail(where, f"channel {c} value {v[idx + (c,)]:g} at pixel "
-                                   f"{_index(idx)} maps to {res[k][idx]:.6g}, outside [0, 1]")
+                raise image_error(where, f"channel {c} value {v[idx + (c,)]:g} at pixel "
+                                         f"{pixel_index(idx)} maps to {res[k][idx]:.6g}, "
+                                         f"outside [0, 1]")
     given = [k for k in range(m) if k not in derived]
     total = res[given].sum(axis=0)
     if derived:
@@ -152,14 +153,15 @@ def _apply_channels(vm: ValueMap, values, where, mask):
         bad = (res[k] < -vm.sum_tol) & sel
         if bad.any():
             idx = _first_bad(bad)
-            raise _fail(where, f"fractions at pixel {_index(idx)} sum to {total[idx]:.6g}, "
-                               f"more than 1")
+            raise image_error(where, f"fractions at pixel {pixel_index(idx)} sum to "
+                                     f"{total[idx]:.6g}, more than 1")
         res[k] = np.maximum(res[k], 0.0)
         total = res.sum(axis=0)
     err = (np.abs(total - 1.0) > vm.sum_tol) & sel
     if err.any():
         idx = _first_bad(err)
-        raise _fail(where, f"fractions at pixel {_index(idx)} sum to {total[idx]:.6g}, not 1")
+        raise image_error(where, f"fractions at pixel {pixel_index(idx)} sum to "
+                                 f"{total[idx]:.6g}, not 1")
     res = np.clip(res, 0.0, 1.0)
     res /= np.where(total > 0, res.sum(axis=0), 1.0)
     if mask is not None:

@@ -12,14 +12,9 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import GeometryError, MaterialError, ModelFileError
+from ...io.schema import describe
 
 __all__ = ["parse_image", "parse_image_model"]
-
-
-def _describe(value) -> str:
-    from ...io.model import _describe as describe  # local: io.model imports this module
-
-    return describe(value)
 
 
 #: keys of ``[material] type = "image"``
@@ -35,7 +30,7 @@ def parse_image_model(ctx, dtable, mtable):
     how = t["image"]
     if how not in ("extent", "mask"):
         raise ctx.fail("domain.image", f"expected \"extent\" or \"mask\", got "
-                                       f"{_describe(how)}")
+                                       f"{describe(how)}")
     if not isinstance(mtable, Mapping) or mtable.get("type") != "image":
         raise ctx.fail("domain.image", "a domain taken from an image needs [material] "
                                        "type = \"image\"")
@@ -78,7 +73,7 @@ def _read(ctx, key: str, value, mtable, shape=None):
     from . import read_image
 
     if not isinstance(value, str) or not value.strip():
-        raise ctx.fail(key, f"expected a file name, got {_describe(value)}")
+        raise ctx.fail(key, f"expected a file name, got {describe(value)}")
     path = Path(value) if os.path.isabs(value) else ctx.base / value
     array = ctx.string(mtable, "material", "array")
     img = read_image(path, array=array)
@@ -96,7 +91,7 @@ def _geometry(ctx, t: Mapping, img):
     if "slice" in t:
         k = t["slice"]
         if isinstance(k, bool) or not isinstance(k, int):
-            raise ctx.fail("material.slice", f"expected an integer, got {_describe(k)}")
+            raise ctx.fail("material.slice", f"expected an integer, got {describe(k)}")
         if img.dim != 3:
             raise ctx.fail("material.slice", f"{img.source} is a 2-D image, not a volume")
         if not 0 <= k < img.shape[0]:
@@ -128,11 +123,11 @@ def _geometry(ctx, t: Mapping, img):
             for v in b)
         if not ok:
             raise ctx.fail("material.bounds", f"expected [x0, y0, x1, y1], got "
-                                              f"{_describe(b)}")
+                                              f"{describe(b)}")
         lo, hi = np.array(b[:2], float), np.array(b[2:], float)
         if (hi <= lo).any():
             raise ctx.fail("material.bounds", f"spacing <= 0: x1 > x0 and y1 > y0 needed, "
-                                              f"got {_describe(b)}")
+                                              f"got {describe(b)}")
         sp = (hi - lo) / n
         return _replace(img, origin=tuple(lo + 0.5 * sp), spacing=tuple(sp))
     sp, org = img.spacing, img.origin
@@ -202,7 +197,7 @@ def _constituents(ctx, t) -> tuple[str, ...]:
     cons = t["constituents"]
     if not isinstance(cons, list) or not all(isinstance(c, str) for c in cons):
         raise ctx.fail("material.constituents", f"expected an array of names, got "
-                                                f"{_describe(cons)}")
+                                                f"{describe(cons)}")
     try:
         return check_constituents(cons)
     except MaterialError as exc:
@@ -214,7 +209,7 @@ def _value_map(ctx, key: str, value, cons, src):
     from . import channel_map, linear_map, table_map
 
     if not isinstance(value, Mapping):
-        raise ctx.fail(key, f"expected a table, got {_describe(value)}")
+        raise ctx.fail(key, f"expected a table, got {describe(value)}")
     kinds = [k for k in ("linear", "levels", "channels") if k in value]
     if "files" in src:
         kinds = ["files"]
@@ -240,7 +235,7 @@ def _value_map(ctx, key: str, value, cons, src):
         lv = t["levels"]
         if not (isinstance(lv, list) and len(lv) >= 2):
             raise ctx.fail(f"{key}.levels", f"expected at least 2 grey levels, got "
-                                            f"{_describe(lv)}")
+                                            f"{describe(lv)}")
         levels = [ctx.number(v, f"{key}.levels[{i}]") for i, v in enumerate(lv)]
         fr = _per_constituent(ctx, f"{key}.fractions", t["fractions"], cons,
                               lambda v, k: _numbers(ctx, v, k, len(levels)))
@@ -271,20 +266,20 @@ def _value_map(ctx, key: str, value, cons, src):
 
 def _channel(ctx, v, k) -> int:
     if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-        raise ctx.fail(k, f"expected a channel number >= 0, got {_describe(v)}")
+        raise ctx.fail(k, f"expected a channel number >= 0, got {describe(v)}")
     return v
 
 
 def _numbers(ctx, v, k, n) -> list[float]:
     if not isinstance(v, list) or len(v) != n:
-        raise ctx.fail(k, f"expected {n} numbers (one per level), got {_describe(v)}")
+        raise ctx.fail(k, f"expected {n} numbers (one per level), got {describe(v)}")
     return [ctx.number(x, f"{k}[{i}]") for i, x in enumerate(v)]
 
 
 def _per_constituent(ctx, key, value, cons, item) -> dict:
     """A table keyed by constituent names, all of them or all but one."""
     if not isinstance(value, Mapping):
-        raise ctx.fail(key, f"expected a table keyed by constituent, got {_describe(value)}")
+        raise ctx.fail(key, f"expected a table keyed by constituent, got {describe(value)}")
     out = {}
     for name, v in value.items():
         if name not in cons:
@@ -355,7 +350,7 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
     phases = t.get("phases", [])
     if not isinstance(phases, list):
         raise ctx.fail("material.phases", f"expected an array of tables ([[material.phases]]),"
-                                          f" got {_describe(phases)}")
+                                          f" got {describe(phases)}")
     if traced is None:  # the domain is given: the labels of the pixels in its bounding box
         chains_lab = None
         lo = np.floor((np.asarray(domain.bounds[:2]) - lab_img.origin) /
@@ -374,7 +369,7 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
         p = ctx.table(item, key, required=("label",), optional=("composition", "map", "name"))
         lab = p["label"]
         if isinstance(lab, bool) or not isinstance(lab, int):
-            raise ctx.fail(f"{key}.label", f"expected an integer label, got {_describe(lab)}")
+            raise ctx.fail(f"{key}.label", f"expected an integer label, got {describe(lab)}")
         if lab in spec:
             raise ctx.fail(f"{key}.label", f"label {lab} is given twice")
         name = ctx.string(p, key, "name", default=f"label {lab}")

@@ -79,7 +79,8 @@ class Image:
         return np.column_stack([g.ravel() for g in grid[::-1]])
 
 
-def _fail(where: str, problem: str) -> MaterialError:
+def image_error(where: str, problem: str) -> MaterialError:
+    """The error ``<where>: <problem>`` of an image that cannot serve as a field."""
     return MaterialError(f"{where}: {problem}")
 
 
@@ -106,13 +107,13 @@ def read_image(path: str | os.PathLike, *, array: str | None = None) -> Image:
     p = Path(path)
     where = os.fspath(path)
     if not p.exists():
-        raise _fail(where, "no such image file")
+        raise image_error(where, "no such image file")
     if p.is_dir():
-        raise _fail(where, "is a directory, not an image file")
+        raise image_error(where, "is a directory, not an image file")
     suffix = p.suffix.lower()
     if suffix not in SUFFIXES:
-        raise _fail(where, f"unsupported image format {suffix or '(no suffix)'!r} (expected "
-                           f"one of: {', '.join(SUFFIXES)})")
+        raise image_error(where, f"unsupported image format {suffix or '(no suffix)'!r} (expected "
+                                 f"one of: {', '.join(SUFFIXES)})")
     try:
         if suffix in (".tif", ".tiff"):
             img = _read_tiff(p, where)
@@ -127,10 +128,10 @@ def read_image(path: str | os.PathLike, *, array: str | None = None) -> Image:
     except MaterialError:
         raise
     except MemoryError:
-        raise _fail(where, "image too large for memory") from None
+        raise image_error(where, "image too large for memory") from None
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
-        raise _fail(where, f"cannot read the {suffix[1:].upper()} file (corrupt or "
-                           f"truncated?): {_first_line(exc)}") from None
+        raise image_error(where, f"cannot read the {suffix[1:].upper()} file (corrupt or "
+                                 f"truncated?): {_first_line(exc)}") from None
     return _checked(img, where)
 
 
@@ -139,17 +140,18 @@ def _checked(img: Image, where: str) -> Image:
     if v.dtype.kind == "b":
         v = v.astype(np.uint8)
     if v.dtype.kind not in "uif" or v.dtype.itemsize > 8:
-        raise _fail(where, f"unsupported pixel type {v.dtype} (expected integers or floats)")
+        raise image_error(where, f"unsupported pixel type {v.dtype} (expected integers or floats)")
     if img.dim not in (2, 3):
-        raise _fail(where, f"expected a 2-D image or a 3-D volume, got an array of shape "
-                           f"{v.shape}")
+        raise image_error(where, f"expected a 2-D image or a 3-D volume, got an array of shape "
+                                 f"{v.shape}")
     if v.size > MAX_PIXELS:
-        raise _fail(where, f"{v.size:,} samples, more than the {MAX_PIXELS:,} accepted")
+        raise image_error(where, f"{v.size:,} samples, more than the {MAX_PIXELS:,} accepted")
     if min(img.shape) < 1:
-        raise _fail(where, f"the image is empty (shape {v.shape})")
+        raise image_error(where, f"the image is empty (shape {v.shape})")
     if v.dtype.kind == "f" and not np.isfinite(v).all():
         idx = np.argwhere(~np.isfinite(v))[0]
-        raise _fail(where, f"pixel {_index(idx[:img.dim])} is not finite ({v[tuple(idx)]})")
+        raise image_error(where, f"pixel {pixel_index(idx[:img.dim])} is not finite "
+                                 f"({v[tuple(idx)]})")
     _check_geometry(img.origin, img.spacing, img.dim, where)
     return replace(img, values=v, origin=tuple(float(o) for o in img.origin),
                    spacing=tuple(float(s) for s in img.spacing), source=where)
@@ -157,17 +159,17 @@ def _checked(img: Image, where: str) -> Image:
 
 def _check_geometry(origin, spacing, dim: int, where: str) -> None:
     if len(spacing) != dim or len(origin) != dim:
-        raise _fail(where, f"spacing {list(spacing)} and origin {list(origin)} must have "
-                           f"{dim} values each")
+        raise image_error(where, f"spacing {list(spacing)} and origin {list(origin)} must have "
+                                 f"{dim} values each")
     for s in spacing:
         if not (math.isfinite(float(s)) and float(s) > 0.0):
-            raise _fail(where, f"spacing {[float(v) for v in spacing]} must be positive and "
-                               f"finite")
+            raise image_error(where, f"spacing {[float(v) for v in spacing]} must be positive and "
+                                     f"finite")
     if not all(math.isfinite(float(o)) for o in origin):
-        raise _fail(where, f"origin {[float(v) for v in origin]} must be finite")
+        raise image_error(where, f"origin {[float(v) for v in origin]} must be finite")
 
 
-def _index(idx) -> str:
+def pixel_index(idx) -> str:
     """A pixel index as ``(i, j)`` (x first), from numpy order."""
     return "(" + ", ".join(str(int(v)) for v in list(idx)[::-1]) + ")"
 
@@ -210,7 +212,7 @@ def _read_tiff(p: Path, where: str) -> Image:
             spacing = [sx, sy]
     chan = [i for i, a in enumerate(axes) if a in "CS"]
     if len(chan) > 1:
-        raise _fail(where, f"TIFF axes {axes!r}: more than one channel axis")
+        raise image_error(where, f"TIFF axes {axes!r}: more than one channel axis")
     if chan:
         v = np.moveaxis(v, chan[0], -1)
     channels = bool(chan)
@@ -225,12 +227,12 @@ def _read_npy(p: Path, where: str) -> Image:
         v = np.load(p, allow_pickle=False, mmap_mode=None)
     except ValueError as exc:
         if "pickle" in str(exc).lower():
-            raise _fail(where, "holds Python objects, not numbers (refused: a .npy image "
-                               "must be a plain numeric array)") from None
+            raise image_error(where, "holds Python objects, not numbers (refused: a .npy image "
+                                     "must be a plain numeric array)") from None
         raise
     v = np.asarray(v)
     if v.dtype.kind not in "uifb":
-        raise _fail(where, f"unsupported pixel type {v.dtype} (expected integers or floats)")
+        raise image_error(where, f"unsupported pixel type {v.dtype} (expected integers or floats)")
     channels = v.ndim == 3 and v.shape[-1] in (2, 3, 4) and min(v.shape[:2]) > 4
     return _default(_raster(v, channels) if v.ndim - int(channels) == 2 else v, channels)
 
@@ -254,8 +256,8 @@ def _read_nrrd(p: Path, where: str) -> Image:
         if len(rows) == dim:
             m = np.vstack(rows)
             if np.abs(m - np.diag(np.diag(m))).max() > 1e-12 * np.abs(m).max():
-                raise _fail(where, "the NRRD 'space directions' are not along the axes; "
-                                   "rotated images are not supported")
+                raise image_error(where, "the NRRD 'space directions' are not along the axes; "
+                                         "rotated images are not supported")
             spacing = list(np.diag(m))
     elif hdr.get("spacings") is not None:
         sp = [float(s) for s in hdr["spacings"] if not math.isnan(float(s))]
@@ -286,36 +288,36 @@ def _read_vti(p: Path, where: str, array: str | None) -> Image:
         raw = head + b"<AppendedData/></VTKFile>"
     root = ET.fromstring(raw)
     if root.tag != "VTKFile" or root.get("type") != "ImageData":
-        raise _fail(where, f"not a VTK ImageData file (type {root.get('type')!r})")
+        raise image_error(where, f"not a VTK ImageData file (type {root.get('type')!r})")
     order = "<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
     header = "u8" if root.get("header_type", "UInt32") == "UInt64" else "u4"
     compressed = root.get("compressor") is not None
     if compressed and "ZLib" not in root.get("compressor", ""):
-        raise _fail(where, f"unsupported compressor {root.get('compressor')!r} (zlib only)")
+        raise image_error(where, f"unsupported compressor {root.get('compressor')!r} (zlib only)")
     enc = root.find("AppendedData")
     img = root.find("ImageData")
     if img is None:
-        raise _fail(where, "no <ImageData> element")
+        raise image_error(where, "no <ImageData> element")
     ext = [int(v) for v in img.get("WholeExtent", "").split()]
     origin = [float(v) for v in img.get("Origin", "0 0 0").split()]
     spacing = [float(v) for v in img.get("Spacing", "1 1 1").split()]
     if len(ext) != 6 or len(origin) != 3 or len(spacing) != 3:
-        raise _fail(where, "WholeExtent, Origin or Spacing is malformed")
+        raise image_error(where, "WholeExtent, Origin or Spacing is malformed")
     direction = img.get("Direction")
     if direction and not np.allclose(np.array(direction.split(), float).reshape(3, 3),
                                      np.eye(3)):
-        raise _fail(where, "a Direction other than the identity (rotated image) is not "
-                           "supported")
+        raise image_error(where, "a Direction other than the identity (rotated image) is not "
+                                 "supported")
     arrays, cell = _vti_arrays(img)
     if not arrays:
-        raise _fail(where, "no PointData or CellData array")
+        raise image_error(where, "no PointData or CellData array")
     names = [a.get("Name", f"array {i}") for i, a in enumerate(arrays)]
     if array is None:
         pick = 0
     elif array in names:
         pick = names.index(array)
     else:
-        raise _fail(where, f"no data array {array!r} (it has: {', '.join(names)})")
+        raise image_error(where, f"no data array {array!r} (it has: {', '.join(names)})")
     da = arrays[pick]
     dims = [ext[1] - ext[0] + 1, ext[3] - ext[2] + 1, ext[5] - ext[4] + 1]
     if cell:  # values at cell centres
@@ -324,7 +326,7 @@ def _read_vti(p: Path, where: str, array: str | None) -> Image:
     ncomp = int(da.get("NumberOfComponents", "1"))
     dtype = _VTK_TYPES.get(da.get("type", ""))
     if dtype is None:
-        raise _fail(where, f"unsupported data type {da.get('type')!r}")
+        raise image_error(where, f"unsupported data type {da.get('type')!r}")
     count = dims[0] * dims[1] * dims[2] * ncomp
     data = _vti_data(da, np.dtype(order + dtype), count, header, order, compressed,
                      appended, enc.get("encoding", "raw") if enc is not None else "", where)
@@ -359,7 +361,7 @@ def _vti_data(da, dtype, count, header, order, compressed, appended, encoding, w
     if fmt == "ascii":
         vals = np.array((da.text or "").split(), dtype=float)
         if len(vals) != count:
-            raise _fail(where, f"data array holds {len(vals)} values, expected {count}")
+            raise image_error(where, f"data array holds {len(vals)} values, expected {count}")
         return vals.astype(dtype)
     hsize = np.dtype(header).itemsize
     hdt = np.dtype(order + header)
@@ -378,8 +380,8 @@ def _vti_data(da, dtype, count, header, order, compressed, appended, encoding, w
     if fmt == "appended":
         off = int(da.get("offset", "0"))
         if encoding == "base64":
-            raise _fail(where, "base64-encoded appended data is not supported (use raw or "
-                               "inline binary)")
+            raise image_error(where, "base64-encoded appended data is not supported (use raw or "
+                                     "inline binary)")
         blob = appended[off:]
         if compressed:
             nblocks = int(np.frombuffer(blob[:hsize], hdt)[0])
@@ -387,7 +389,7 @@ def _vti_data(da, dtype, count, header, order, compressed, appended, encoding, w
             return _inflate(hdr, blob[(3 + nblocks) * hsize:], dtype, count, where)
         nbytes = int(np.frombuffer(blob[:hsize], hdt)[0])
         return _exact(blob[hsize:hsize + nbytes], dtype, count, where)
-    raise _fail(where, f"unsupported data array format {fmt!r}")
+    raise image_error(where, f"unsupported data array format {fmt!r}")
 
 
 def _b64len(nbytes: int) -> int:
@@ -407,5 +409,5 @@ def _inflate(hdr, body: bytes, dtype, count, where):
 def _exact(blob: bytes, dtype, count, where):
     need = count * dtype.itemsize
     if len(blob) < need:
-        raise _fail(where, f"truncated data: {len(blob)} bytes, expected {need}")
+        raise image_error(where, f"truncated data: {len(blob)} bytes, expected {need}")
     return np.frombuffer(blob[:need], dtype).astype(dtype.newbyteorder("="))

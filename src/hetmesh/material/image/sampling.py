@@ -3,11 +3,26 @@ vertices (an element may cover no pixel centre at all)."""
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
-from .field import ImageField
-
 __all__ = ["pixel_centres_in_triangles", "pixel_blocks", "element_pixel_delta"]
+
+
+class PixelImage(Protocol):
+    """What :func:`element_pixel_delta` reads of an image field
+    (:class:`~hetmesh.material.image.ImageField` is one)."""
+
+    constituents: tuple[str, ...]
+    samples: np.ndarray  #: ``(m, ny, nx)`` the field at the pixel centres
+    spacing: np.ndarray
+    shape: tuple[int, ...]
+
+    @property
+    def local_origin(self) -> np.ndarray: ...
+
+    def composition(self, points) -> np.ndarray: ...
 
 
 # ---------------------------------------------------------------------- pixel sampling
@@ -107,7 +122,7 @@ def _row_span(u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return xl, xr
 
 
-def element_pixel_delta(field: ImageField, points: np.ndarray, triangles: np.ndarray,
+def element_pixel_delta(field: PixelImage, points: np.ndarray, triangles: np.ndarray,
                         vertex_composition: np.ndarray | None = None) -> np.ndarray:
     """delta(T) ``(M,)`` over every pixel centre each element covers *and* its vertices.
 
@@ -123,8 +138,7 @@ def element_pixel_delta(field: ImageField, points: np.ndarray, triangles: np.nda
     corners = vc[T]  # (M, 3, m)
     hi, lo = corners.max(axis=1), corners.min(axis=1)
     flat = field.samples.reshape(len(field.constituents), -1)
-    origin = field.origin - field._offset
-    for e, pix in pixel_blocks(P, T, origin, field.spacing, field.shape):
+    for e, pix in pixel_blocks(P, T, field.local_origin, field.spacing, field.shape):
         if not len(e):
             continue
         vals = flat[:, pix].T  # (K, m)

@@ -11,9 +11,9 @@ Examples
 
 from __future__ import annotations
 
-from .curves import Arc, Curve, CurveBatch, Segment, SizeLike, segments_through
+from .curves import Arc, Curve, CurveBatch, Segment, SizeLike, sample_parameters, segments_through
 from .domain import CurveInfo, Domain, Loop, Path, make_domain
-from .pslg import PSLG, build_pslg, pslg_from_parameters, sample_parameters
+from .pslg import PSLG, build_pslg, pslg_from_parameters
 
 __all__ = [
     "Arc",

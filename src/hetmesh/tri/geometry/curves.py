@@ -35,11 +35,15 @@ __all__ = [
     "segments_through",
     "fmt_point",
     "fmt_num",
+    "sample_parameters",
+    "tolerance",
 ]
 
 TWO_PI = 2.0 * math.pi
 EPS = float(np.finfo(float).eps)
 REL_TOL = 1e-9  # relative geometric tolerance (times the length scale)
+
+MAX_SAMPLES = 50_000_000  # most points sample_parameters places
 
 SizeLike = Union[float, Callable[[np.ndarray], np.ndarray]]
 
@@ -78,7 +82,7 @@ def _points(points) -> np.ndarray:
     return p
 
 
-def _tol(scale: float, magnitude: float) -> float:
+def tolerance(scale: float, magnitude: float) -> float:
     """Relative tolerance: ``1e-9`` of the scale plus rounding of the coordinates' size."""
     return REL_TOL * scale + 64.0 * EPS * magnitude
 
@@ -164,8 +168,6 @@ class Segment:
 
         See :func:`sample_parameters`; ``chord_tol`` is ignored for segments.
         """
-        from .pslg import sample_parameters
-
         return sample_parameters([self], size, chord_tol)[1]
 
 
@@ -215,7 +217,7 @@ class Arc:
         if not all(np.isfinite(np.r_[s, e, c])):
             raise GeometryError(f"{_prefix(where)}arc has a non-finite coordinate: start "
                                 f"{fmt_point(s)}, end {fmt_point(e)}, centre {fmt_point(c)}")
-        tol = _tol(max(r0, r1), float(np.abs(np.r_[s, e, c]).max()))
+        tol = tolerance(max(r0, r1), float(np.abs(np.r_[s, e, c]).max()))
         if r0 <= tol:
             raise GeometryError(f"{_prefix(where)}arc start point {fmt_point(s)} coincides "
                                 f"with its centre")
@@ -242,7 +244,7 @@ class Arc:
         pts = f"{fmt_point(s)}, {fmt_point(m)}, {fmt_point(e)}"
         if not np.isfinite(cross):
             raise GeometryError(f"{_prefix(where)}arc has a non-finite coordinate: {pts}")
-        if min(na, nb, nab) <= _tol(max(na, nb), float(np.abs(np.r_[s, m, e]).max())):
+        if min(na, nb, nab) <= tolerance(max(na, nb), float(np.abs(np.r_[s, m, e]).max())):
             raise GeometryError(f"{_prefix(where)}arc points {pts} are not distinct")
         if abs(cross) <= 1e-12 * na * nb:
             raise GeometryError(f"{_prefix(where)}arc points {pts} are collinear")
@@ -339,8 +341,6 @@ class Arc:
 
         See :func:`sample_parameters`.
         """
-        from .pslg import sample_parameters
-
         return sample_parameters([self], size, chord_tol)[1]
 
 
@@ -539,7 +539,7 @@ def segments_through(points, *, closed: bool, name: str = "",
                             f"{fmt_point(p[i])}")
     if len(p):
         lo, hi = p.min(axis=0), p.max(axis=0)
-        tol = _tol(float(np.hypot(*(hi - lo))), float(np.abs(p).max()))
+        tol = tolerance(float(np.hypot(*(hi - lo))), float(np.abs(p).max()))
         if closed and len(p) > 1 and np.hypot(*(p[0] - p[-1])) <= tol:
             p = p[:-1]  # explicit closing vertex
         gap = np.hypot(*(p[1:] - p[:-1]).T) <= tol
@@ -553,3 +553,108 @@ def segments_through(points, *, closed: bool, name: str = "",
                             f"least {need} vertices, got {len(p)}")
     q = np.roll(p, -1, axis=0) if closed else p[1:]
     return tuple(Segment(a, b) for a, b in zip(map(tuple, p.tolist()), map(tuple, q.tolist())))
+
+
+# ----------------------------------------------------------------------------- sampling
+def _eval_size(size: Callable, pts: np.ndarray) -> np.ndarray:
+    h = np.broadcast_to(np.asarray(size(pts), dtype=np.float64), (len(pts),))
+    bad = ~(h > 0)  # also catches nan
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise GeometryError(f"size function returned {fmt_num(h[i])} at {fmt_point(pts[i])}; "
+                            f"sizes must be positive")
+    return h
+
+
+def _check_count(n: np.ndarray) -> None:
+    if n.sum() > MAX_SAMPLES:
+        raise GeometryError(f"sampling the curves would need {int(n.sum())} points "
+                            f"(more than {MAX_SAMPLES}); increase the size")
+
+
+def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
+                      chord_tol: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters of points spaced by the local target edge length along many curves.
+
+    The count of intervals on a curve is ``ceil(∫ 1/h ds)`` (at least one; for arcs at least
+    one per 90 degrees and three for a full circle), with ``h = min(size, max_step)`` where
+    ``max_step`` keeps the sagitta of an arc's chords below ``chord_tol``. Points sit at equal
+    increments of that integral, computed on a fine sub-sampling (at least 4 per interval).
+
+    Parameters
+    ----------
+    curves : sequence of Segment / Arc, or a CurveBatch
+    size : float or callable ``(N, 2) -> (N,)``
+        Target edge length (``inf`` means no limit).
+    chord_tol : float, optional
+        Largest distance between an arc and its chords.
+
+    Returns
+    -------
+    offsets : (C + 1,) int64
+        Curve ``i`` owns ``t[offsets[i]:offsets[i + 1]]``.
+    t : (sum,) float64
+        Increasing from exactly 0 to exactly 1 on every curve.
+
+    Examples
+    --------
+    >>> from hetmesh.tri.geometry import Segment
+    >>> off, t = sample_parameters([Segment((0, 0), (1, 0))], 0.25)
+    >>> off.tolist(), t.tolist()
+    ([0, 5], [0.0, 0.25, 0.5, 0.75, 1.0])
+    """
+    batch = curves if isinstance(curves, CurveBatch) else CurveBatch.from_curves(curves)
+    if chord_tol is not None and not chord_tol > 0:
+        raise GeometryError(f"chord tolerance must be positive, got {chord_tol!r}")
+    C = len(batch)
+    L = batch.length
+    cap = batch.max_step(chord_tol)
+    nmin = batch.min_intervals()
+    if C == 0:
+        return np.zeros(1, dtype=np.int64), np.zeros(0)
+    if not callable(size):
+        h = float(size)
+        if not h > 0:
+            raise GeometryError(f"size must be positive, got {size!r}")
+        x = L / np.minimum(h, cap)
+        n = np.maximum(nmin, np.ceil(x * (1 - 1e-12))).astype(np.int64)
+        _check_count(n)
+        offsets = np.r_[0, np.cumsum(n + 1)]
+        idx = np.repeat(np.arange(C), n + 1)
+        k = np.arange(offsets[-1]) - offsets[idx]
+        return offsets, k / n[idx]
+    m = np.full(C, 16, dtype=np.int64)
+    for _ in range(5):
+        idx, t, first = _ragged(m)
+        inv = 1.0 / np.minimum(_eval_size(size, batch.points(idx, t)), cap[idx])
+        same = idx[1:] == idx[:-1]
+        w = np.where(same, 0.5 * (inv[1:] + inv[:-1]) * (L / m)[idx[:-1]], 0.0)
+        F = np.r_[0.0, np.cumsum(w)]
+        total = F[first + m] - F[first]
+        n = np.maximum(nmin, np.ceil(total * (1 - 1e-12))).astype(np.int64)
+        _check_count(n)
+        if np.all(m >= 4 * n):
+            break
+        m = np.maximum(m, 4 * n)
+    # normalised cumulative integral G in [0, 1] per curve (tiny linear term: strictly increasing)
+    Fl = F - F[first][idx]
+    eps = np.where(total > 0, 1e-9 * total, 1.0)
+    G = (Fl + eps[idx] * t) / (total + eps)[idx]
+    G[first + m] = 1.0
+    key = idx + G
+    u = idx + t
+    offsets = np.r_[0, np.cumsum(n + 1)]
+    jdx = np.repeat(np.arange(C), n + 1)
+    k = np.arange(offsets[-1]) - offsets[jdx]
+    out = np.interp(jdx + k / n[jdx], key, u) - jdx
+    out[offsets[:-1]] = 0.0
+    out[offsets[1:] - 1] = 1.0
+    return offsets, np.clip(out, 0.0, 1.0)
+
+
+def _ragged(m: np.ndarray):
+    """Curve index, uniform parameter and first position of ``m + 1`` samples per curve."""
+    first = np.r_[0, np.cumsum(m + 1)[:-1]]
+    idx = np.repeat(np.arange(len(m)), m + 1)
+    k = np.arange(int((m + 1).sum())) - first[idx]
+    return idx, k / m[idx], first

@@ -28,11 +28,14 @@ from shapely.geometry import LinearRing, LineString, Polygon
 
 from hetmesh.errors import GeometryError
 
-from .curves import (TWO_PI, Arc, Curve, CurveBatch, Segment, _tol, fmt_num, fmt_point,
-                     segments_through)
-from .pslg import fixed_vertices, sample_parameters
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
-__all__ = ["Loop", "Path", "CurveInfo", "Domain", "make_domain"]
+from .curves import (TWO_PI, Arc, Curve, CurveBatch, Segment, fmt_num, fmt_point,
+                     sample_parameters, segments_through, tolerance)
+
+__all__ = ["Loop", "Path", "CurveInfo", "Domain", "make_domain", "fixed_vertices"]
 
 VALIDATION_CHORD = 1e-6  # chord tolerance of validation / containment samples, x diameter
 CONTACT = 4 * VALIDATION_CHORD  # curves closer than this (x diameter) touch
@@ -109,7 +112,7 @@ class Path(_Chain):
         b = CurveBatch.from_curves(self.curves)
         if tol is None:
             bb = b.bounds()
-            tol = _tol(float(np.hypot(*(bb[:, 2:].max(0) - bb[:, :2].min(0)))),
+            tol = tolerance(float(np.hypot(*(bb[:, 2:].max(0) - bb[:, :2].min(0)))),
                        float(np.abs(bb).max()))
         return bool(np.hypot(*(b.p1[-1] - b.p0[0])) <= tol)
 
@@ -170,20 +173,25 @@ class Domain:
 
     # -- structure
     @cached_property
-    def _owners(self) -> tuple[tuple[str, _Chain], ...]:
+    def chains(self) -> tuple[tuple[str, Loop | Path], ...]:
+        """``(kind, chain)`` of the outer loop, the holes, then the interfaces.
+
+        ``kind`` is ``"outer"``, ``"hole"`` or ``"interface"``; :attr:`curves` lists the
+        chains' curves in this order.
+        """
         return (("outer", self.outer),) + tuple(("hole", h) for h in self.holes) + \
             tuple(("interface", p) for p in self.interfaces)
 
     @cached_property
-    def _slices(self) -> np.ndarray:
-        """``(n_owners + 1,)`` start index of every owner's curves in :attr:`curves`."""
-        return np.r_[0, np.cumsum([len(o.curves) for _, o in self._owners])]
+    def chain_starts(self) -> np.ndarray:
+        """``(n_chains + 1,)`` start index of every chain's curves in :attr:`curves`."""
+        return np.r_[0, np.cumsum([len(o.curves) for _, o in self.chains])]
 
     @cached_property
     def curves(self) -> tuple[CurveInfo, ...]:
         """Every curve: outer loop, then holes, then interfaces; marker = 1 + index."""
         out = []
-        for kind, owner in self._owners:
+        for kind, owner in self.chains:
             for i, c in enumerate(owner.curves):
                 out.append(CurveInfo(c, kind, len(out) + 1, c.name or f"{owner.name}[{i}]",
                                      owner.name))
@@ -192,15 +200,15 @@ class Domain:
     @cached_property
     def curve_batch(self) -> CurveBatch:
         """All curves (in :attr:`curves` order) as flat arrays."""
-        return CurveBatch.from_curves([c for _, o in self._owners for c in o.curves])
+        return CurveBatch.from_curves([c for _, o in self.chains for c in o.curves])
 
     @cached_property
-    def _closed(self) -> np.ndarray:
-        """Per owner: whether the chain is closed (loops always)."""
-        b, tol = self.curve_batch, self._tol
+    def chain_closed(self) -> np.ndarray:
+        """``(n_chains,)`` bool: whether the chain is closed (loops always)."""
+        b, tol, s = self.curve_batch, self.tol, self.chain_starts
         return np.array([kind != "interface" or
-                         bool(np.hypot(*(b.p1[self._slices[k + 1] - 1] - b.p0[self._slices[k]]))
-                              <= tol) for k, (kind, _) in enumerate(self._owners)])
+                         bool(np.hypot(*(b.p1[s[k + 1] - 1] - b.p0[s[k]])) <= tol)
+                         for k, (kind, _) in enumerate(self.chains)])
 
     # -- measures
     @cached_property
@@ -221,14 +229,15 @@ class Domain:
         return self.curve_batch.p0[0].copy()
 
     @cached_property
-    def _tol(self) -> float:
-        return _tol(self.diameter, float(np.abs(self.bounds).max()))
+    def tol(self) -> float:
+        """The geometric tolerance: points closer than this are the same point."""
+        return tolerance(self.diameter, float(np.abs(self.bounds).max()))
 
     @cached_property
     def area(self) -> float:
         """Exact area: outer loop minus holes (arcs contribute their circular segments)."""
         g = self.curve_batch.green_area(self._origin)
-        s = self._slices
+        s = self.chain_starts
         loops = [abs(float(g[s[k]:s[k + 1]].sum())) for k in range(1 + len(self.holes))]
         return loops[0] - sum(loops[1:])
 
@@ -243,10 +252,10 @@ class Domain:
         keep = np.ones(len(t), dtype=bool)
         keep[off[1:] - 1] = False
         out = []
-        for k in range(len(self._owners)):
-            lo, hi = off[self._slices[k]], off[self._slices[k + 1]]
+        for k in range(len(self.chains)):
+            lo, hi = off[self.chain_starts[k]], off[self.chain_starts[k + 1]]
             p = pts[lo:hi][keep[lo:hi]]
-            out.append(np.vstack([p, p[:1] if self._closed[k] else pts[hi - 1:hi]]))
+            out.append(np.vstack([p, p[:1] if self.chain_closed[k] else pts[hi - 1:hi]]))
         return out
 
     def polygon(self, chord_tol: float | None = None) -> Polygon:
@@ -275,18 +284,19 @@ class Domain:
         """Exact distance to the nearest curve (interfaces included unless disabled)."""
         b = self.curve_batch
         if not interfaces:
-            b = _sub(b, 0, int(self._slices[1 + len(self.holes)]))
+            b = _sub(b, 0, int(self.chain_starts[1 + len(self.holes)]))
         return b.distance(points)
 
     # -- fixed vertices
     @cached_property
-    def _junctions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+    def junctions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+        """The fixed vertices of the domain's PSLG: see :func:`fixed_vertices`."""
         return fixed_vertices(self)
 
     @property
     def corners(self) -> np.ndarray:
         """Fixed points ``(K, 2)``: curve end points and named points, deduplicated."""
-        return self._junctions[0].copy()
+        return self.junctions[0].copy()
 
     def translated(self, offset) -> Domain:
         """The domain moved by ``offset``."""
@@ -363,10 +373,10 @@ def _validate(d: Domain) -> None:
 
 
 def _label(d: Domain, i: int) -> str:
-    k = int(np.searchsorted(d._slices, i, side="right") - 1)
+    k = int(np.searchsorted(d.chain_starts, i, side="right") - 1)
     c = d.curves[i].curve
     own = f" ('{c.name}')" if c.name else ""
-    return f"{d._owners[k][1].name}: curve {i - int(d._slices[k])}{own}"
+    return f"{d.chains[k][1].name}: curve {i - int(d.chain_starts[k])}{own}"
 
 
 def _pt(d: Domain, local) -> str:
@@ -380,11 +390,11 @@ def _rep(geom) -> np.ndarray:
 
 
 def _check_structure(d: Domain) -> None:
-    names = [o.name for _, o in d._owners]
+    names = [o.name for _, o in d.chains]
     for n in names:
         if names.count(n) > 1:
             raise GeometryError(f"the name '{n}' is used by more than one loop or interface")
-    for _, o in d._owners:
+    for _, o in d.chains:
         if not o.curves:
             raise GeometryError(f"{o.name}: has no curves")
 
@@ -426,7 +436,7 @@ def _first(mask: np.ndarray) -> int | None:
 
 
 def _check_curves(d: Domain) -> None:
-    b, tol = d.curve_batch, d._tol
+    b, tol = d.curve_batch, d.tol
     if (i := _first(~b.is_arc & (b.length <= tol))) is not None:
         raise GeometryError(f"{_label(d, i)} is a zero-length segment (duplicate consecutive "
                             f"points) at {fmt_point(b.p0[i])}")
@@ -441,9 +451,9 @@ def _check_curves(d: Domain) -> None:
 
 
 def _check_chains(d: Domain) -> None:
-    b, tol = d.curve_batch, d._tol
-    for k, (kind, o) in enumerate(d._owners):
-        i0, i1 = d._slices[k], d._slices[k + 1]
+    b, tol = d.curve_batch, d.tol
+    for k, (kind, o) in enumerate(d.chains):
+        i0, i1 = d.chain_starts[k], d.chain_starts[k + 1]
         p0, p1 = b.p0[i0:i1], b.p1[i0:i1]
         if (j := _first(np.hypot(*(p0[1:] - p1[:-1]).T) > tol)) is not None:
             raise GeometryError(f"{o.name}: curve {j + 1} starts at {fmt_point(p0[j + 1])} "
@@ -457,8 +467,8 @@ def _check_chains(d: Domain) -> None:
 def _check_loops(d: Domain) -> None:
     b = d.curve_batch
     for k in range(1 + len(d.holes)):
-        o = d._owners[k][1]
-        i0, i1 = d._slices[k], d._slices[k + 1]
+        o = d.chains[k][1]
+        i0, i1 = d.chain_starts[k], d.chain_starts[k + 1]
         if not b.is_arc[i0:i1].any() and i1 - i0 < 3:
             raise GeometryError(f"{o.name}: a polygonal loop needs at least 3 vertices, "
                                 f"got {i1 - i0}")
@@ -471,7 +481,7 @@ def _check_loops(d: Domain) -> None:
                 where = fmt_point(b.p0[i0])
             raise GeometryError(f"{o.name}: the boundary intersects itself near {where}")
         area = abs(float(b.green_area(b.p0[i0])[i0:i1].sum()))
-        if area <= d._tol * d.diameter:
+        if area <= d.tol * d.diameter:
             raise GeometryError(f"{o.name}: the loop encloses no area (near "
                                 f"{fmt_point(b.p0[i0])})")
 
@@ -519,7 +529,7 @@ def _check_holes(d: Domain) -> None:
 
 def _junction_coords(d: Domain, k: int) -> np.ndarray:
     b = d.curve_batch
-    i0, i1 = d._slices[k], d._slices[k + 1]
+    i0, i1 = d.chain_starts[k], d.chain_starts[k + 1]
     return np.vstack([b.p0[i0:i1], b.p1[i1 - 1:i1]]) - d._origin
 
 
@@ -552,17 +562,17 @@ def _self_touch(coords: np.ndarray, closed: bool) -> np.ndarray:
 
 
 def _check_interfaces(d: Domain) -> None:
-    P, base, tol = len(d.interfaces), 1 + len(d.holes), d._tol
+    P, base, tol = len(d.interfaces), 1 + len(d.holes), d.tol
     if not P:
         return
     outer = Polygon(d._fine[0])
     holes = [Polygon(r) for r in d._fine[1:base]]
     lines = [LineString(d._fine[base + k]) for k in range(P)]
-    junc = [_junction_coords(d, k) for k in range(len(d._owners))]
+    junc = [_junction_coords(d, k) for k in range(len(d.chains))]
     for k, line in enumerate(lines):
         name, jk = d.interfaces[k].name, junc[base + k]
         if not line.is_simple:
-            where = _pt(d, _self_touch(d._fine[base + k], bool(d._closed[base + k])))
+            where = _pt(d, _self_touch(d._fine[base + k], bool(d.chain_closed[base + k])))
             raise GeometryError(f"{name}: the interface intersects itself near {where}")
         ring = LinearRing(d._fine[0])
         bad = _bad_contact(line.intersection(ring), jk, junc[0], tol)
@@ -604,8 +614,8 @@ def _check_points(d: Domain) -> None:
     names = list(d.points)
     P = np.array([d.points[n] for n in names])
     clear = CONTACT * d.diameter
-    ends = np.vstack([_junction_coords(d, k) for k in range(len(d._owners))]) + d._origin
-    corner = np.hypot(P[:, None, 0] - ends[:, 0], P[:, None, 1] - ends[:, 1]).min(1) <= d._tol
+    ends = np.vstack([_junction_coords(d, k) for k in range(len(d.chains))]) + d._origin
+    corner = np.hypot(P[:, None, 0] - ends[:, 0], P[:, None, 1] - ends[:, 1]).min(1) <= d.tol
     inside = d.contains(P) & (d.distance_to_boundary(P, interfaces=False) > clear)
     if (i := _first(~inside & ~corner)) is not None:
         raise GeometryError(f"point '{names[i]}' at {fmt_point(P[i])} is not inside the "
@@ -613,10 +623,52 @@ def _check_points(d: Domain) -> None:
                             f"{fmt_num(clear)} to it, and not a curve end point)")
     base = 1 + len(d.holes)
     for k, path in enumerate(d.interfaces):
-        i0, i1 = d._slices[base + k], d._slices[base + k + 1]
+        i0, i1 = d.chain_starts[base + k], d.chain_starts[base + k + 1]
         on = _sub(d.curve_batch, i0, i1).distance(P) <= clear
         jk = _junction_coords(d, base + k) + d._origin
-        at_end = np.hypot(P[:, None, 0] - jk[:, 0], P[:, None, 1] - jk[:, 1]).min(1) <= d._tol
+        at_end = np.hypot(P[:, None, 0] - jk[:, 0], P[:, None, 1] - jk[:, 1]).min(1) <= d.tol
         if (i := _first(on & ~at_end & ~corner)) is not None:
             raise GeometryError(f"point '{names[i]}' at {fmt_point(P[i])} lies on {path.name} "
                                 f"but not at one of its curve end points")
+
+
+def fixed_vertices(domain: Domain) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+    """The fixed vertices of a domain's PSLG, merged within the domain's tolerance.
+
+    Cached as :attr:`Domain.junctions`.
+
+    Returns ``coords (K, 2)``, ``start_id (C,)``, ``end_id (C,)`` (fixed vertex of every
+    curve's ends) and ``point_id`` (named point -> fixed vertex). Between two curves the
+    vertex is a segment's exact end point where there is one.
+    """
+    b = domain.curve_batch
+    coords, start_id, end_id = [], np.empty(len(b), np.int64), np.empty(len(b), np.int64)
+    k = 0
+    for j in range(len(domain.chains)):
+        i0, i1 = domain.chain_starts[j], domain.chain_starts[j + 1]
+        n = i1 - i0
+        seg, p0, p1 = ~b.is_arc[i0:i1], b.p0[i0:i1], b.p1[i0:i1]
+        prev = np.arange(n) - 1
+        J = np.where(seg[prev, None], p1[prev], p0)
+        if not domain.chain_closed[j]:
+            J[0] = p0[0]
+            J = np.vstack([J, p1[-1:]])
+        ids = k + np.arange(len(J))
+        start_id[i0:i1] = ids[:n]
+        end_id[i0:i1] = np.roll(ids, -1) if domain.chain_closed[j] else ids[1:]
+        coords.append(J)
+        k += len(J)
+    names = list(domain.points)
+    coords.append(np.array([domain.points[q] for q in names]).reshape(-1, 2))
+    coords = np.vstack(coords)
+    pairs = cKDTree(coords).query_pairs(domain.tol, output_type="ndarray")
+    m = len(coords)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    _, labels = connected_components(graph, directed=False)
+    _, first = np.unique(labels, return_index=True)  # first vertex of every label
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    new = rank[labels]
+    point_id = {q: int(new[k + i]) for i, q in enumerate(names)}
+    return coords[first[order]], new[start_id], new[end_id], point_id

@@ -339,7 +339,7 @@ def _simple(chains: list[Chain]) -> bool:
 
 
 # ---------------------------------------------------------------------------- rings
-def _rings(chains: list[Chain], inside) -> list[np.ndarray]:
+def label_rings(chains: list[Chain], inside) -> list[np.ndarray]:
     """Closed rings of the chains with an ``inside`` label (a predicate on labels) on one
     side and not the other, oriented with the inside on the left (counter-clockwise around
     an inside region, clockwise around a hole)."""
@@ -377,12 +377,14 @@ def _area(ring: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
-def _to_xy(points: np.ndarray, origin, spacing) -> np.ndarray:
+def pixel_to_xy(points: np.ndarray, origin, spacing) -> np.ndarray:
+    """Traced points (pixel corner units, ``(0.5, 0.5)`` the first pixel's centre) to
+    ``x, y`` given the first pixel centre ``origin`` and the pixel ``spacing``."""
     o, s = np.asarray(origin, float), np.asarray(spacing, float)
     return o + (points - 0.5) * s
 
 
-def _polygons(rings: list[np.ndarray]) -> list[shapely.Polygon]:
+def ring_polygons(rings: list[np.ndarray]) -> list[shapely.Polygon]:
     """Exterior (counter-clockwise) rings with their holes (clockwise rings inside them)."""
     ext = [r for r in rings if _area(r) > 0]
     holes = [r for r in rings if _area(r) < 0]
@@ -421,20 +423,20 @@ def _loop(ring: np.ndarray, name: str) -> Loop:
 
 def _domain_from(chains: list[Chain], origin, spacing, interfaces: bool,
                  where: str) -> tuple[Domain, list[Chain]]:
-    rings = _rings(chains, lambda lab: lab != OUTSIDE)
+    rings = label_rings(chains, lambda lab: lab != OUTSIDE)
     if not rings:
         raise GeometryError(f"{where}: the mask has no non-zero pixels")
     outer = [r for r in rings if _area(r) > 0]
     if len(outer) != 1:  # the caller keeps one component
         raise GeometryError(f"{where}: the mask has {len(outer)} separate regions")
     holes = [r for r in rings if _area(r) < 0]
-    xy = [_to_xy(r, origin, spacing) for r in [outer[0]] + holes]
+    xy = [pixel_to_xy(r, origin, spacing) for r in [outer[0]] + holes]
     paths = []
     inner = [c for c in chains if c.left != OUTSIDE and c.right != OUTSIDE]
     if interfaces:
         for k, c in enumerate(inner):
             name = f"discontinuity[{k}]"
-            paths.append(Path(_segments(_to_xy(c.points, origin, spacing), name), name))
+            paths.append(Path(_segments(pixel_to_xy(c.points, origin, spacing), name), name))
     try:
         dom = make_domain(_loop(xy[0], "outer"),
                           tuple(_loop(h, f"hole[{k}]") for k, h in enumerate(xy[1:])),
@@ -517,7 +519,7 @@ def region_lookup(chains: list[Chain], labels: np.ndarray, phases: dict, origin,
         ndimage.minimum_filter(idx, size, mode="nearest")
     polys = {}
     for label, k in phases.items():
-        pg = _polygons([_to_xy(r, origin, spacing) for r in _rings(
+        pg = ring_polygons([pixel_to_xy(r, origin, spacing) for r in label_rings(
             chains, lambda lab_, L=label: lab_ == L)])
         geom = shapely.MultiPolygon(pg) if pg else shapely.MultiPolygon()
         shapely.prepare(geom)

@@ -1,0 +1,82 @@
+"""MOR's node placements: where the nodes start before the refinement loop.
+
+Two placements, by ``method`` name (:data:`PLACEMENTS`):
+
+* ``"cvt"`` -- the paper's start (Sec. 3.2.3): nodes sampled with the density
+  rho = |grad f|^(d+2) (Eq. 9), then conforming Lloyd iterations (the CVT step,
+  :mod:`hetmesh.tri.cvt`); ``"cvt-dense"`` the same from 1.3 x the density's node count;
+* ``"layers"`` -- rows of nodes on the composition's level curves
+  (:mod:`hetmesh.tri.layers`).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .. import density as dens
+from .geometry import build_pslg
+from .layers import place_layers
+from .workset import Context, WorkSet, add_free_points, smooth, triangulate, workset_from_pslg
+
+__all__ = ["place_cvt", "size_fn", "PLACEMENTS", "DENSE_START"]
+
+
+def size_fn(ctx: Context, factor: float):
+    def h(pts):
+        return dens.size_at(ctx.g(pts), ctx.threshold, ctx.h_at(pts), factor)
+    return h
+
+
+
+def place_cvt(ctx: Context, rng, chord_tol: float, progress=None, start: float = 0.9
+              ) -> WorkSet:
+    """The paper's MOR start: density-sampled nodes, then global conforming Lloyd (Sec. 3.2.3).
+
+    ``start`` is the node count relative to the density's (equilateral elements of side
+    delta_0 / |grad f|). About 0.9 is best where one composition gradient sets the size: at
+    1.0 some 40 % of the elements violate, below 0.85 the start is already finer than the
+    refinement needs. Where several constituents vary in different directions (three_phase)
+    the density undercounts: 0.9 leaves 59 % violators and the repair's insertions cost
+    shape (q_avg 0.943), 1.3 leaves 19 % and ends with fewer elements (1,447 against 1,491
+    at 0.05) of a better shape (0.955)."""
+    factor = 1.0 / np.sqrt(start)
+    h = size_fn(ctx, factor)
+    ws = workset_from_pslg(build_pslg(ctx.domain, h, chord_tol))
+    pts = _sample_interior(ctx, h, rng)
+    add_free_points(ws, pts)
+    tris = triangulate(ws, ctx)
+    smooth(ws, ctx, tris, iters=12)
+    return ws
+
+
+
+def _sample_interior(ctx: Context, h, rng) -> np.ndarray:
+    """Stratified random nodes with density 2/(sqrt(3) h^2) (equilateral triangles of side h)."""
+    dom = ctx.domain
+    x0, y0, x1, y1 = dom.bounds
+    n = 256
+    cx = (x1 - x0) / n
+    cy = (y1 - y0) / n
+    X, Y = np.meshgrid(x0 + (np.arange(n) + 0.5) * cx, y0 + (np.arange(n) + 0.5) * cy)
+    c = np.column_stack([X.ravel(), Y.ravel()])
+    lam = 2.0 / (np.sqrt(3.0) * h(c) ** 2) * cx * cy
+    k = np.floor(lam).astype(np.int64)
+    k += rng.random(len(k)) < (lam - k)
+    cells = np.repeat(np.arange(len(c)), k)
+    pts = c[cells] + (rng.random((len(cells), 2)) - 0.5) * [cx, cy]
+    pts = pts[dom.contains(pts)]
+    if len(pts):
+        far = dom.distance_to_boundary(pts) > 0.5 * h(pts)
+        pts = pts[far]
+    return pts
+
+
+
+#: the CVT start that :func:`hetmesh.tri.pipeline.generate`'s ``"auto"`` tries besides the
+#: default 0.9
+DENSE_START = 1.3
+#: node placements of MOR, by ``method`` name
+PLACEMENTS = {"cvt": place_cvt, "layers": place_layers,
+              "cvt-dense": functools.partial(place_cvt, start=DENSE_START)}
