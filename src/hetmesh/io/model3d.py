@@ -5,9 +5,10 @@ key checked, formulas compiled by :mod:`hetmesh.expr` (variables ``x``, ``y``, `
 error one line starting with the file name and the key path. The format is documented in
 ``docs/model-format.md`` (section "3D models").
 
->>> m = parse_model3d({"solid": {"type": "box", "min": [0, 0, 0], "max": [1, 1, 1]},
-...                    "material": {"constituents": ["ceramic", "metal"],
-...                                 "composition": {"metal": "(1 - z)**2"}}})
+>>> from hetmesh.io.model import parse_model          # dispatches to parse_model3d
+>>> m = parse_model({"solid": {"type": "box", "min": [0, 0, 0], "max": [1, 1, 1]},
+...                  "material": {"constituents": ["ceramic", "metal"],
+...                               "composition": {"metal": "(1 - z)**2"}}})
 >>> m.dim, m.solid.volume, m.constituents
 (3, 1.0, ('ceramic', 'metal'))
 """
@@ -181,8 +182,7 @@ def _solid(ctx, value, top) -> Prism:
             if "domain" not in top:
                 raise ModelFileError(f"{ctx.pre}missing key 'domain' (an extrusion sweeps "
                                      f"the 2D domain of the [domain] table along z)")
-            from .model import _domain
-            dom = _domain(ctx, top["domain"])
+            dom = ctx.parse_domain(ctx, top["domain"])
             if dom.interfaces:
                 raise ctx.fail("domain.interfaces", "interfaces are not supported in "
                                                     "extrusions yet")
@@ -197,9 +197,8 @@ def _solid(ctx, value, top) -> Prism:
                 raise ModelFileError(f"{ctx.pre}missing key 'domain' (a revolution turns the "
                                      f"2D profile of the [domain] table, x = r, y = z, about "
                                      f"the z axis)")
-            from .model import _domain
             from ..tet.revolve import Revolution
-            dom = _domain(ctx, top["domain"])
+            dom = ctx.parse_domain(ctx, top["domain"])
             try:
                 return Revolution(dom, angle, where=ctx.where)
             except GeometryError as exc:
@@ -227,7 +226,7 @@ def _formula_names(formulas: Mapping[str, str], parameters) -> set[str]:
 
 def _material(ctx, value, solid: Prism, parameters, top):
     """``(field3d, field2d or None)``."""
-    from .model import _material as material2d
+    material2d = ctx.parse_material
     if not isinstance(value, Mapping):
         raise ctx.fail("material", "expected a table")
     kind = value.get("type", "analytic")
@@ -266,11 +265,18 @@ def _material(ctx, value, solid: Prism, parameters, top):
     return field3, None
 
 
-def parse_model3d(data: Mapping, where: str = "model", *, source: Path | None = None,
-                  default_name: str = "model", check: bool = True) -> Model3D:
-    """Build a :class:`Model3D` from a parsed model file with a ``[solid]`` table."""
-    from .model import _parameters
+def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
+                  source: Path | None = None, default_name: str = "model",
+                  check: bool = True) -> Model3D:
+    """Build a :class:`Model3D` from a parsed model file with a ``[solid]`` table.
+
+    ``parsers``: the 2D model format's ``(parameters, domain, material)`` parsers, each
+    ``(ctx, value, ...)``, for the ``[parameters]``, the extruded or revolved ``[domain]``
+    and a 2D ``[material]`` (:func:`hetmesh.io.model.parse_model` passes its own; this
+    module does not import that one, which imports this one).
+    """
     ctx = _ctx(where)
+    _parameters, ctx.parse_domain, ctx.parse_material = parsers
     ctx.base = source.parent if source is not None else Path(".")
     top = ctx.table(data, "", required=("solid", "material"),
                     optional=("model", "parameters", "domain"))

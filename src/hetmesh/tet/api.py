@@ -52,20 +52,31 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         raise OptionError(f"max_elements must be positive, got {max_elements!r}")
     solid = model.solid
     chord = None if chord_tol is None else chord_tol * solid.diameter
-    from .revolve import Revolution, generate_revolved
+    from ..io.model import Model
+    from .extrude import mid_section_field
+    from .revolve import Revolution, generate_revolved, is_axisymmetric, profile_field
     if isinstance(solid, Revolution):
-        res = generate_revolved(solid, model.material, threshold, seed=seed, chord_tol=chord,
-                                max_elements=max_elements, check=check, name=model.name)
+        axisym = model.material2d is not None or is_axisymmetric(model.material, solid)
+        f2 = model.material2d or profile_field(model.material, solid)
+        res = generate_revolved(solid, model.material, threshold,
+                                Model(name=model.name, domain=solid.profile, material=f2),
+                                axisymmetric=axisym, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, check=check)
     elif model.material2d is not None:
-        res = generate_extruded(solid, model.material, threshold, field2d=model.material2d,
-                                seed=seed, chord_tol=chord, max_elements=max_elements,
-                                check=check, name=model.name)
+        res = generate_extruded(solid, model.material, threshold,
+                                Model(name=model.name, domain=solid.section,
+                                      material=model.material2d),
+                                swept=True, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, check=check)
     elif solid.convex and (layered := _planar_prism(solid, model.material)) is not None:
         res = generate_tets(layered, model.material, threshold, seed=seed, chord_tol=chord,
                             max_elements=max_elements, check=check)
     else:
-        res = generate_extruded(solid, model.material, threshold, seed=seed, chord_tol=chord,
-                                max_elements=max_elements, check=check, name=model.name)
+        res = generate_extruded(solid, model.material, threshold,
+                                Model(name=model.name, domain=solid.section,
+                                      material=mid_section_field(solid, model.material)),
+                                swept=False, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, check=check)
     res.info["composition"] = np.asarray(model.material.composition(res.points),
                                          dtype=np.float64)
     res.mesh = to_mesh(res, model.constituents)
@@ -76,10 +87,10 @@ def _planar_prism(solid, field):
     """``solid`` (or, for a box, the same box along another axis) if the composition varies
     along its axis only, else None: the layered placement's best case. Compositions that
     vary across the axis go to the swept section mesh, which keeps its quality."""
-    from .mesher import _is_planar
+    from .mesher import is_planar
     from .solid import box
 
-    if _is_planar(field, solid, solid.sample(16)):
+    if is_planar(field, solid, solid.sample(16)):
         return solid
     names = solid.face_names
     if len(names) == 6 and set(names) == {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"}:
@@ -87,7 +98,7 @@ def _planar_prism(solid, field):
         for axis in (0, 1, 2):
             if axis != solid.axis:
                 other = box(lo, hi, axis=axis, where=solid.where)
-                if _is_planar(field, other, other.sample(16)):
+                if is_planar(field, other, other.sample(16)):
                     return other
     return None
 

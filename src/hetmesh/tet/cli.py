@@ -32,8 +32,10 @@ def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
     if kwargs.get("sampling", "vertices") != "vertices":
         raise OptionError(f"--sampling {kwargs['sampling']} is not available for 3D models "
                           f"(vertices only)")
-    from ..io.export import _resolve
-    fmt = _resolve(args.output, getattr(args, "format", None))
+    from ..io.export import FILE_FORMATS, FORMATS
+    name = getattr(args, "format", None)
+    # the names and extensions were checked with the other outputs (check_outputs)
+    fmt = FILE_FORMATS[name.lower()] if name else FORMATS[args.output.suffix.lower()]
     if 3 not in fmt.dims:
         raise OutputError(f"--output {args.output}: {fmt.name} does not take tetrahedral "
                           f"meshes")

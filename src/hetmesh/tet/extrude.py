@@ -37,7 +37,7 @@ from .quality import delta_tets, volumes
 from .refine import bisect_edges, select_edges
 from .verify import boundary_faces, tet_problems
 
-__all__ = ["prism_tets", "generate_extruded", "SectionField"]
+__all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]
 
 log = logging.getLogger(__name__)
 
@@ -111,10 +111,23 @@ def _axial_gradient(field3d, solid, n: int = 24) -> float:
     return float(np.abs(g).max()) if g.size else 0.0
 
 
-def generate_extruded(solid, field3d, threshold: float, *, field2d=None, seed: int = 0,
-                      chord_tol: float | None = None, max_elements: int | None = None,
-                      min_angle: float = 30.0, check: bool = True,
-                      name: str = "section") -> TetResult:
+def mid_section_field(solid, field3d):
+    """The composition on the prism's middle section as a 2D field (section coordinates):
+    what the section is meshed with when the composition also varies along the axis."""
+    from ..material import CallableField
+
+    s_mid = 0.5 * (solid.s0 + solid.s1)
+
+    def f2(x, y):
+        q = np.column_stack([np.ravel(x), np.ravel(y)])
+        return field3d.composition(solid.to3d(q, np.full(len(q), s_mid)))
+    return CallableField(f2, field3d.constituents)
+
+
+def generate_extruded(solid, field3d, threshold: float, section_model, *, swept: bool,
+                      seed: int = 0, chord_tol: float | None = None,
+                      max_elements: int | None = None, min_angle: float = 30.0,
+                      check: bool = True) -> TetResult:
     """Tetrahedralise a prism by sweeping the 2D mesh of its section.
 
     Parameters
@@ -123,34 +136,25 @@ def generate_extruded(solid, field3d, threshold: float, *, field2d=None, seed: i
     field3d : material field on ``(N, 3)`` points
     threshold : float
         delta_0.
-    field2d : material field on the section, optional
-        The field to mesh the section with when the composition does not depend on the
-        axis coordinate (then ``field3d`` is that field swept); default: ``field3d`` on the
-        mid-section.
+    section_model : 2D model (``hetmesh.io.model.Model``)
+        The section (``solid.section``) and the 2D field to mesh it with: the swept field
+        when ``swept``, else e.g. :func:`mid_section_field`.
+    swept : bool
+        Whether ``field3d`` is the section's field, the same along the axis (then the 2D
+        guarantee carries over exactly); otherwise thin layers and edge-bisection repair.
     chord_tol : float, optional
         Absolute chord tolerance of curved faces (default: the 2D mesher's).
     """
-    from ..io.model import Model
-    from ..material import CallableField
-    from .. import generate
     from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
+    from ..tri.pipeline import generate
 
     t0 = time.perf_counter()
     sec = solid.section
-    swept = field2d is not None
-    if field2d is None:
-        s_mid = 0.5 * (solid.s0 + solid.s1)
-        cols = field3d.constituents
-
-        def f2(x, y):
-            q = np.column_stack([np.ravel(x), np.ravel(y)])
-            return field3d.composition(solid.to3d(q, np.full(len(q), s_mid)))
-        field2d = CallableField(f2, cols)
+    field2d = section_model.material
     kw = {}
     if chord_tol is not None:
         kw["chord_tol"] = min(max(chord_tol / sec.diameter, 1e-7), 0.05)
-    model2 = Model(name=name, domain=sec, material=field2d)
-    r2 = generate(model2, threshold, seed=seed, min_angle=min_angle, **kw)
+    r2 = generate(section_model, threshold, seed=seed, min_angle=min_angle, **kw)
     m2 = r2.mesh
     p2, t2 = m2.points, m2.triangles.astype(np.int64)
     h = _median_edge(p2, t2)

@@ -39,7 +39,7 @@ from .quality import delta_tets, min_dihedral, volumes
 from .refine import bisect_edges, select_edges
 from .verify import boundary_faces, verify_tets
 
-__all__ = ["TetResult", "generate_tets", "estimate_tets", "n_iso3", "BETA"]
+__all__ = ["TetResult", "generate_tets", "estimate_tets", "n_iso3", "is_planar", "BETA"]
 
 log = logging.getLogger(__name__)
 
@@ -106,7 +106,7 @@ def _scalar(field, solid, j):
     return F
 
 
-def _is_planar(field, solid, samples: np.ndarray) -> bool:
+def is_planar(field, solid, samples: np.ndarray) -> bool:
     """Whether the composition depends on the axis coordinate only (at the samples)."""
     q, s = solid.to2d(samples)
     ref = solid.section.polygon().representative_point()
@@ -468,7 +468,7 @@ def generate_tets(solid, field, threshold: float, *, seed: int = 0,
                           f"but the budget is {max_elements}")
     rng = np.random.default_rng(seed)
     samples = solid.sample(24)
-    planar = _is_planar(field, solid, samples)
+    planar = is_planar(field, solid, samples)
     if planar:
         layers, fixed, spacing, df = _layers_planar(solid, field, threshold, rng, chord,
                                                     hmax)

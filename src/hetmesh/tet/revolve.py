@@ -37,7 +37,7 @@ from .quality import delta_tets, volumes
 from .refine import repair
 from .verify import boundary_faces
 
-__all__ = ["Revolution", "generate_revolved", "is_axisymmetric"]
+__all__ = ["Revolution", "generate_revolved", "is_axisymmetric", "profile_field"]
 
 log = logging.getLogger(__name__)
 
@@ -151,7 +151,8 @@ def is_axisymmetric(field, solid: Revolution, n: int = 16) -> bool:
     return True
 
 
-def _profile_field(field, solid):
+def profile_field(field, solid):
+    """The composition in the plane at angle 0 as a 2D field of ``(r, z)``."""
     from ..material import CallableField
 
     def f2(x, y):
@@ -160,29 +161,29 @@ def _profile_field(field, solid):
     return CallableField(f2, field.constituents)
 
 
-def generate_revolved(solid: Revolution, field, threshold: float, *, field2d=None,
-                      seed: int = 0, chord_tol: float | None = None,
-                      max_elements: int | None = None, check: bool = True,
-                      name: str = "profile") -> TetResult:
+def generate_revolved(solid: Revolution, field, threshold: float, profile_model, *,
+                      axisymmetric: bool, seed: int = 0, chord_tol: float | None = None,
+                      max_elements: int | None = None, check: bool = True) -> TetResult:
     """Tetrahedralise a solid of revolution by sweeping the 2D mesh of its profile.
 
-    ``field2d``: the profile's field when the composition is axisymmetric (default: found
-    by :func:`is_axisymmetric`, the field in the plane at angle 0); ``chord_tol`` absolute
-    (default :data:`CHORD` x the diameter).
+    ``profile_model``: the profile (``solid.profile``) and the 2D field of ``(r, z)`` to mesh
+    it with (:func:`profile_field`); ``axisymmetric``: whether the composition is the same
+    at every angle (:func:`is_axisymmetric`: then the 2D guarantee carries over exactly,
+    else the sweep is repaired by edge bisection); ``chord_tol`` absolute (default
+    :data:`CHORD` x the diameter).
     """
-    from ..io.model import Model
-    from .. import generate
     from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
+    from ..tri.pipeline import generate
 
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
-    axisym = field2d is not None or is_axisymmetric(field, solid)
-    f2 = field2d if field2d is not None else _profile_field(field, solid)
+    axisym = axisymmetric
+    f2 = profile_model.material
     prof = solid.profile
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
     # across both deviates by at most the sum
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
-    r2 = generate(Model(name=name, domain=prof, material=f2), threshold, seed=seed, **kw)
+    r2 = generate(profile_model, threshold, seed=seed, **kw)
     m2 = r2.mesh
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
     e = np.concatenate([t2[:, [0, 1]], t2[:, [1, 2]], t2[:, [2, 0]]])
