@@ -214,7 +214,8 @@ def main(argv=None) -> int:
         print(head)
         print(row("hetmesh", figures(res.points, res.tets, field, d0, niso, wall)))
         import resource
-        print(f"  peak memory (max RSS) {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB")
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6  # kB -> GB
+        print(f"  peak memory (max RSS) {rss:.2f} GB")
     print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
     return 0
 

@@ -42,7 +42,7 @@ def check_tet_mesh(points, tets, composition, threshold, *, box_bounds=None,
         # each boundary triangle exactly on one face plane; each face covered exactly
         on = np.zeros(len(bnd), int)
         for k in range(3):
-            for side, val in ((0, lo[k]), (1, hi[k])):
+            for val in (lo[k], hi[k]):
                 sel = (q[:, :, k] == val).all(axis=1)
                 on += sel
                 want = np.prod(np.delete(size, k))

@@ -11,14 +11,13 @@ import numpy as np
 import pytest
 
 import hetmesh
+from conftest import EXAMPLES_3D
 from hetmesh.cli import main
-from hetmesh.errors import GeometryError, ModelFileError, FormulaError
+from hetmesh.errors import FormulaError, GeometryError, ModelFileError
 from hetmesh.io.model import load_model
 from hetmesh.tet.api import mesh_model
 from hetmesh.tet.mesher import CHORD
 from hetmesh.tet.revolve import Revolution
-
-from conftest import EXAMPLES_3D
 from test_tet import check_tet_mesh
 
 CUBE = """

@@ -67,8 +67,8 @@ def section_points(section, spacing: float, phase: int, rng: np.random.Generator
     """Points of one layer in the section: ``(q (n, 2), on_boundary (n,))``.
 
     Boundary curves are divided into ``ceil(length / spacing)`` equal parts (arcs into at
-    least as many as the chord tolerance needs, see :func:`arc_count`); the interior is a square lattice of
-    ``spacing``, shifted by half a cell when ``phase`` is odd.
+    least as many as the chord tolerance needs, see :func:`arc_count`); the interior is a
+    square lattice of ``spacing``, shifted by half a cell when ``phase`` is odd.
     """
     curves = [c.curve for c in section.curves if c.kind in ("outer", "hole")]
     off, t = sample_parameters(curves, spacing, None)

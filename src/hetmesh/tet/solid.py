@@ -179,9 +179,8 @@ def box(lo, hi, *, axis: int = 2, where: str = "") -> Prism:
     A prism along ``axis`` (default z) whose section is the rectangle across it; the face
     names do not depend on the axis.
 
-    >>> [box((0, 0, 0), (1, 2, 3), axis=k).face_names for k in (0, 2)]  # doctest: +NORMALIZE_WHITESPACE
-    [('xmin', 'xmax', 'zmin', 'ymax', 'zmax', 'ymin'),
-     ('zmin', 'zmax', 'ymin', 'xmax', 'ymax', 'xmin')]
+    >>> box((0, 0, 0), (1, 2, 3), axis=0).face_names
+    ('xmin', 'xmax', 'zmin', 'ymax', 'zmax', 'ymin')
     """
     lo = np.asarray(lo, dtype=float)
     hi = np.asarray(hi, dtype=float)
