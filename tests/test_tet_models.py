@@ -331,3 +331,15 @@ def test_cli_uniform_3d_is_an_error(tmp_path, capsys):
                        capsys)
     assert code == 2 and "not available for 3D models" in err
     assert not (tmp_path / "u.vtu").exists()
+
+
+def test_max_size_bounds_the_spacing(tmp_path):
+    m = load_model(write(tmp_path, CUBE))
+    coarse = mesh_model(m, 0.3)
+    fine = mesh_model(m, 0.3, max_size=0.1)
+    check_tet_mesh(fine.points, fine.tets, lambda p: (1 - p[:, 2]) ** 2, 0.3,
+                   box_bounds=((0, 0, 0), (1, 1, 1)))
+    assert len(fine.tets) > 4 * len(coarse.tets)
+    p, t = fine.points, fine.tets
+    e = p[t[:, [0, 1, 2, 0, 1, 2]]] - p[t[:, [1, 2, 3, 3, 3, 3]]]
+    assert np.linalg.norm(e, axis=2).max() <= 2.0 * 0.1

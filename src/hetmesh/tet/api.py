@@ -34,12 +34,14 @@ DEFAULT_MAX_ELEMENTS = 20_000_000
 
 
 def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | None = None,
-               max_elements: int | None = DEFAULT_MAX_ELEMENTS, check: bool = True
-               ) -> TetResult:
+               max_elements: int | None = DEFAULT_MAX_ELEMENTS,
+               max_size: float | None = None, check: bool = True) -> TetResult:
     """Tetrahedral mesh of a 3D model (:class:`hetmesh.io.model3d.Model3D`) with every
     element's delta below ``threshold``, verified.
 
-    ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002.
+    ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002;
+    ``max_size`` (model units) bounds the node spacing: in swept and revolved meshes it
+    evens out the section's sizes, which shapes the tetrahedra better at a higher count.
     The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``, its
     ``mesh`` the :class:`~hetmesh.mesh.Mesh` (:func:`to_mesh`), which ``write`` saves.
     """
@@ -48,6 +50,8 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         raise OptionError(f"threshold must be in (0, 1), got {threshold!r}")
     if chord_tol is not None and not 1e-7 <= chord_tol <= 0.05:
         raise OptionError(f"chord_tol must be in [1e-7, 0.05], got {chord_tol!r}")
+    if max_size is not None and not (np.isfinite(max_size) and max_size > 0):
+        raise OptionError(f"max_size must be a positive number, got {max_size!r}")
     if max_elements is not None and max_elements < 1:
         raise OptionError(f"max_elements must be positive, got {max_elements!r}")
     solid = model.solid
@@ -61,22 +65,22 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         res = generate_revolved(solid, model.material, threshold,
                                 Model(name=model.name, domain=solid.profile, material=f2),
                                 axisymmetric=axisym, seed=seed, chord_tol=chord,
-                                max_elements=max_elements, check=check)
+                                max_elements=max_elements, max_size=max_size, check=check)
     elif model.material2d is not None:
         res = generate_extruded(solid, model.material, threshold,
                                 Model(name=model.name, domain=solid.section,
                                       material=model.material2d),
                                 swept=True, seed=seed, chord_tol=chord,
-                                max_elements=max_elements, check=check)
+                                max_elements=max_elements, max_size=max_size, check=check)
     elif solid.convex and (layered := _planar_prism(solid, model.material)) is not None:
         res = generate_tets(layered, model.material, threshold, seed=seed, chord_tol=chord,
-                            max_elements=max_elements, check=check)
+                            max_elements=max_elements, h_max=max_size, check=check)
     else:
         res = generate_extruded(solid, model.material, threshold,
                                 Model(name=model.name, domain=solid.section,
                                       material=mid_section_field(solid, model.material)),
                                 swept=False, seed=seed, chord_tol=chord,
-                                max_elements=max_elements, check=check)
+                                max_elements=max_elements, max_size=max_size, check=check)
     res.info["composition"] = np.asarray(model.material.composition(res.points),
                                          dtype=np.float64)
     res.mesh = to_mesh(res, model.constituents)

@@ -20,8 +20,7 @@ from .quality import quality_summary, volumes
 __all__ = ["run_tet", "run_tet_stats", "tet_statistics", "plot_tets"]
 
 #: options of ``hetmesh mesh`` that the 2D mesher has and the 3D one does not
-_2D_ONLY = {"min_angle": "--min-angle", "max_size": "--max-size", "method": "--method",
-            "row_spacing": "--row-spacing"}
+_2D_ONLY = {"min_angle": "--min-angle", "method": "--method", "row_spacing": "--row-spacing"}
 
 
 def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
@@ -39,7 +38,8 @@ def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
     if 3 not in fmt.dims:
         raise OutputError(f"--output {args.output}: {fmt.name} does not take tetrahedral "
                           f"meshes")
-    return {k: kwargs[k] for k in ("seed", "chord_tol", "max_elements") if k in kwargs}
+    return {k: kwargs[k] for k in ("seed", "chord_tol", "max_elements", "max_size")
+            if k in kwargs}
 
 
 def tet_statistics(model, res) -> dict:

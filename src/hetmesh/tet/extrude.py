@@ -127,7 +127,7 @@ def mid_section_field(solid, field3d):
 def generate_extruded(solid, field3d, threshold: float, section_model, *, swept: bool,
                       seed: int = 0, chord_tol: float | None = None,
                       max_elements: int | None = None, min_angle: float = 30.0,
-                      check: bool = True) -> TetResult:
+                      max_size: float | None = None, check: bool = True) -> TetResult:
     """Tetrahedralise a prism by sweeping the 2D mesh of its section.
 
     Parameters
@@ -144,6 +144,9 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         guarantee carries over exactly); otherwise thin layers and edge-bisection repair.
     chord_tol : float, optional
         Absolute chord tolerance of curved faces (default: the 2D mesher's).
+    max_size : float, optional
+        Longest edge of the section's mesh and thickest layer: fewer sizes in the section,
+        better shaped prisms, more tetrahedra.
     """
     from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
     from ..tri.pipeline import generate
@@ -154,10 +157,14 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     kw = {}
     if chord_tol is not None:
         kw["chord_tol"] = min(max(chord_tol / sec.diameter, 1e-7), 0.05)
+    if max_size is not None:
+        kw["max_size"] = float(max_size)
     r2 = generate(section_model, threshold, seed=seed, min_angle=min_angle, **kw)
     m2 = r2.mesh
     p2, t2 = m2.points, m2.triangles.astype(np.int64)
     h = _median_edge(p2, t2)
+    if max_size is not None:
+        h = min(h, float(max_size))
     gs = 0.0 if swept else _axial_gradient(field3d, solid)
     if gs > 0:
         h = min(h, BETA * threshold / gs)

@@ -455,9 +455,11 @@ def generate_tets(solid, field, threshold: float, *, seed: int = 0,
         raise GeometryError("the layered tetrahedral mesher needs a convex solid (a convex "
                             "section without holes); this one is not")
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
-    hmax = solid.section.diameter / 2 if h_max is None else float(h_max)
+    hmax = solid.section.diameter / 2
+    if h_max is not None:
+        hmax = min(hmax, float(h_max))
     arcs = [c.curve for c in solid.section.curves if hasattr(c.curve, "radius")]
-    if arcs and h_max is None:
+    if arcs:
         # tetrahedra at a curved face are shaped by its step: keep the spacing within
         # ARC_SPACING x that step
         step = min(c.length / arc_count(c, chord) for c in arcs)

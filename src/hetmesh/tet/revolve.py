@@ -163,7 +163,8 @@ def profile_field(field, solid):
 
 def generate_revolved(solid: Revolution, field, threshold: float, profile_model, *,
                       axisymmetric: bool, seed: int = 0, chord_tol: float | None = None,
-                      max_elements: int | None = None, check: bool = True) -> TetResult:
+                      max_elements: int | None = None, max_size: float | None = None,
+                      check: bool = True) -> TetResult:
     """Tetrahedralise a solid of revolution by sweeping the 2D mesh of its profile.
 
     ``profile_model``: the profile (``solid.profile``) and the 2D field of ``(r, z)`` to mesh
@@ -183,6 +184,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
     # across both deviates by at most the sum
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
+    if max_size is not None:  # the profile's longest edge and the widest angular step
+        kw["max_size"] = float(max_size)
     r2 = generate(profile_model, threshold, seed=seed, **kw)
     m2 = r2.mesh
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
@@ -193,6 +196,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     # steps: the chord tolerance at the largest radius, the median edge at the median radius
     step_chord = 2.0 * math.acos(max(-1.0, 1.0 - 0.5 * chord / max(r_max, 1e-300)))
     step = min(step_chord, h / max(r_mid, 1e-300))
+    if max_size is not None:
+        step = min(step, float(max_size) / max(r_max, 1e-300))
     n = max(3 if solid.full else 1, int(math.ceil(solid.sweep / step - 1e-9)))
     if max_elements is not None and 3 * len(t2) * n > max_elements:
         from ..errors import BudgetError
