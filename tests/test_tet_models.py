@@ -72,7 +72,22 @@ FAST_3D = ("unit_cube", "graded_cylinder")
 def test_every_3d_example_meets_the_guarantee(path):
     m = load_model(path)
     assert m.dim == 3 and m.name == path.stem
-    d0 = 0.3
+    check_model_mesh(m, 0.3)
+
+
+def test_revolved_feature_tree_keeps_its_subregions(tmp_path):
+    import hetmesh as hm
+    text = hm.example_path("fgm_plate_3d").read_text(encoding="utf-8").replace(
+        'type = "extrusion"\nlength = 10', 'type = "revolution"\nangle = 30')
+    m = load_model(write(tmp_path, text, "plate_turned.toml"))
+    res = check_model_mesh(m, 0.3)
+    assert res.info["placement"] == "revolved"
+    assert len(np.unique(res.info["regions"])) >= 3
+
+
+def check_model_mesh(m, d0):
+    """Mesh ``m`` at ``d0`` and check it independently (subregions: each element's
+    vertices evaluated in its own subregion)."""
     res = mesh_model(m, d0)
     comp = m.material.composition
     faces = None
@@ -95,7 +110,7 @@ def test_every_3d_example_meets_the_guarantee(path):
     assert (res.face_markers >= 1).all()
     if isinstance(m.solid, Revolution):
         check_revolution(m.solid, res.points, res.tets, faces)
-        return
+        return res
     area = 0.5 * np.linalg.norm(np.cross(*(res.points[res.faces[:, k]]
                                            - res.points[res.faces[:, 0]] for k in (1, 2))),
                                 axis=1)
@@ -104,6 +119,7 @@ def test_every_3d_example_meets_the_guarantee(path):
     # (arc length x tolerance)
     arcs = sum(c.curve.length for c in m.solid.section.curves if hasattr(c.curve, "radius"))
     assert abs(cap - m.solid.section.area) <= arcs * CHORD * m.solid.diameter + 1e-9 * cap
+    return res
 
 
 def check_revolution(solid, points, tets, faces):

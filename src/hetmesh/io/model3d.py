@@ -233,9 +233,13 @@ def _material(ctx, value, solid: Prism, parameters, top):
     kind = value.get("type", "analytic")
     prism = isinstance(solid, Prism)
     if kind != "analytic":
-        if not prism or solid.axis != 2 or "domain" not in top:
-            raise ctx.fail("material.type", f"a {kind!r} material needs an extrusion of a "
-                                            f"2D domain (it is a 2D field, swept along z)")
+        if not prism:  # a revolution: the 2D field of the profile, turned about the axis
+            from ..tet.revolve import RevolvedField
+            f2 = material2d(ctx, value, solid.profile, parameters)
+            return RevolvedField(f2, solid), f2
+        if solid.axis != 2 or "domain" not in top:
+            raise ctx.fail("material.type", f"a {kind!r} material needs an extrusion or a "
+                                            f"revolution of a 2D domain (it is a 2D field)")
         f2 = material2d(ctx, value, solid.section, parameters)
         from ..tet.extrude import SectionField
         return SectionField(f2, solid), f2

@@ -37,7 +37,8 @@ from .quality import delta_tets, volumes
 from .refine import repair
 from .verify import boundary_faces
 
-__all__ = ["Revolution", "generate_revolved", "is_axisymmetric", "profile_field"]
+__all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
+           "profile_field"]
 
 log = logging.getLogger(__name__)
 
@@ -137,6 +138,35 @@ class Revolution:
         g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
         p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
         return p[self.contains(p)]
+
+
+class RevolvedField:
+    """A 2D material field of the profile's ``(r, z)`` seen in 3D: the same at every angle
+    (a feature tree of a revolved model keeps its subregions: ``region`` as in 2D)."""
+
+    dim = 3
+
+    def __init__(self, field2d, solid: Revolution):
+        self.field2d = field2d
+        self.solid = solid
+        self.constituents = tuple(field2d.constituents)
+
+    def composition(self, points, region=None) -> np.ndarray:
+        q, _ = self.solid.to2d(points)
+        if region is None:
+            return self.field2d.composition(q)
+        return self.field2d.composition(q, region=region)
+
+    def gradient(self, points) -> np.ndarray:
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        q, _ = self.solid.to2d(p)
+        g2 = self.field2d.gradient(q)  # (N, m, 2): d/dr, d/dz
+        r = np.maximum(q[:, 0], 1e-300)
+        out = np.empty(g2.shape[:2] + (3,))
+        out[..., 0] = g2[..., 0] * (p[:, 0] / r)[:, None]
+        out[..., 1] = g2[..., 0] * (p[:, 1] / r)[:, None]
+        out[..., 2] = g2[..., 1]
+        return out
 
 
 def is_axisymmetric(field, solid: Revolution, n: int = 16) -> bool:
