@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
@@ -25,7 +26,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
         "fea", parents=parents,
         help="thermo-mechanical FEA (conduction + thermoelasticity) on a mesh",
         description="Solve steady heat conduction, then linear thermoelasticity (plane strain "
-                    "or plane stress), on a mesh of a model whose file has an [fea] table "
+                    "or plane stress; 3-D on a tetrahedral mesh), on a mesh of a model whose "
+                    "file has an [fea] table "
                     "(constituent properties, fixed temperatures, displacement conditions, "
                     "probes; see docs/model-format.md). Properties are mixed from the "
                     "composition at the quadrature points. Prints the probe values; "
@@ -62,14 +64,19 @@ def check_fea_outputs(args: argparse.Namespace) -> None:
 
 
 def probe_table(result) -> Table:
-    """One row per probe: position, temperature, stresses and von Mises (MPa)."""
+    """One row per probe: position, temperature, stresses and von Mises (MPa); the six
+    stresses and z for a 3-D result."""
+    three = getattr(result.config, "dim", 2) == 3
+    coords = ("x", "y", "z") if three else ("x", "y")
+    stresses = (("stress_xx", "stress_yy", "stress_zz", "stress_xy", "stress_yz", "stress_xz")
+                if three else ("stress_xx", "stress_yy", "stress_xy", "stress_zz"))
     table = Table()
-    for head in ("probe", "x", "y", "T (K)", "s_xx", "s_yy", "s_xy", "s_zz", "von Mises (MPa)"):
+    for head in ("probe", *coords, "T (K)", *(f"s_{k[-2:]}" for k in stresses),
+                 "von Mises (MPa)"):
         table.add_column(head, justify="left" if head == "probe" else "right")
     for name, p in result.probes.items():
-        table.add_row(name, f"{p['x']:.6g}", f"{p['y']:.6g}", f"{p['temperature']:.2f}",
-                      *(f"{p[k] / 1e6:.2f}" for k in ("stress_xx", "stress_yy", "stress_xy",
-                                                      "stress_zz", "von_mises")))
+        table.add_row(name, *(f"{p[c]:.6g}" for c in coords), f"{p['temperature']:.2f}",
+                      *(f"{p[k] / 1e6:.2f}" for k in (*stresses, "von_mises")))
     return table
 
 
@@ -85,11 +92,22 @@ def run(args: argparse.Namespace) -> int:
     check_fea_outputs(args)
     check_model_path(args.model)
     model = load_model(args.model)
-    if model.fea is None:
+    if getattr(model, "fea", None) is None:
         raise FEAError(f"{args.model}: no [fea] table (constituent properties, boundary "
                        f"conditions); see docs/model-format.md")
     mesh = read_mesh(args.mesh)
-    check_mesh_of_model(mesh, model, args.mesh, geometry=False)  # finite nodes
+    if getattr(model, "dim", 2) != mesh.dim:
+        from ..errors import MeshDataError
+
+        raise MeshDataError(f"{args.mesh}: a {mesh.dim}-D mesh, but model {model.name!r} is "
+                            f"{getattr(model, 'dim', 2)}-D")
+    if mesh.dim == 2:
+        check_mesh_of_model(mesh, model, args.mesh, geometry=False)  # finite nodes
+    elif not np.isfinite(mesh.points).all():
+        from ..errors import MeshDataError
+
+        raise MeshDataError(f"{args.mesh}: not a mesh of model {model.name!r}: non-finite "
+                            f"node coordinates")
     result = solve(mesh, model)
     written = []
     if args.output is not None:
@@ -102,7 +120,9 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         console = Console(highlight=False, markup=False)
         T = result.temperature
-        console.print(f"{model.name}: {mesh.n_elements} elements, plane {result.config.plane}, "
+        kind = (f"3-D, P{result.config.order}" if mesh.dim == 3
+                else f"plane {result.config.plane}")
+        console.print(f"{model.name}: {mesh.n_elements} elements, {kind}, "
                       f"{result.config.mixing} mixing; T in [{T.min():.2f}, {T.max():.2f}] K, "
                       f"max von Mises {result.von_mises.max() / 1e6:.2f} MPa "
                       f"({result.timings['total']:.2f} s)")

@@ -470,6 +470,10 @@ def locate(P: np.ndarray, t: np.ndarray, q, prefer: np.ndarray | None = None
 def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     """Steady conduction then linear thermoelasticity on ``mesh`` (paper Sec. 4.4).
 
+    The dimension is read from the mesh: a tetrahedral mesh (``mesh.dim == 3``) of a 3-D
+    model is analysed in 3-D (:mod:`hetmesh.fea.analysis3d`, with an
+    :class:`~hetmesh.fea.config3d.FEAConfig3D`; returns a ``FEAResult3D``).
+
     Parameters
     ----------
     mesh : Mesh
@@ -478,12 +482,12 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
         coordinates.
     model : Model
         With an ``[fea]`` table (``model.fea``), or pass ``config``.
-    config : FEAConfig, optional
+    config : FEAConfig or FEAConfig3D, optional
         Overrides ``model.fea``.
 
     Returns
     -------
-    FEAResult
+    FEAResult, or FEAResult3D for a tetrahedral mesh
 
     Raises
     ------
@@ -498,9 +502,14 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     >>> r = hetmesh.fea.solve(hetmesh.generate(model, 0.1).mesh, model)    # doctest: +SKIP
     >>> r.probes["P3"]["von_mises"]                                        # doctest: +SKIP
     """
+    if getattr(mesh, "dim", 2) == 3:  # tetrahedra: the dimension is read from the mesh
+        return _solve3d(mesh, model, config)
     from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri
 
     cfg = config if config is not None else getattr(model, "fea", None)
+    if getattr(cfg, "dim", 2) == 3:
+        raise FEAError(f"model {model.name!r}: the [fea] table is for a 3-D model, the mesh "
+                       f"is 2-D: is the mesh for this model?")
     if cfg is None:
         raise FEAError(f"model {model.name!r} has no [fea] table (properties, boundary "
                        f"conditions): see docs/model-format.md")
@@ -596,6 +605,21 @@ def solve(mesh: Mesh, model, *, config: FEAConfig | None = None) -> FEAResult:
     return FEAResult(mesh=out, temperature=T, displacement=U, stress=nodal, von_mises=vm,
                      cell_stress=cell, cell_von_mises=cvm, probes=probes, config=cfg,
                      model_name=model.name, timings=timings)
+
+
+def _solve3d(mesh: Mesh, model, config):
+    """:func:`solve` on a tetrahedral mesh (:mod:`hetmesh.fea.analysis3d`)."""
+    from .analysis3d import solve_mesh3d
+
+    cfg = config if config is not None else getattr(model, "fea", None)
+    name = getattr(model, "name", "")
+    if cfg is None:
+        raise FEAError(f"model {name!r} has no [fea] table (properties, boundary conditions): "
+                       f"see docs/model-format.md")
+    if getattr(cfg, "dim", 2) != 3:
+        raise FEAError(f"model {name!r}: the [fea] table is for a 2-D model, the mesh is "
+                       f"3-D (tetrahedra): is the mesh for this model?")
+    return solve_mesh3d(mesh, model, cfg)
 
 
 def _probes(cfg, field, P, t, groups, sub, edofs, copies, T, U) -> dict[str, dict]:

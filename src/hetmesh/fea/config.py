@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import ModelFileError
 
 __all__ = ["FEAConfig", "Properties", "TemperatureBC", "DisplacementBC", "parse_fea",
+           "parse_choice", "table_array", "parse_properties",
            "LENGTH_UNITS", "PLANES", "MIXINGS", "PROPERTY_KEYS", "rigid_rank",
            "length_scale"]
 
@@ -166,8 +167,8 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
     if scale is None:
         raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
                                       f"{', '.join(u for u in LENGTH_UNITS if u)}; none means m)")
-    plane = _choice(ctx, t, "plane", PLANES, "strain")
-    mixing = _choice(ctx, t, "mixing", MIXINGS, "linear")
+    plane = parse_choice(ctx, t, "plane", PLANES, "strain")
+    mixing = parse_choice(ctx, t, "mixing", MIXINGS, "linear")
     ref = ctx.number(t.get("reference_temperature", 293.15), "fea.reference_temperature")
     if ref <= 0:
         raise ctx.fail("fea.reference_temperature", f"expected a temperature in K above 0, "
@@ -187,18 +188,19 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
                                          f"{', '.join(constituents)})")
     elif matrix is not None:
         raise ctx.fail("fea.matrix", "only mixing = \"mori-tanaka\" has a matrix constituent")
-    props = _properties(ctx, t["properties"], constituents)
+    props = parse_properties(ctx, t["properties"], constituents)
     names = _curve_names(domain)
     temps, disps = (), ()
     if "temperature" in t:
         temps = tuple(_temperature(ctx, item, f"fea.temperature[{i}]", names)
-                      for i, item in enumerate(_array(ctx, t["temperature"], "fea.temperature")))
+                      for i, item in enumerate(table_array(ctx, t["temperature"],
+                                                           "fea.temperature")))
         if not temps:
             raise ctx.fail("fea.temperature", "at least one fixed temperature is needed (with "
                                               "every edge insulated the temperature is "
                                               "undefined)")
         disps = tuple(_displacement(ctx, item, f"fea.displacement[{i}]", names, domain)
-                      for i, item in enumerate(_array(ctx, t["displacement"],
+                      for i, item in enumerate(table_array(ctx, t["displacement"],
                                                       "fea.displacement")))
         _check_rigid(ctx, disps, domain, names)
     probes = _probes(ctx, t.get("probes", {}), domain)
@@ -207,7 +209,8 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
                      length_scale=scale, order=int(order), where=ctx.where)
 
 
-def _choice(ctx, t, key, options, default):
+def parse_choice(ctx, t, key, options, default):
+    """The string ``fea.<key>`` of table ``t``, one of ``options`` (``default`` if absent)."""
     v = ctx.string(t, "fea", key, default=default)
     if v not in options:
         raise ctx.fail(f"fea.{key}", f"expected one of {', '.join(map(repr, options))}, "
@@ -215,7 +218,8 @@ def _choice(ctx, t, key, options, default):
     return v
 
 
-def _array(ctx, value, key) -> list:
+def table_array(ctx, value, key) -> list:
+    """An array of tables (``[[key]]``); a single table counts as an array of one."""
     if isinstance(value, Mapping):
         value = [value]
     if not isinstance(value, list):
@@ -223,7 +227,8 @@ def _array(ctx, value, key) -> list:
     return value
 
 
-def _properties(ctx, value, constituents) -> dict[str, Properties]:
+def parse_properties(ctx, value, constituents) -> dict[str, Properties]:
+    """``[fea.properties.<constituent>]`` for every constituent, checked."""
     cons = tuple(constituents)
     if not isinstance(value, Mapping):
         raise ctx.fail("fea.properties", "expected a table of constituents "
