@@ -359,3 +359,53 @@ def test_max_size_bounds_the_spacing(tmp_path):
     p, t = fine.points, fine.tets
     e = p[t[:, [0, 1, 2, 0, 1, 2]]] - p[t[:, [1, 2, 3, 3, 3, 3]]]
     assert np.linalg.norm(e, axis=2).max() <= 2.0 * 0.1
+
+
+CUBE_FEA = CUBE.replace('[model]\nname = "cube"', '[model]\nname = "cube"\nunits = "mm"') + """
+[fea.properties.ceramic]
+conductivity = 35.0
+youngs_modulus = 393e9
+poisson_ratio = 0.25
+expansion = 7.4e-6
+
+[fea.properties.metal]
+conductivity = 90.7
+youngs_modulus = 199.5e9
+poisson_ratio = 0.3
+expansion = 15.4e-6
+
+[[fea.temperature]]
+faces = ["zmin"]
+value = 1000.0
+
+[[fea.temperature]]
+faces = ["zmax"]
+value = 300.0
+
+[[fea.displacement]]
+faces = ["zmin"]
+ux = 0
+uy = 0
+uz = 0
+"""
+
+
+@pytest.mark.parametrize("ext", [".vtu", ".msh", ".inp", ".xdmf"])
+def test_mesh_read_back_and_fea_3d(tmp_path, capsys, ext):
+    """A 3-D model's [fea] table is parsed; the written mesh reads back as tetrahedra
+    (hetmesh.io.read) and the 3-D analysis runs on it with the faces found by the solid."""
+    from hetmesh.io.read import read_mesh
+
+    model = write(tmp_path, CUBE_FEA, "cube.toml")
+    m = load_model(model)
+    assert m.fea is not None
+    out = tmp_path / f"c{ext}"
+    assert run(["mesh", model, "--threshold", 0.3, "--output", out, "-q"], capsys)[0] == 0
+    back = read_mesh(out)
+    res = mesh_model(m, 0.3)
+    assert back.dim == 3 and back.n_elements == len(res.tets)
+    if ext in (".msh", ".xdmf"):
+        assert set(back.marker_names.values()) == set(res.face_names)
+    code, o, err = run(["fea", model, "--mesh", out], capsys)
+    assert code == 0, err
+    assert "3-D" in o and "T in [300.00, 1000.00] K" in o

@@ -254,6 +254,39 @@ def _gather(m: meshio.Mesh, name: str, blocks: list[int]) -> np.ndarray | None:
     return np.concatenate([np.asarray(m.cell_data[name][i]) for i in blocks])
 
 
+def _tet_arrays(m: meshio.Mesh) -> dict:
+    """The :class:`~hetmesh.mesh.Mesh` arrays of a tetrahedral meshio mesh, as the writers
+    of 3D meshes store them: the tetrahedra; regions from ``region`` (vtu, vtk) or the
+    physical volume tags (msh: tag - 1) or ``medit:ref``; the triangles as facets, their
+    markers from ``marker``, ``gmsh:geometrical`` or ``medit:ref``, their names from the
+    physical surface names (msh: tag = 100 + marker, :data:`hetmesh.tet.export.FACE_TAG`)."""
+    tet, tri = _blocks(m, "tetra"), _blocks(m, "triangle")
+    cells = np.concatenate([m.cells[i].data for i in tet]).astype(np.int64)
+    regions = _gather(m, "region", tet)
+    if regions is None and "gmsh:physical" in m.cell_data:
+        regions = _gather(m, "gmsh:physical", tet) - 1
+    if regions is None:
+        regions = _gather(m, "medit:ref", tet)
+    facets = markers = None
+    names: dict[int, str] = {}
+    if tri:
+        facets = np.concatenate([m.cells[i].data for i in tri]).astype(np.int64)
+        for key in ("marker", "gmsh:geometrical", "medit:ref"):
+            markers = _gather(m, key, tri)
+            if markers is not None:
+                break
+        for name, (tag, dim) in ((k, tuple(v)[:2]) for k, v in (m.field_data or {}).items()):
+            if int(dim) == 2 and int(tag) > 100:
+                names[int(tag) - 100] = name
+    cell_data = {k: _gather(m, k, tet) for k in m.cell_data
+                 if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
+    point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}
+    return dict(points=np.asarray(m.points, np.float64), cells=cells, regions=regions,
+                facets=facets, facet_markers=markers, point_data=point_data,
+                cell_data={k: v for k, v in cell_data.items() if v is not None},
+                marker_names=names)
+
+
 def _physical_names(m: meshio.Mesh, dim: int) -> dict[int, str]:
     """Gmsh physical names of one dimension: ``{tag: name}``."""
     tags = {name: np.asarray(v).ravel() for name, v in m.field_data.items()}
@@ -418,6 +451,8 @@ def read_mesh_arrays(path: str | Path) -> dict:
             m = _tag_order(m, path, _blocks(m, "triangle"))
     except Exception as exc:  # malformed input surfaces as anything from ValueError to EOFError
         raise OutputError(f"cannot read {path} as {fmt.name}: {_one_line(exc)}") from exc
+    if _blocks(m, "tetra"):
+        return _tet_arrays(m)
     tri = _blocks(m, "triangle")
     quadratic = _blocks(m, "triangle6")
     if not tri and quadratic:  # six-node triangles: their corners; mid-side nodes follow

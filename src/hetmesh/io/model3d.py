@@ -42,7 +42,8 @@ class Model3D:
     """A heterogeneous solid: its geometry and its material field.
 
     ``solid`` is a :class:`~hetmesh.tet.solid.Prism` or a
-    :class:`~hetmesh.tet.revolve.Revolution`; ``material`` evaluates on ``(N, 3)``
+    :class:`~hetmesh.tet.revolve.Revolution`; ``fea`` the parsed 3-D ``[fea]`` table
+    (:func:`hetmesh.fea.config3d.parse_fea3d`) or None; ``material`` evaluates on ``(N, 3)``
     points; ``material2d`` is the section's field when the composition does not depend on
     the extrusion coordinate (an extruded 2D model), else None.
     """
@@ -55,6 +56,7 @@ class Model3D:
     source: Path | None = None
     description: str = ""
     units: str = ""
+    fea: Any = None
 
     dim = 3
 
@@ -284,7 +286,7 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
     _parameters, ctx.parse_domain, ctx.parse_material = parsers
     ctx.base = source.parent if source is not None else Path(".")
     top = ctx.table(data, "", required=("solid", "material"),
-                    optional=("model", "parameters", "domain"))
+                    optional=("model", "parameters", "domain", "fea"))
     info = ctx.table(top.get("model", {}), "model", optional=("name", "description", "units"))
     name = ctx.string(info, "model", "name", default=default_name)
     description = ctx.string(info, "model", "description", default="")
@@ -304,9 +306,14 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
             check_field3d(material, samples, where)
         except HetmeshError as exc:
             raise exc from None
+    fea = None
+    if "fea" in top:  # the 3-D [fea] table (docs/fea.md): faces by the solid's face names
+        from ..fea.config3d import parse_fea3d
+        fea = parse_fea3d(ctx, top["fea"], solid, material.constituents, units)
     log.debug("%s: 3D model %r", where, name)
     return Model3D(name=name, solid=solid, material=material, material2d=material2d,
-                   parameters=parameters, source=source, description=description, units=units)
+                   parameters=parameters, source=source, description=description, units=units,
+                   fea=fea)
 
 
 def is_3d(data: Mapping) -> bool:

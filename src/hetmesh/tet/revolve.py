@@ -113,6 +113,14 @@ class Revolution:
         """``start``, ``end`` (partial turns only; else unused), then one per profile curve."""
         return ("start", "end") + tuple(c.name for c in self.profile.curves)
 
+    def classify_faces(self, tri_points: np.ndarray) -> np.ndarray:
+        """The face (index in :attr:`face_names`) of boundary triangles given by their
+        corners ``(K, 3, 3)``; -1 where a triangle lies on no face."""
+        k = len(tri_points)
+        pts = np.asarray(tri_points, dtype=float).reshape(-1, 3)
+        faces = np.arange(3 * k).reshape(k, 3)
+        return _classify(self, pts, faces, 0.0) - 1
+
     def to3d(self, q: np.ndarray, theta: np.ndarray) -> np.ndarray:
         q = np.asarray(q, dtype=float).reshape(-1, 2)
         return np.column_stack([q[:, 0] * np.cos(theta), q[:, 0] * np.sin(theta), q[:, 1]])
