@@ -12,7 +12,10 @@ from hetmesh.material import has_subregions
 from hetmesh.tri.discontinuity import crossing_elements
 from hetmesh.metrics import delta_vertices, min_angle
 
-EXAMPLES = sorted((Path(hetmesh.__file__).parent / "examples").glob("*.toml"))
+_ALL_EXAMPLES = sorted((Path(hetmesh.__file__).parent / "examples").glob("*.toml"))
+#: the 3D example models (a [solid] table; hetmesh.tet), and the 2D ones
+EXAMPLES_3D = [p for p in _ALL_EXAMPLES if "\n[solid]" in p.read_text(encoding="utf-8")]
+EXAMPLES = [p for p in _ALL_EXAMPLES if p not in EXAMPLES_3D]
 
 
 def square_domain(x0=0.0, y0=0.0, w=1.0, h=1.0):

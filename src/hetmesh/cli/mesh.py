@@ -289,6 +289,9 @@ def run_meshing(args: argparse.Namespace, load_pipeline: Callable[[], Callable])
     check_model_path(args.model)
     func = load_pipeline()
     model = load_model(args.model)
+    if getattr(model, "dim", 2) == 3:  # a solid: the tetrahedral mesher (hetmesh.tet)
+        from ..tet.cli import run_tet
+        return run_tet(args, model, kwargs)
     check_sampling(model.material, kwargs.get("sampling", "vertices"), names=FLAGS)
     result, seconds = run_pipeline(func, model, args.threshold, kwargs, quiet=args.quiet,
                                    label=model.name)

@@ -168,6 +168,9 @@ def run(args: argparse.Namespace) -> int:
 
     check_model_path(args.model)
     model = load_model(args.model)
+    if getattr(model, "dim", 2) == 3:  # a solid: tetrahedral statistics (hetmesh.tet)
+        from ..tet.cli import run_tet_stats
+        return run_tet_stats(args, model)
     from ..options import check_sampling
 
     check_sampling(model.material, args.sampling, names={"sampling": "--sampling"})

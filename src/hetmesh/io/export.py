@@ -143,16 +143,29 @@ def _register_abaqus_types() -> None:
 
 _register_abaqus_types()
 
-_GMSH41 = MeshFormat("gmsh41", "gmsh", {}, gmsh_msh.write_msh41)
+def _or_tets(writer2d: Callable, name3d: str) -> Callable:
+    """``writer2d`` for 2D meshes, :func:`hetmesh.tet.export.write_tet_file` for 3D ones."""
+    def write(mesh: Mesh, path: Path, fmt: MeshFormat) -> None:
+        if mesh.dim == 3:
+            from ..tet.export import write_tet_file
+            write_tet_file(mesh, path, name3d)
+        else:
+            writer2d(mesh, path, fmt)
+    return write
+
+
+_GMSH41 = MeshFormat("gmsh41", "gmsh", {}, _or_tets(gmsh_msh.write_msh41, "gmsh"), dims=(2, 3))
 FILE_FORMATS: dict[str, MeshFormat] = {
     "vtu": MeshFormat("vtu", "vtu", {"binary": True, "compression": "zlib"}, _write_meshio,
                       dims=(2, 3)),
     "vtk": MeshFormat("vtk", "vtk", {"binary": True}, _write_meshio, "vtk42", dims=(2, 3)),
-    "xdmf": MeshFormat("xdmf", "xdmf", {}, xdmf.write_xdmf),
+    "xdmf": MeshFormat("xdmf", "xdmf", {}, xdmf.write_xdmf, dims=(2, 3)),
     "gmsh": _GMSH41,
     "gmsh41": _GMSH41,
-    "gmsh22": MeshFormat("gmsh22", "gmsh", {}, gmsh_msh.write_msh22),
-    "abaqus": MeshFormat("abaqus", "abaqus", {}, abaqus.write_inp),
+    "gmsh22": MeshFormat("gmsh22", "gmsh", {}, _or_tets(gmsh_msh.write_msh22, "gmsh22"),
+                         dims=(2, 3)),
+    "abaqus": MeshFormat("abaqus", "abaqus", {}, _or_tets(abaqus.write_inp, "abaqus"),
+                         dims=(2, 3)),
     "medit": MeshFormat("medit", "medit", {}, _write_medit, dims=(2, 3)),
 }
 """Every format by its ``file_format`` name."""
@@ -239,6 +252,39 @@ def _gather(m: meshio.Mesh, name: str, blocks: list[int]) -> np.ndarray | None:
     if name not in m.cell_data or not blocks:
         return None
     return np.concatenate([np.asarray(m.cell_data[name][i]) for i in blocks])
+
+
+def _tet_arrays(m: meshio.Mesh) -> dict:
+    """The :class:`~hetmesh.mesh.Mesh` arrays of a tetrahedral meshio mesh, as the writers
+    of 3D meshes store them: the tetrahedra; regions from ``region`` (vtu, vtk) or the
+    physical volume tags (msh: tag - 1) or ``medit:ref``; the triangles as facets, their
+    markers from ``marker``, ``gmsh:geometrical`` or ``medit:ref``, their names from the
+    physical surface names (msh: tag = 100 + marker, :data:`hetmesh.tet.export.FACE_TAG`)."""
+    tet, tri = _blocks(m, "tetra"), _blocks(m, "triangle")
+    cells = np.concatenate([m.cells[i].data for i in tet]).astype(np.int64)
+    regions = _gather(m, "region", tet)
+    if regions is None and "gmsh:physical" in m.cell_data:
+        regions = _gather(m, "gmsh:physical", tet) - 1
+    if regions is None:
+        regions = _gather(m, "medit:ref", tet)
+    facets = markers = None
+    names: dict[int, str] = {}
+    if tri:
+        facets = np.concatenate([m.cells[i].data for i in tri]).astype(np.int64)
+        for key in ("marker", "gmsh:geometrical", "medit:ref"):
+            markers = _gather(m, key, tri)
+            if markers is not None:
+                break
+        for name, (tag, dim) in ((k, tuple(v)[:2]) for k, v in (m.field_data or {}).items()):
+            if int(dim) == 2 and int(tag) > 100:
+                names[int(tag) - 100] = name
+    cell_data = {k: _gather(m, k, tet) for k in m.cell_data
+                 if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
+    point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}
+    return dict(points=np.asarray(m.points, np.float64), cells=cells, regions=regions,
+                facets=facets, facet_markers=markers, point_data=point_data,
+                cell_data={k: v for k, v in cell_data.items() if v is not None},
+                marker_names=names)
 
 
 def _physical_names(m: meshio.Mesh, dim: int) -> dict[int, str]:
@@ -405,6 +451,8 @@ def read_mesh_arrays(path: str | Path) -> dict:
             m = _tag_order(m, path, _blocks(m, "triangle"))
     except Exception as exc:  # malformed input surfaces as anything from ValueError to EOFError
         raise OutputError(f"cannot read {path} as {fmt.name}: {_one_line(exc)}") from exc
+    if _blocks(m, "tetra"):
+        return _tet_arrays(m)
     tri = _blocks(m, "triangle")
     quadratic = _blocks(m, "triangle6")
     if not tri and quadratic:  # six-node triangles: their corners; mid-side nodes follow

@@ -176,6 +176,10 @@ def parse_model(data: Mapping, where: str = "model", *, source: Path | None = No
     ...                           "composition": {"b": "x**2 + y**2"}}}).name
     'model'
     """
+    if isinstance(data, Mapping) and "solid" in data:  # a 3D model (hetmesh.io.model3d)
+        from .model3d import parse_model3d
+        return parse_model3d(data, where, source=source, default_name=default_name,
+                             check=check, parsers=(_parameters, _domain, _material))
     ctx = SchemaContext(where)
     ctx.base = source.parent if source is not None else Path(".")
     top = ctx.table(data, "", required=("domain", "material"),

@@ -96,22 +96,24 @@ def write_xdmf(mesh: Mesh, path: Path) -> Path:
         with h5py.File(tmp, "w") as h5:
             name = h5path.name
             grid = ET.SubElement(domain, "Grid", Name="mesh", GridType="Uniform")
-            topo = ET.SubElement(grid, "Topology", TopologyType="Triangle",
-                                 NumberOfElements=str(mesh.n_elements), NodesPerElement="3")
-            _item(topo, name, h5, "/Mesh/mesh/topology", mesh.triangles.astype(np.int64))
-            geo = ET.SubElement(grid, "Geometry", GeometryType="XY")
+            cell = "Tetrahedron" if mesh.dim == 3 else "Triangle"
+            facet = "Triangle" if mesh.dim == 3 else "PolyLine"
+            topo = ET.SubElement(grid, "Topology", TopologyType=cell,
+                                 NumberOfElements=str(mesh.n_elements),
+                                 NodesPerElement=str(mesh.dim + 1))
+            _item(topo, name, h5, "/Mesh/mesh/topology", mesh.cells.astype(np.int64))
+            geo = ET.SubElement(grid, "Geometry", GeometryType="XYZ" if mesh.dim == 3 else "XY")
             _item(geo, name, h5, "/Mesh/mesh/geometry", np.asarray(mesh.points, np.float64))
             for k, v in mesh.point_data.items():
                 _attribute(grid, name, h5, f"/Mesh/mesh/Node/{k}", k, v, "Node")
             for k, v in mesh.cell_data.items():
                 _attribute(grid, name, h5, f"/Mesh/mesh/Cell/{k}", k, v, "Cell")
-            _tag_grid(domain, name, h5, "cell_tags", "Triangle", mesh.triangles,
-                      mesh.regions)
+            _tag_grid(domain, name, h5, "cell_tags", cell, mesh.cells, mesh.regions)
             if len(mesh.edges):
                 groups = curve_groups(mesh)
                 tag_of = {m: g.tag for g in groups for m in g.markers}
                 values = np.array([tag_of[int(m)] for m in mesh.edge_markers], np.int32)
-                g = _tag_grid(domain, name, h5, "facet_tags", "PolyLine", mesh.edges, values,
+                g = _tag_grid(domain, name, h5, "facet_tags", facet, mesh.edges, values,
                               {gr.name: gr.tag for gr in groups})
                 _attribute(g, name, h5, "/MeshTags/facet_tags/marker", "marker",
                            mesh.edge_markers.astype(np.int32), "Cell")
@@ -180,5 +182,7 @@ def read_xdmf(path: Path) -> dict | None:
         label = {int(i.get("Value")): i.get("Name") for i in f.findall("Information")}
         vals = _data(f.find("Attribute/DataItem"), base).ravel()
         named = {label.get(int(v), f"point_{v}"): int(n) for n, v in zip(nodes, vals)}
-    return dict(points=p[:, :2], cells=t, regions=regions, facets=edges, facet_markers=markers,
+    xyz = g.find("Geometry").get("GeometryType") == "XYZ" and t.shape[1] == 4
+    return dict(points=p if xyz else p[:, :2], cells=t, regions=regions, facets=edges,
+                facet_markers=markers,
                 point_data=pd, cell_data=cd, marker_names=names, named_points=named)

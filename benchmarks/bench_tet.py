@@ -1,0 +1,224 @@
+#!/usr/bin/env python
+"""hetmesh tetrahedral benchmarks: measure, never assert.
+
+    PYTHONPATH=src python benchmarks/bench_tet.py              # unit_cube at 0.1 and 0.05
+    PYTHONPATH=src python benchmarks/bench_tet.py --quick      # 0.1 only, 1 repeat
+    PYTHONPATH=src python benchmarks/bench_tet.py --big        # also a ~1M-tetrahedron run
+                                                               # (delta_0 = 0.021, no peers)
+
+For each threshold delta_0, on unit_cube (the cube [0, 1]^3, metal fraction (1 - z)^2):
+
+* hetmesh: Ne, Ne / N_iso3 (N_iso3 = 6 sqrt(2) * integral |grad f|^3 dV / delta_0^3, the
+  number of regular tetrahedra of edge delta_0 / |grad f|), delta_max, the minimum and
+  1st-percentile (per-element minimum) dihedral angle, the mean radius ratio 3 r_in / R_circ,
+  wall time (median of the repeats);
+* Gmsh 3D (peer, GPL, optional): size field s delta_0 / |grad f| (capped at the cube's
+  side), s lowered by 0.85 from 1 until its delta_max < delta_0; the same figures for the
+  first valid s, and the s-search trace;
+* MMG 3D through mmgpy (peer): remeshing a coarse cube to the size s delta_0 / |grad f| (two
+  passes, the size re-evaluated at the new vertices), s lowered likewise.
+
+Targets (PASS/FAIL columns): Ne <= 2.0 x N_iso3, min dihedral >= 10, 1st percentile >= 20,
+mean radius ratio >= 0.75. Every ratio is taken against peers measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+try:
+    import hetmesh  # noqa: F401
+except ImportError:
+    sys.path.insert(0, str(ROOT / "src"))
+
+from hetmesh.material import AnalyticField  # noqa: E402
+from hetmesh.tet import box, generate_tets, n_iso3, quality_summary  # noqa: E402
+from hetmesh.tet.quality import delta_tets, volumes  # noqa: E402
+
+logging.getLogger("hetmesh").setLevel(logging.WARNING)
+
+FORMULA = "(1 - z)**2"
+
+
+def unit_cube():
+    field = AnalyticField({"metal": FORMULA}, ["ceramic", "metal"], dim=3)
+    return box((0, 0, 0), (1, 1, 1)), field
+
+
+def figures(points, tets, field, d0, niso, wall):
+    q = quality_summary(points, tets)
+    delta = delta_tets(field.composition(points), tets)
+    return {"Ne": len(tets), "ratio": len(tets) / niso, "delta_max": float(delta.max()),
+            "n_bad": int((delta >= d0).sum()), "vol_min": float(volumes(points, tets).min()),
+            **q, "time": wall}
+
+
+def run_hetmesh(solid, field, d0, niso, repeats):
+    times, res = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = generate_tets(solid, field, d0)
+        times.append(time.perf_counter() - t0)
+    return figures(res.points, res.tets, field, d0, niso, statistics.median(times))
+
+
+def _size(field, s, d0, cap):
+    def h(p):
+        g = np.linalg.norm(field.gradient(p), axis=2).max(axis=1)
+        with np.errstate(divide="ignore"):
+            return np.minimum(s * d0 / g, cap)
+    return h
+
+
+def gmsh_cube(field, s, d0, cap=1.0, threads=1):
+    import gmsh
+    h = _size(field, s, d0, cap)
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", threads)
+        gmsh.model.add("cube")
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", cap)
+        gmsh.model.mesh.setSizeCallback(
+            lambda dim, tag, x, y, z, lc: float(h(np.array([[x, y, z]]))[0]))
+        t0 = time.perf_counter()
+        gmsh.model.mesh.generate(3)
+        wall = time.perf_counter() - t0
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, en = gmsh.model.mesh.getElementsByType(4)
+        pts = xyz.reshape(-1, 3)
+        index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        tets = index[en.astype(np.int64)].reshape(-1, 4)
+    finally:
+        gmsh.finalize()
+    v = volumes(pts, tets)
+    tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
+    return pts, tets, wall
+
+
+def _kuhn_cube(n=4):
+    g = np.linspace(0, 1, n + 1)
+    p = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+
+    def vid(i, j, k):
+        return (i * (n + 1) + j) * (n + 1) + k
+    i, j, k = [a.ravel() for a in np.meshgrid(*(np.arange(n),) * 3, indexing="ij")]
+    c = np.stack([vid(i + a, j + b, k + cc) for a in (0, 1) for b in (0, 1) for cc in (0, 1)],
+                 axis=1)  # corner (a, b, c) -> column 4a + 2b + c
+    paths = [(0, 4, 6, 7), (0, 4, 5, 7), (0, 2, 6, 7), (0, 2, 3, 7), (0, 1, 5, 7), (0, 1, 3, 7)]
+    t = np.concatenate([c[:, list(pp)] for pp in paths])
+    v = volumes(p, t)
+    t[v < 0] = t[v < 0][:, [0, 1, 3, 2]]
+    return p, t
+
+
+def mmg_cube(field, s, d0, cap=1.0):
+    import mmgpy
+    h = _size(field, s, d0, cap)
+    p, t = _kuhn_cube()
+    t0 = time.perf_counter()
+    for _ in range(2):
+        m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
+        m.set_field("metric", h(p).reshape(-1, 1))
+        m.remesh(verbose=-1, hausd=0.01, hgrad=1.3)
+        p, t = m.get_vertices(), m.get_tetrahedra().astype(np.int64)
+    wall = time.perf_counter() - t0
+    v = volumes(p, t)
+    t[v < 0] = t[v < 0][:, [0, 1, 3, 2]]
+    return p, t, wall
+
+
+def search(peer, field, d0, niso, steps=14):
+    trace, s = [], 1.0
+    for _ in range(steps):
+        try:
+            p, t, wall = peer(field, s, d0)
+        except Exception as exc:  # a peer failing is a row, not a crash
+            trace.append((s, f"ERROR {type(exc).__name__}: {exc}".splitlines()[0]))
+            return None, trace
+        fig = figures(p, t, field, d0, niso, wall)
+        trace.append((s, fig["Ne"], fig["n_bad"]))
+        if fig["delta_max"] < d0:
+            fig["s"] = s
+            return fig, trace
+        s *= 0.85
+    return None, trace
+
+
+def row(name, f):
+    if f is None:
+        return f"  {name:<10} no delta-valid mesh found"
+    ok = lambda b: "PASS" if b else "FAIL"  # noqa: E731
+    return (f"  {name:<10} {f['Ne']:>9,} {f['ratio']:>7.3f} {f['delta_max']:>9.5f} "
+            f"{f['dihedral_min']:>7.2f} {f['dihedral_p1']:>7.2f} {f['radius_ratio_mean']:>7.3f} "
+            f"{f['time']:>8.2f}   {ok(f['ratio'] <= 2.0)} {ok(f['dihedral_min'] >= 10)} "
+            f"{ok(f['dihedral_p1'] >= 20)} {ok(f['radius_ratio_mean'] >= 0.75)}"
+            + (f"   s={f['s']:.3f}" if "s" in f else ""))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--big", action="store_true", help="also a ~1M-tetrahedron hetmesh run")
+    ap.add_argument("--no-peers", action="store_true")
+    a = ap.parse_args(argv)
+    thresholds = [0.1] if a.quick else [0.1, 0.05]
+    repeats = 1 if a.quick else a.repeats
+    solid, field = unit_cube()
+    print(f"hetmesh {getattr(hetmesh, '__version__', '?')} from {Path(hetmesh.__file__).parent}; "
+          f"load average {os.getloadavg()[0]:.2f}")
+    print("unit_cube, f = (1 - z)^2; targets: Ne/N_iso3 <= 2.0, dihedral min >= 10, "
+          "p1 >= 20, mean radius ratio >= 0.75")
+    head = (f"  {'mesher':<10} {'Ne':>9} {'Ne/Niso3':>7} {'dmax':>9} {'dih_min':>7} "
+            f"{'dih_p1':>7} {'rr_mean':>7} {'time_s':>8}   economy/min/p1/rr")
+    for d0 in thresholds:
+        niso = n_iso3(solid, field, d0, n=96)
+        print(f"\ndelta_0 = {d0}: N_iso3 = {niso:,.0f}")
+        print(head)
+        ours = run_hetmesh(solid, field, d0, niso, repeats)
+        print(row("hetmesh", ours))
+        if a.no_peers:
+            continue
+        for name, peer in (("gmsh", gmsh_cube), ("mmg", mmg_cube)):
+            fig, trace = search(peer, field, d0, niso)
+            print(row(name, fig))
+            print(f"  {'':<10} s-search (s, Ne, violators): "
+                  + ", ".join(str(tuple(round(x, 3) if isinstance(x, float) else x
+                                        for x in tr)) for tr in trace))
+            if fig is not None:
+                print(f"  {'':<10} hetmesh / {name}: elements {ours['Ne'] / fig['Ne']:.3f}, "
+                      f"time {ours['time'] / fig['time']:.3f}")
+    if a.big:
+        d0 = 0.021  # about 1,000,000 tetrahedra
+        niso = n_iso3(solid, field, d0, n=96)
+        t0 = time.perf_counter()
+        res = generate_tets(solid, field, d0)
+        wall = time.perf_counter() - t0
+        print(f"\nbig run, delta_0 = {d0}: N_iso3 = {niso:,.0f}")
+        print(head)
+        print(row("hetmesh", figures(res.points, res.tets, field, d0, niso, wall)))
+        import resource
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6  # kB -> GB
+        print(f"  peak memory (max RSS) {rss:.2f} GB")
+    print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,123 @@
+"""One entry point for 3D models: :func:`mesh_model` picks the placement.
+
+* an extruded 2D model (composition independent of the extrusion coordinate): the 2D mesh of
+  the section swept along the axis (:func:`hetmesh.tet.extrude.generate_extruded`), which keeps
+  the subregions of feature-tree and piecewise fields;
+* a convex prism (box, cylinder) whose composition varies along its axis only (for a box,
+  along any of the three axes): layers on the level planes
+  (:func:`hetmesh.tet.mesher.generate_tets`);
+* any other prism: the swept section mesh (the 2D mesher's placement follows the in-plane
+  variation), in layers thin enough for the variation along the axis, repaired by edge
+  bisection where needed;
+* a solid of revolution: the profile's 2D mesh swept about the axis
+  (:func:`hetmesh.tet.revolve.generate_revolved`).
+
+>>> import hetmesh
+>>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
+>>> r.info["placement"], bool(r.delta.max() < 0.2)
+('planar', True)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import OptionError
+from ..mesh import Mesh
+from .extrude import generate_extruded
+from .mesher import TetResult, generate_tets
+from .quality import radius_ratio
+
+__all__ = ["mesh_model", "to_mesh", "DEFAULT_MAX_ELEMENTS"]
+
+DEFAULT_MAX_ELEMENTS = 20_000_000
+
+
+def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | None = None,
+               max_elements: int | None = DEFAULT_MAX_ELEMENTS,
+               max_size: float | None = None, check: bool = True) -> TetResult:
+    """Tetrahedral mesh of a 3D model (:class:`hetmesh.io.model3d.Model3D`) with every
+    element's delta below ``threshold``, verified.
+
+    ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002;
+    ``max_size`` (model units) bounds the node spacing: in swept and revolved meshes it
+    evens out the section's sizes, which shapes the tetrahedra better at a higher count.
+    The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``, its
+    ``mesh`` the :class:`~hetmesh.mesh.Mesh` (:func:`to_mesh`), which ``write`` saves.
+    """
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) \
+            or not 0 < threshold < 1:
+        raise OptionError(f"threshold must be in (0, 1), got {threshold!r}")
+    if chord_tol is not None and not 1e-7 <= chord_tol <= 0.05:
+        raise OptionError(f"chord_tol must be in [1e-7, 0.05], got {chord_tol!r}")
+    if max_size is not None and not (np.isfinite(max_size) and max_size > 0):
+        raise OptionError(f"max_size must be a positive number, got {max_size!r}")
+    if max_elements is not None and max_elements < 1:
+        raise OptionError(f"max_elements must be positive, got {max_elements!r}")
+    solid = model.solid
+    chord = None if chord_tol is None else chord_tol * solid.diameter
+    from ..io.model import Model
+    from .extrude import mid_section_field
+    from .revolve import Revolution, generate_revolved, is_axisymmetric, profile_field
+    if isinstance(solid, Revolution):
+        axisym = model.material2d is not None or is_axisymmetric(model.material, solid)
+        f2 = model.material2d or profile_field(model.material, solid)
+        res = generate_revolved(solid, model.material, threshold,
+                                Model(name=model.name, domain=solid.profile, material=f2),
+                                axisymmetric=axisym, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, max_size=max_size, check=check)
+    elif model.material2d is not None:
+        res = generate_extruded(solid, model.material, threshold,
+                                Model(name=model.name, domain=solid.section,
+                                      material=model.material2d),
+                                swept=True, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, max_size=max_size, check=check)
+    elif solid.convex and (layered := _planar_prism(solid, model.material)) is not None:
+        res = generate_tets(layered, model.material, threshold, seed=seed, chord_tol=chord,
+                            max_elements=max_elements, h_max=max_size, check=check)
+    else:
+        res = generate_extruded(solid, model.material, threshold,
+                                Model(name=model.name, domain=solid.section,
+                                      material=mid_section_field(solid, model.material)),
+                                swept=False, seed=seed, chord_tol=chord,
+                                max_elements=max_elements, max_size=max_size, check=check)
+    res.info["composition"] = np.asarray(model.material.composition(res.points),
+                                         dtype=np.float64)
+    res.mesh = to_mesh(res, model.constituents)
+    return res
+
+
+def _planar_prism(solid, field):
+    """``solid`` (or, for a box, the same box along another axis) if the composition varies
+    along its axis only, else None: the layered placement's best case. Compositions that
+    vary across the axis go to the swept section mesh, which keeps its quality."""
+    from .mesher import is_planar
+    from .solid import box
+
+    if is_planar(field, solid, solid.sample(16)):
+        return solid
+    names = solid.face_names
+    if len(names) == 6 and set(names) == {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"}:
+        lo, hi = solid.bounds
+        for axis in (0, 1, 2):
+            if axis != solid.axis:
+                other = box(lo, hi, axis=axis, where=solid.where)
+                if is_planar(field, other, other.sample(16)):
+                    return other
+    return None
+
+
+def to_mesh(res: TetResult, constituents) -> Mesh:
+    """The :class:`~hetmesh.mesh.Mesh` of a tetrahedral result: the boundary triangles as
+    facets with their face markers and names, the compositions as point data (one array per
+    constituent), ``delta`` and ``quality`` (radius ratio) as cell data, and the subregions
+    of an extruded feature-tree model as regions (and cell data ``subregion``)."""
+    comp = res.info.get("composition")
+    pd = {} if comp is None else {c: comp[:, j] for j, c in enumerate(constituents)}
+    cd = {"delta": res.delta, "quality": radius_ratio(res.points, res.tets)}
+    regions = res.info.get("regions")
+    if regions is not None:
+        cd["subregion"] = regions
+    return Mesh(res.points, res.tets, regions=regions, facets=res.faces,
+                facet_markers=res.face_markers, point_data=pd, cell_data=cd,
+                marker_names={m: n for m, n in enumerate(res.face_names, start=1)})

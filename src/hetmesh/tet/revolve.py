@@ -1,0 +1,366 @@
+"""Solids of revolution: a 2D profile in the ``(r, z)`` half-plane turned about the z axis.
+
+The profile is a :class:`~hetmesh.tri.geometry.Domain` whose first coordinate is the
+distance ``r >= 0`` to the axis and whose second is ``z``; it may touch the axis (a sphere is
+a half-disc turned a full turn) but not cross it. The faces are the surfaces swept by the
+profile's curves (those lying on the axis sweep nothing) and, for a partial turn, the two
+planar ends ``start`` (angle 0) and ``end``.
+
+The mesh is the verified 2D mesh of the profile swept through equal angular steps (as
+:mod:`hetmesh.tet.extrude` sweeps along a straight axis), the copies of a vertex on the axis
+merged into one: a prism with a vertex on the axis becomes two tetrahedra (a pyramid), one
+with an edge on it a single tetrahedron. When the composition does not depend on the angle
+(an axisymmetric field), every tetrahedron's vertices are copies of one triangle's: its
+delta is at most the triangle's, exactly; otherwise the violators are repaired by edge
+bisection.
+
+>>> from hetmesh.tri.geometry import Loop, make_domain
+>>> ring = Revolution(make_domain(Loop.polygon([(1, 0), (2, 0), (2, 1), (1, 1)], "p")))
+>>> round(ring.volume, 9) == round(3 * 3.141592653589793, 9)
+True
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ..errors import GeometryError, VerificationError
+from .extrude import prism_tets
+from .mesher import TetResult
+from .quality import delta_tets, volumes
+from .refine import repair
+from .verify import boundary_faces
+
+__all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
+           "profile_field"]
+
+log = logging.getLogger(__name__)
+
+#: default chord tolerance of curved faces, x the solid's diameter
+CHORD = 2e-3
+
+
+@dataclass(frozen=True, eq=False)
+class Revolution:
+    """The profile ``(r, z)`` turned by ``angle`` degrees (0 < angle <= 360) about z."""
+
+    profile: object
+    angle: float = 360.0
+    where: str = field(default="", compare=False)
+
+    def __post_init__(self):
+        pre = f"{self.where}: " if self.where else ""
+        if not (math.isfinite(self.angle) and 0 < self.angle <= 360):
+            raise GeometryError(f"{pre}revolution angle must be in (0, 360] degrees, got "
+                                f"{self.angle:g}")
+        x0 = self.profile.bounds[0]
+        tol = 1e-9 * self.profile.diameter
+        if x0 < -tol:
+            poly = self.profile.polygon()
+            xs, ys = np.asarray(poly.exterior.coords).T
+            i = int(np.argmin(xs))
+            raise GeometryError(f"{pre}the revolution profile crosses the axis (r = x < 0), "
+                                f"e.g. at ({xs[i]:.6g}, {ys[i]:.6g})")
+        if self.profile.interfaces:
+            raise GeometryError(f"{pre}interfaces in a revolved profile are not supported "
+                                f"yet")
+
+    @property
+    def full(self) -> bool:
+        return self.angle >= 360.0
+
+    @property
+    def sweep(self) -> float:
+        """The angle in radians."""
+        return math.radians(self.angle)
+
+    @cached_property
+    def volume(self) -> float:
+        """Pappus: sweep x (area x centroid radius) of the profile (polygon within 1e-7 of
+        the curves)."""
+        poly = self.profile.polygon(1e-9 * self.profile.diameter)
+        return float(self.sweep * poly.area * poly.centroid.x)
+
+    @cached_property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        x0, y0, x1, y1 = self.profile.bounds
+        return np.array([-x1, -x1, y0]), np.array([x1, x1, y1])
+
+    @property
+    def diameter(self) -> float:
+        lo, hi = self.bounds
+        return float(np.linalg.norm(hi - lo))
+
+    @cached_property
+    def axis_curves(self) -> tuple[int, ...]:
+        """Indices of the profile curves lying on the axis (they sweep no face)."""
+        out = []
+        tol = 1e-9 * self.profile.diameter
+        for i, c in enumerate(self.profile.curves):
+            p = c.curve.point(np.linspace(0, 1, 5))
+            if np.abs(p[:, 0]).max() <= tol:
+                out.append(i)
+        return tuple(out)
+
+    @cached_property
+    def face_names(self) -> tuple[str, ...]:
+        """``start``, ``end`` (partial turns only; else unused), then one per profile curve."""
+        return ("start", "end") + tuple(c.name for c in self.profile.curves)
+
+    def classify_faces(self, tri_points: np.ndarray) -> np.ndarray:
+        """The face (index in :attr:`face_names`) of boundary triangles given by their
+        corners ``(K, 3, 3)``; -1 where a triangle lies on no face."""
+        k = len(tri_points)
+        pts = np.asarray(tri_points, dtype=float).reshape(-1, 3)
+        faces = np.arange(3 * k).reshape(k, 3)
+        return _classify(self, pts, faces, 0.0) - 1
+
+    def to3d(self, q: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        q = np.asarray(q, dtype=float).reshape(-1, 2)
+        return np.column_stack([q[:, 0] * np.cos(theta), q[:, 0] * np.sin(theta), q[:, 1]])
+
+    def to2d(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """``((r, z) (N, 2), angle (N,) in [0, 2 pi))``."""
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        th = np.mod(np.arctan2(p[:, 1], p[:, 0]), 2 * np.pi)
+        return np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]), th
+
+    def contains(self, points) -> np.ndarray:
+        q, th = self.to2d(points)
+        ok = self.profile.contains(q)
+        edge = ~ok
+        if edge.any():  # the profile's boundary belongs to it
+            ok[edge] = self.profile.distance_to_boundary(q[edge]) <= 1e-9 * self.diameter
+        if not self.full:
+            ok &= (th <= self.sweep + 1e-12) | (q[:, 0] <= 1e-12 * self.diameter)
+        return ok
+
+    def sample(self, n: int = 24) -> np.ndarray:
+        lo, hi = self.bounds
+        g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
+        p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
+        return p[self.contains(p)]
+
+
+class RevolvedField:
+    """A 2D material field of the profile's ``(r, z)`` seen in 3D: the same at every angle
+    (a feature tree of a revolved model keeps its subregions: ``region`` as in 2D)."""
+
+    dim = 3
+
+    def __init__(self, field2d, solid: Revolution):
+        self.field2d = field2d
+        self.solid = solid
+        self.constituents = tuple(field2d.constituents)
+
+    def composition(self, points, region=None) -> np.ndarray:
+        q, _ = self.solid.to2d(points)
+        if region is None:
+            return self.field2d.composition(q)
+        return self.field2d.composition(q, region=region)
+
+    def gradient(self, points) -> np.ndarray:
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        q, _ = self.solid.to2d(p)
+        g2 = self.field2d.gradient(q)  # (N, m, 2): d/dr, d/dz
+        r = np.maximum(q[:, 0], 1e-300)
+        out = np.empty(g2.shape[:2] + (3,))
+        out[..., 0] = g2[..., 0] * (p[:, 0] / r)[:, None]
+        out[..., 1] = g2[..., 0] * (p[:, 1] / r)[:, None]
+        out[..., 2] = g2[..., 1]
+        return out
+
+
+def is_axisymmetric(field, solid: Revolution, n: int = 16) -> bool:
+    """Whether the composition is the same at every angle (at sample points)."""
+    x0, y0, x1, y1 = solid.profile.bounds
+    r, z = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
+    q = np.column_stack([r.ravel(), z.ravel()])
+    ref = field.composition(solid.to3d(q, np.zeros(len(q))))
+    for th in np.linspace(0.3, solid.sweep, 5):
+        if np.abs(field.composition(solid.to3d(q, np.full(len(q), th))) - ref).max() > 1e-12:
+            return False
+    return True
+
+
+def profile_field(field, solid):
+    """The composition in the plane at angle 0 as a 2D field of ``(r, z)``."""
+    from ..material import CallableField
+
+    def f2(x, y):
+        q = np.column_stack([np.ravel(x), np.ravel(y)])
+        return field.composition(solid.to3d(q, np.zeros(len(q))))
+    return CallableField(f2, field.constituents)
+
+
+def generate_revolved(solid: Revolution, field, threshold: float, profile_model, *,
+                      axisymmetric: bool, seed: int = 0, chord_tol: float | None = None,
+                      max_elements: int | None = None, max_size: float | None = None,
+                      check: bool = True) -> TetResult:
+    """Tetrahedralise a solid of revolution by sweeping the 2D mesh of its profile.
+
+    ``profile_model``: the profile (``solid.profile``) and the 2D field of ``(r, z)`` to mesh
+    it with (:func:`profile_field`); ``axisymmetric``: whether the composition is the same
+    at every angle (:func:`is_axisymmetric`: then the 2D guarantee carries over exactly,
+    else the sweep is repaired by edge bisection); ``chord_tol`` absolute (default
+    :data:`CHORD` x the diameter).
+    """
+    from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
+    from ..tri.pipeline import generate
+
+    t0 = time.perf_counter()
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    axisym = axisymmetric
+    f2 = profile_model.material
+    prof = solid.profile
+    # half of the tolerance for the profile's chords, half for the angular steps: an edge
+    # across both deviates by at most the sum
+    kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
+    if max_size is not None:  # the profile's longest edge and the widest angular step
+        kw["max_size"] = float(max_size)
+    r2 = generate(profile_model, threshold, seed=seed, **kw)
+    m2 = r2.mesh
+    p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
+    e = np.concatenate([t2[:, [0, 1]], t2[:, [1, 2]], t2[:, [2, 0]]])
+    h = float(np.median(np.linalg.norm(p2[e[:, 0]] - p2[e[:, 1]], axis=1)))
+    r_max = float(p2[:, 0].max())
+    r_mid = float(np.median(p2[:, 0]))
+    # steps: the chord tolerance at the largest radius, the median edge at the median radius
+    step_chord = 2.0 * math.acos(max(-1.0, 1.0 - 0.5 * chord / max(r_max, 1e-300)))
+    step = min(step_chord, h / max(r_mid, 1e-300))
+    if max_size is not None:
+        step = min(step, float(max_size) / max(r_max, 1e-300))
+    n = max(3 if solid.full else 1, int(math.ceil(solid.sweep / step - 1e-9)))
+    if max_elements is not None and 3 * len(t2) * n > max_elements:
+        from ..errors import BudgetError
+        raise BudgetError(f"about {3 * len(t2) * n} tetrahedra are needed for delta_0 = "
+                          f"{threshold} ({len(t2)} triangles in the profile x 3 x {n} "
+                          f"angular steps) but the budget is {max_elements}")
+    theta = solid.sweep * np.arange(n + 1) / n
+    pl, tets, _ = prism_tets(p2, t2, theta)
+    n2 = len(p2)
+    ids = np.arange(len(pl))
+    if solid.full:
+        ids[n * n2:] = ids[:n2]  # the last angle is the first
+    on_axis = np.flatnonzero(np.abs(p2[:, 0]) <= 1e-12 * prof.diameter)
+    for j in range(n + 1):
+        ids[j * n2 + on_axis] = ids[on_axis]  # every copy of an axis vertex is the first
+    tets = ids[tets]
+    keep = (np.diff(np.sort(tets, axis=1), axis=1) > 0).all(axis=1)
+    tets = tets[keep]  # prisms collapsed at the axis lose their flat tetrahedra
+    used, inv = np.unique(tets, return_inverse=True)
+    q = pl[used]
+    points = solid.to3d(q[:, :2], q[:, 2])
+    on_axis_pts = np.abs(q[:, 0]) <= 1e-12 * prof.diameter
+    points[on_axis_pts, :2] = 0.0
+    tets = inv.reshape(-1, 4)
+    v = volumes(points, tets)
+    tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
+    tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), n)[keep]
+    sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
+    regions = None if sub2 is None else np.asarray(sub2)[tri_of]
+    prof_ids = used % n2  # the 2D vertex of every point
+    if axisym:
+        if regions is None:
+            delta = delta_tets(f2.composition(p2)[prof_ids], tets)
+        else:
+            c = f2.composition(p2[prof_ids[tets].ravel()], region=np.repeat(regions, 4))
+            c = c.reshape(len(tets), 4, -1)
+            delta = (c.max(axis=1) - c.min(axis=1)).max(axis=1)
+        passes = 0
+    else:
+        points, tets, _, delta, passes = repair(points, tets, field, threshold,
+                                                max_elements=max_elements)
+        regions = None
+    tets = tets.astype(np.int32)
+    faces, _ = boundary_faces(tets)
+    markers = _classify(solid, points, faces, chord)
+    res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
+                    tuple(solid.face_names), delta, float(threshold),
+                    {"placement": "revolved" if axisym else "revolved+repair",
+                     "angular_steps": n, "section_triangles": len(t2),
+                     "repair_passes": passes})
+    if regions is not None:
+        res.info["regions"] = regions.astype(np.int32)
+    if check:
+        probs = revolution_problems(res, solid, field if not axisym else None, chord)
+        if probs:
+            raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
+    res.info["time_total"] = time.perf_counter() - t0
+    return res
+
+
+def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
+    """Face marker (1 + index in ``face_names``) of boundary triangles; 0 for none."""
+    q, th = solid.to2d(points)
+    tol = 1e-9 * solid.diameter
+    k = len(faces)
+    out = np.zeros(k, dtype=np.int64)
+    axis_pt = q[:, 0] <= tol
+    if not solid.full:
+        for m, ang in ((1, 0.0), (2, solid.sweep)):
+            d = np.abs(np.angle(np.exp(1j * (th - ang))))
+            on = (d * np.maximum(q[:, 0], 1.0) <= 1e-9 * solid.diameter) | axis_pt
+            out[(out == 0) & on[faces].all(axis=1)] = m
+    rest = np.flatnonzero(out == 0)
+    if len(rest):
+        best = np.full(len(rest), np.inf)
+        arg = np.zeros(len(rest), dtype=np.int64)
+        for i, c in enumerate(solid.profile.curves):
+            if i in solid.axis_curves:
+                continue
+            d = np.max([c.curve.distance(q[faces[rest, j]]) for j in range(3)], axis=0)
+            better = d < best
+            best[better], arg[better] = d[better], i
+        ok = best <= tol
+        out[rest[ok]] = 3 + arg[ok]
+    return out
+
+
+def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str]:
+    """Broken claims of a swept mesh of revolution: positive volumes, conformity, every
+    point used, boundary triangles on the solid's faces with every edge's midpoint within
+    the chord tolerance of its face, the volume within the chord tolerance, delta."""
+    p, t = res.points, res.tets
+    out = []
+    v = volumes(p, t)
+    if (v <= 0).any():
+        out.append(f"{int((v <= 0).sum())} tetrahedra of non-positive volume")
+    used = np.zeros(len(p), bool)
+    used[t.ravel()] = True
+    if not used.all():
+        out.append(f"{int((~used).sum())} points used by no tetrahedron")
+    _, counts = boundary_faces(t)
+    if (counts > 2).any():
+        out.append(f"{int((counts > 2).sum())} faces shared by more than two tetrahedra")
+    if (res.face_markers <= 0).any():
+        out.append(f"{int((res.face_markers <= 0).sum())} boundary triangles on no face")
+    curved = res.face_markers > 2
+    if curved.any():
+        f = res.faces[curved]
+        mids = 0.5 * (p[f] + p[f[:, [1, 2, 0]]])
+        q, _ = solid.to2d(mids.reshape(-1, 3))
+        cid = np.repeat(res.face_markers[curved] - 3, 3)
+        dev = np.zeros(len(q))
+        for i, c in enumerate(solid.profile.curves):
+            sel = cid == i
+            if sel.any():
+                dev[sel] = c.curve.distance(q[sel])
+        if dev.max() > chord * (1 + 1e-6):
+            out.append(f"chord deviation {dev.max():.3g} over the tolerance {chord:.3g}")
+    perim = sum(c.curve.length for c in solid.profile.curves)
+    slack = chord * perim * solid.sweep * max(float(np.abs(p[:, :2]).max()), 1.0) + \
+        1e-9 * solid.volume
+    if abs(float(v.sum()) - solid.volume) > slack:
+        out.append(f"volume {float(v.sum()):.9g} differs from the solid's "
+                   f"{solid.volume:.9g} by more than the chord tolerance allows")
+    delta = res.delta if field is None else delta_tets(field.composition(p), t)
+    if not float(delta.max()) < res.threshold:
+        out.append(f"delta_max = {float(delta.max()):.6g} is not below {res.threshold:g}")
+    return out

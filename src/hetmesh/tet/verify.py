@@ -1,0 +1,129 @@
+"""The checks of every tetrahedral mesh before it is returned: positive volumes, conformity,
+boundary faces on the solid's faces (planar ones exactly, curved ones within the chord
+tolerance), volume and face areas of the solid, every point used, delta_max < delta_0.
+
+>>> import numpy as np
+>>> t = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+>>> f, counts = boundary_faces(t)
+>>> len(f), int(counts.max())
+(6, 2)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import VerificationError
+from .quality import TET_FACES, delta_tets, volumes
+
+__all__ = ["boundary_faces", "verify_tets", "tet_problems"]
+
+
+def boundary_faces(tets: np.ndarray, *, owners: bool = False):
+    """``(faces (K, 3), counts (F,))``: the faces of one tetrahedron only, oriented outward
+    (for positive tetrahedra), in first-occurrence order; ``counts`` the multiplicity of
+    every distinct face. With ``owners``, also ``(K,)`` the row ``4 t + k`` of every
+    boundary face: tetrahedron ``t``, the face opposite its vertex ``k``."""
+    f = tets[:, TET_FACES].reshape(-1, 3).astype(np.int64)
+    key = np.sort(f, axis=1)
+    n = int(key.max()) + 1 if len(key) else 1
+    if n < 2_000_000:  # one int64 per face: much faster than unique rows
+        key = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]
+        _, first, counts = np.unique(key, return_index=True, return_counts=True)
+    else:
+        _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    once = np.flatnonzero(counts == 1)
+    rows = np.sort(first[once])
+    if owners:
+        return f[rows], counts, rows
+    return f[rows], counts
+
+
+def _tri_area(p: np.ndarray) -> np.ndarray:
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_tol
+                 ) -> list[str]:
+    """Every broken claim, one line each (empty: the mesh is valid)."""
+    out = []
+    if len(tets) == 0:
+        return ["no tetrahedra"]
+    if not np.isfinite(points).all():
+        out.append("non-finite point coordinates")
+    v = volumes(points, tets)
+    if (v <= 0).any():
+        i = int(np.argmin(v))
+        out.append(f"{int((v <= 0).sum())} tetrahedra of non-positive volume (smallest "
+                   f"{v[i]:.3g}, tetrahedron {i})")
+    used = np.zeros(len(points), bool)
+    used[tets.ravel()] = True
+    if not used.all():
+        out.append(f"{int((~used).sum())} points used by no tetrahedron")
+    _, counts = boundary_faces(tets)
+    if (counts > 2).any():
+        out.append(f"{int((counts > 2).sum())} faces shared by more than two tetrahedra")
+    if (markers <= 0).any():
+        k = int(np.flatnonzero(markers <= 0)[0])
+        c = points[faces[k]].mean(axis=0)
+        out.append(f"{int((markers <= 0).sum())} boundary triangles on no face of the solid "
+                   f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    L, diam = solid.length, solid.diameter
+    area = _tri_area(points[faces])
+    names = solid.face_names
+    arcs = sum(c.curve.length for c in solid.section.curves if hasattr(c.curve, "radius"))
+    # chords within chord_tol of their arcs: the section's area is off by at most
+    # (arc length x chord tolerance)
+    short = arcs * chord_tol
+    exact_vol = True
+    for m, name in enumerate(names, start=1):
+        sel = markers == m
+        got = float(area[sel].sum())
+        if m <= 2:
+            want = float(solid.section.area)
+            slack = 1e-9 * max(want, diam ** 2)
+            if abs(got - want) > short + slack:
+                out.append(f"face {name!r}: triangles cover {got:.12g}, the face {want:.12g}")
+            continue
+        curve = solid.section.curves[m - 3].curve
+        want = float(curve.length) * L
+        if hasattr(curve, "radius"):
+            exact_vol = False
+            q, _ = solid.to2d(points[faces[sel]].reshape(-1, 3))
+            q = q.reshape(-1, 3, 2)
+            mids = 0.5 * (q + q[:, [1, 2, 0]])
+            r = np.hypot(mids[..., 0] - curve.center[0], mids[..., 1] - curve.center[1])
+            sag = float(np.abs(curve.radius - r).max()) if len(r) else 0.0
+            if sag > chord_tol * (1 + 1e-9):
+                out.append(f"face {name!r}: chord deviation {sag:.3g} exceeds the chord "
+                           f"tolerance {chord_tol:.3g}")
+            if abs(got - want) > want * (chord_tol / curve.radius + 1e-9):
+                out.append(f"face {name!r}: triangles cover {got:.12g}, the face "
+                           f"{want:.12g}")
+        elif abs(got - want) > 1e-9 * max(want, diam ** 2):
+            out.append(f"face {name!r}: triangles cover {got:.12g}, the face {want:.12g}")
+    vol = float(v.sum())
+    want = solid.volume
+    if exact_vol:
+        if abs(vol - want) > 1e-9 * want:
+            out.append(f"volume {vol:.12g} differs from the solid's {want:.12g}")
+    else:
+        if abs(vol - want) > short * L + 1e-9 * want:
+            out.append(f"volume {vol:.12g} differs from the solid's {want:.12g} by more than "
+                       f"the chord tolerance allows")
+    if delta is not None:
+        dmax = float(delta.max())
+        if not dmax < threshold:
+            out.append(f"delta_max = {dmax:.6g} is not below delta_0 = {threshold:g}")
+    return out
+
+
+def verify_tets(res, solid, field, chord_tol: float) -> None:
+    """Raise :class:`VerificationError` naming the first broken claim of ``res``
+    (a :class:`~hetmesh.tet.mesher.TetResult`); delta is recomputed from ``field``."""
+    delta = delta_tets(field.composition(res.points), res.tets)
+    probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid, delta,
+                         res.threshold, chord_tol)
+    if probs:
+        raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}"
+                                + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
