@@ -13,14 +13,13 @@ well-shaped elements as possible; every mesh returned is verified.
 from __future__ import annotations
 
 from .kernel import Result, mesh_statistics
-from .tri.pipeline import generate
+from .meshing import generate, uniform
 from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, MaterialError,
                      MeshingError, ModelFileError, OptionError, OutputError)
 from .io.model import Model, example_path, load_model
 from .mesh import Mesh
 from .study import sweep
 from .metrics import MeshStats
-from .tri.uniform import uniform
 from .version import __version__
 
 __all__ = [

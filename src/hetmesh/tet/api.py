@@ -20,15 +20,20 @@
 
 from __future__ import annotations
 
+import time
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import OptionError
+from ..kernel import Result
 from ..mesh import Mesh
+from ..metrics import dihedral_angles, statistics
 from .extrude import generate_extruded
 from .mesher import TetResult, generate_tets
 from .quality import radius_ratio
 
-__all__ = ["mesh_model", "to_mesh", "DEFAULT_MAX_ELEMENTS"]
+__all__ = ["mesh_model", "generate", "to_mesh", "DEFAULT_MAX_ELEMENTS", "OPTIONS_2D"]
 
 DEFAULT_MAX_ELEMENTS = 20_000_000
 
@@ -121,3 +126,40 @@ def to_mesh(res: TetResult, constituents) -> Mesh:
     return Mesh(res.points, res.tets, regions=regions, facets=res.faces,
                 facet_markers=res.face_markers, point_data=pd, cell_data=cd,
                 marker_names={m: n for m, n in enumerate(res.face_names, start=1)})
+
+
+#: the options of :func:`hetmesh.generate` that only the 2D kernel has, and their defaults
+OPTIONS_2D = {"min_angle": 30.0, "method": "auto", "row_spacing": None, "min_quality": 0.6,
+              "optimize": True, "sampling": "vertices", "progress": None}
+
+
+def generate(model, threshold: float, *, seed: int = 0, chord_tol: float | None = None,
+             max_elements: int | None = DEFAULT_MAX_ELEMENTS, max_size: float | None = None,
+             **options) -> Result:
+    """The 3D kernel behind :func:`hetmesh.generate`: :func:`mesh_model` as a
+    :class:`~hetmesh.kernel.Result` (its ``stats``: ``q_min``/``q_avg`` the radius ratio,
+    ``angle_min`` the smallest dihedral angle; ``options["placement"]`` the placement used).
+
+    Options of the 2D kernel other than their defaults raise :class:`OptionError`.
+    """
+    for key, value in options.items():
+        if key not in OPTIONS_2D:
+            raise TypeError(f"generate() got an unexpected keyword argument {key!r}")
+        if value != OPTIONS_2D[key] and value is not None:
+            raise OptionError(f"{key}={value!r} is not available for 3D models")
+    t0 = time.perf_counter()
+    res = mesh_model(model, threshold, seed=seed, chord_tol=chord_tol,
+                     max_elements=max_elements, max_size=max_size)
+    seconds = time.perf_counter() - t0
+    q = res.mesh.cell_data["quality"]
+    ang = dihedral_angles(res.points, res.tets).min(axis=1)
+    stats = statistics(res.points, res.tets, res.delta, quality=q, angle=ang)
+    stats = replace(stats, delta_max_vertices=stats.delta_max)
+    opts = dict(threshold=threshold, seed=seed, chord_tol=chord_tol,
+                max_elements=max_elements, max_size=max_size,
+                placement=res.info.get("placement"))
+    return Result(mesh=res.mesh, stats=stats, threshold=threshold,
+                  history=[{"round": 0, "stage": "tet", "elements": int(len(res.tets)),
+                            "points": int(len(res.points)),
+                            "delta_max": float(res.delta.max())}],
+                  timings={"total": seconds}, options=opts, model=model)
