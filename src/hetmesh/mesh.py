@@ -53,11 +53,26 @@ def cell_faces(cells: np.ndarray) -> np.ndarray:
 def face_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(order, first, count)`` of the faces ``(F, k)`` (rows of vertex ids in any order):
     ``faces[order]`` groups equal faces together (sorted by their sorted vertex ids),
-    ``first`` the start of every group in that order and ``count`` its size."""
-    key = np.sort(faces, axis=1)
-    order = np.lexsort(key.T[::-1])
-    k = key[order]
-    new = np.r_[True, np.any(k[1:] != k[:-1], axis=1)] if len(k) else np.zeros(0, bool)
+    ``first`` the start of every group in that order and ``count`` its size. Faces of
+    vertex ids below 2**21 are sorted as one int64 key each (a few times faster than rows).
+
+    >>> order, first, count = face_table(np.array([[2, 1, 0], [0, 1, 2], [1, 2, 3]]))
+    >>> count.tolist()
+    [2, 1]
+    """
+    key = np.sort(faces, axis=1).astype(np.int64)
+    n = int(key.max()) + 1 if key.size else 1
+    if n ** key.shape[1] < 2 ** 62:
+        packed = key[:, 0]
+        for j in range(1, key.shape[1]):
+            packed = packed * n + key[:, j]
+        order = np.argsort(packed, kind="stable")
+        k = packed[order]
+        new = np.r_[True, k[1:] != k[:-1]] if len(k) else np.zeros(0, bool)
+    else:
+        order = np.lexsort(key.T[::-1])
+        k = key[order]
+        new = np.r_[True, np.any(k[1:] != k[:-1], axis=1)] if len(k) else np.zeros(0, bool)
     first = np.flatnonzero(new)
     return order, first, np.diff(np.r_[first, len(k)])
 

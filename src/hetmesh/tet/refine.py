@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError
+from ..errors import MeshingError
+from ..refinement import check_budget, check_progress
 from .quality import TET_EDGES, delta_tets
 
 #: repair passes before giving up
@@ -114,12 +115,12 @@ def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
         if passes >= MAX_PASSES:
             raise MeshingError(f"delta repair did not converge in {MAX_PASSES} passes "
                                f"({int((delta >= threshold).sum())} tetrahedra left)")
-        if max_elements is not None and len(tets) > max_elements:
-            raise BudgetError(f"the mesh exceeds the budget of {max_elements} tetrahedra "
-                              f"before delta < {threshold} everywhere")
+        if max_elements is not None:
+            check_budget(len(tets), max_elements)
         split = select_edges(tets, comp, delta >= threshold)
         n0 = len(points)
         points, tets = bisect_edges(points, tets, split)
+        check_progress(n0, len(points), passes, int((delta >= threshold).sum()), 0, threshold)
         comp = np.concatenate([comp, field.composition(points[n0:])])
         delta = delta_tets(comp, tets)
         passes += 1

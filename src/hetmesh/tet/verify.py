@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mesh import Mesh
 from ..errors import VerificationError
 from .quality import TET_FACES, delta_tets, volumes
 
@@ -46,23 +47,17 @@ def _tri_area(p: np.ndarray) -> np.ndarray:
 def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_tol
                  ) -> list[str]:
     """Every broken claim, one line each (empty: the mesh is valid)."""
-    out = []
     if len(tets) == 0:
         return ["no tetrahedra"]
-    if not np.isfinite(points).all():
-        out.append("non-finite point coordinates")
     v = volumes(points, tets)
-    if (v <= 0).any():
+    out = []
+    if (v <= 0).any():  # before Mesh re-orients them
         i = int(np.argmin(v))
         out.append(f"{int((v <= 0).sum())} tetrahedra of non-positive volume (smallest "
                    f"{v[i]:.3g}, tetrahedron {i})")
-    used = np.zeros(len(points), bool)
-    used[tets.ravel()] = True
-    if not used.all():
-        out.append(f"{int((~used).sum())} points used by no tetrahedron")
-    _, counts = boundary_faces(tets)
-    if (counts > 2).any():
-        out.append(f"{int((counts > 2).sum())} faces shared by more than two tetrahedra")
+    # validity and conformity as for every mesh: degenerate cells, unused or repeated
+    # points, faces held by more than two tetrahedra, a boundary that is not closed
+    out += [p for p in Mesh(points, tets).problems() if "degenerate" not in p or not out]
     if (markers <= 0).any():
         k = int(np.flatnonzero(markers <= 0)[0])
         c = points[faces[k]].mean(axis=0)
