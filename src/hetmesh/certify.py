@@ -45,7 +45,7 @@ import warnings
 import numpy as np
 
 __all__ = ["certified_delta", "certifiable", "CertificationUnavailable", "LIPSCHITZ_SAFETY",
-           "RTOL", "ATOL", "MAX_DEPTH"]
+           "TREE_BOUND", "RTOL", "ATOL", "MAX_DEPTH"]
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +62,10 @@ MAX_PIECES = 1 << 21
 #: feature trees: the sampled gradient norm is multiplied by this to bound the Lipschitz
 #: constant of a piece
 LIPSCHITZ_SAFETY = 2.0
+#: how feature trees are bounded: ``"interval"`` (an enclosure through the tree, a proof) or
+#: ``"lipschitz"`` (the sampled Lipschitz estimate, used anyway for a tree with a node that
+#: has no enclosure; benchmarks/bench_certify.py compares the two)
+TREE_BOUND = "interval"
 
 _CHILDREN = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])  # of (a, b, c, ab, bc, ca)
 
@@ -161,6 +165,17 @@ class _FormulaEnclosure:
         return lo, hi
 
 
+class _TreeEnclosure:
+    """Interval enclosures of an :class:`HFTField`'s fractions over boxes, through its tree
+    (:meth:`hetmesh.material.hft.HFTField.enclose`)."""
+
+    def __init__(self, field, offset: np.ndarray):
+        self.field = field
+
+    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        return self.field.enclose(_box(corners, np.zeros(2)), region)
+
+
 class _LipschitzEnclosure:
     """Enclosures of a feature-tree field's fractions from a Lipschitz bound per piece.
 
@@ -209,6 +224,13 @@ def _enclosure(field):
     if isinstance(base, AnalyticField):
         return base, scale, offset, _FormulaEnclosure(base, offset)
     if isinstance(base, HFTField):
+        missing = base.unenclosable()
+        if TREE_BOUND == "interval" and missing is None:
+            return base, scale, offset, _TreeEnclosure(base, offset)
+        if missing is not None:
+            warnings.warn(f"certified sampling: feature {missing} has no interval enclosure; "
+                          f"using a sampled Lipschitz bound instead (an estimate, not a "
+                          f"certificate)", CertificationUnavailable, stacklevel=3)
         return base, scale, offset, _LipschitzEnclosure(base, offset)
     return base, scale, offset, None
 
@@ -272,15 +294,19 @@ def certified_delta(field, points: np.ndarray, triangles: np.ndarray, *,
     return _bound(base, enc, corners, own, rtol, atol, max_depth, threshold)
 
 
-def _samples(base, corners: np.ndarray, region: np.ndarray | None) -> np.ndarray:
-    """Compositions ``(K, 7, m)`` at the corners, edge midpoints and centroid of pieces."""
-    pts = _seven(corners).reshape(-1, 2)
+def _samples(base, corners: np.ndarray, region: np.ndarray | None,
+             first: int = 0) -> np.ndarray:
+    """Compositions ``(K, 7 - first, m)`` at the corners, edge midpoints and centroid of
+    pieces, from the ``first`` of them (3: the corners of a child were sampled with its
+    parent)."""
+    pts = _seven(corners)[:, first:].reshape(-1, 2)
+    n = 7 - first
     with np.errstate(all="ignore"):
         if region is not None:
-            comp = base.composition(pts, region=np.repeat(region, 7))
+            comp = base.composition(pts, region=np.repeat(region, n))
         else:
             comp = base.composition(pts)
-    comp = np.asarray(comp, dtype=float).reshape(len(corners), 7, -1)
+    comp = np.asarray(comp, dtype=float).reshape(len(corners), n, -1)
     return comp if np.isfinite(comp).all() else np.where(np.isfinite(comp), comp, np.nan)
 
 
@@ -348,7 +374,7 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
             frozen_lo[lv] = np.minimum(frozen_lo[lv], _group(lo[fk], st, np.minimum))
         pieces = _split(pieces[~keep])
         owner = np.repeat(owner[~keep], 4)
-        s = _samples(base, pieces, None if own is None else own[owner])
+        s = _samples(base, pieces, None if own is None else own[owner], first=3)
         lv, st = np.unique(owner, return_index=True)
         smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
         smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))
