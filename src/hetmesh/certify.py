@@ -11,14 +11,25 @@ samples. :func:`certified_delta` bounds it from above instead:
   ``f(c) + grad f(box) . (box - c)`` (the gradient's tree enclosed the same way) where the
   formula is smooth on the piece. A piecewise field's element is enclosed on its own
   subregion's branch, as the mesher evaluates it.
-* **Feature-tree fields** (:class:`~hetmesh.material.hft.HFTField`): distances are
-  1-Lipschitz, so within a subregion every composition is Lipschitz with the constant
-  ``L_j = sup |grad c_j|``; every point of a piece of circumradius ``R`` lies within
-  ``R / 2`` of one of its corners and edge midpoints, so ``c_j`` stays within
-  ``L_j R / 2`` of its values there. ``L_j`` is estimated per piece from the gradient at
-  seven samples times :data:`LIPSCHITZ_SAFETY`: a bound for the smooth field of the
-  element's own subregion under that estimate (which shrinks with the pieces), not an
-  interval proof.
+* **Feature-tree fields** (:class:`~hetmesh.material.hft.HFTField`): the fractions are
+  enclosed over the piece's bounding box through the tree
+  (:meth:`~hetmesh.material.hft.HFTField.enclose`, :mod:`hetmesh.material.hft.enclose`):
+  distances to points and segments exactly (the distance is convex), to circles and arcs by
+  ``|rho - R|`` (exact within the arc's angular span) and the 1-Lipschitz ``d(c) +- r``
+  beyond it; a curve's linear composition by the range of its nearest point's parameter;
+  a parent by its forced child (the element's subregion) or the hull of the children that
+  may own a point of the box (for a ``select`` used only as a distance, all of them: its
+  rules are opaque predicates, so such a bound is loose); a blend's weight by interval arithmetic on its formula over
+  the distances' intervals (by its corner values where every ``dW/dd_i`` keeps one sign),
+  and ``W M_1 + (1 - W) M_2`` at the corners of the three intervals. A proof, first-order
+  tight: the subdivision takes the pieces near the extremes down until the bound settles.
+  A tree with a node that has no enclosure (a user's own leaf class; see
+  :meth:`~hetmesh.material.hft.HFTField.unenclosable`) falls back, with a
+  :class:`CertificationUnavailable` warning naming the node, to a Lipschitz estimate:
+  within a subregion ``c_j`` stays within ``L_j R / 2`` of its values at a piece's corners
+  and edge midpoints (``R`` its circumradius), ``L_j`` the gradient norm at seven samples
+  times :data:`LIPSCHITZ_SAFETY` (an estimate, not a proof; :data:`TREE_BOUND` selects it
+  for every tree, for comparisons).
 * Anything else (a Python callable, :class:`~hetmesh.material.CallableField`) has no tree
   to enclose: :func:`certified_delta` warns and returns the dense-sampled delta.
 

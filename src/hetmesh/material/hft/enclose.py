@@ -157,7 +157,10 @@ def arc_angles(center, box: Box, rho_lo: np.ndarray) -> tuple[np.ndarray, np.nda
         rel.append(np.mod(a + math.pi, _TWO_PI) - math.pi)
     lo = ref + np.minimum.reduce(rel) - ANGLE_PAD
     hi = ref + np.maximum.reduce(rel) + ANGLE_PAD
-    return lo, hi, rho_lo > 0.0
+    # a box almost touching the centre spans almost pi: a corner's angle could round to
+    # the other side of the cut at +-pi, so such boxes are left undecided
+    known = (rho_lo > 0.0) & (np.maximum.reduce([np.abs(r) for r in rel]) < 3.0)
+    return lo, hi, known
 
 
 def _t_on(lo, hi, s, mid):
@@ -203,7 +206,7 @@ def linear_comp(c0: np.ndarray, dc: np.ndarray, t: Interval) -> Interval:
     """The range ``(K, m)`` of ``c0 + t dc`` for ``t`` in the intervals ``t`` ``(K,)``."""
     a = c0 + t[0][:, None] * dc
     b = c0 + t[1][:, None] * dc
-    return widen(np.minimum(a, b), np.maximum(a, b))
+    return widen(np.minimum(a, b), np.maximum(a, b), np.abs(c0) + np.abs(dc))
 
 
 def constant_comp(c0: np.ndarray, k: int) -> Interval:
@@ -220,13 +223,15 @@ def hull(parts: list[Interval]) -> Interval:
 def blend(w: Interval, m1: Interval, m2: Interval) -> Interval:
     """The range of ``W M_1 + (1 - W) M_2`` (``W`` ``(K,)``, ``M`` ``(K, m)``) over
     independent intervals: multilinear, so its extremes are at the corners."""
-    vals = []
-    with np.errstate(invalid="ignore"):
+    vals, mags = [], []
+    with np.errstate(invalid="ignore", over="ignore"):
         for W in (w[0][:, None], w[1][:, None]):
             for a in m1:
                 for b in m2:
-                    vals.append(W * a + (1.0 - W) * b)
+                    wa, wb = W * a, (1.0 - W) * b
+                    vals.append(wa + wb)
+                    mags.append(np.abs(wa) + np.abs(wb) + np.abs(W))
     v = np.stack(vals)
     bad = np.isnan(v).any(axis=0)
-    lo, hi = widen(v.min(axis=0), v.max(axis=0))
+    lo, hi = widen(v.min(axis=0), v.max(axis=0), np.max(mags, axis=0))
     return np.where(bad, -np.inf, lo), np.where(bad, np.inf, hi)
