@@ -348,6 +348,8 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
     smax, smin = np.fmax.reduce(s, axis=1), np.fmin.reduce(s, axis=1)  # witnessed (M, m)
     frozen_hi = np.full_like(smax, -np.inf)
     frozen_lo = np.full_like(smin, np.inf)
+    band_hi = np.full_like(smax, np.inf)  # given delta_0: the band pieces are frozen in,
+    band_lo = np.full_like(smin, -np.inf)  # the intersection of all bands so far
     bound = np.full(m_el, np.inf)
     for depth in range(max_depth + 1):
         reg = None if own is None else own[owner]
@@ -368,9 +370,11 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         mo = margin[owner][:, None]
         top, bottom = smax[owner] + mo, smin[owner] - mo
         if threshold is not None:  # a piece inside the band of width delta_0 around the
-            half = 0.5 * threshold * (1.0 - 1e-9)  # witnessed middle needs no split
-            mid = 0.5 * (smax[owner] + smin[owner])
-            top, bottom = np.fmax(top, mid + half), np.fmin(bottom, mid - half)
+            half = 0.5 * threshold * (1.0 - 1e-9)  # witnessed middle needs no split; the
+            mid = 0.5 * (smax[live] + smin[live])  # bands met so far are intersected, so
+            band_hi[live] = np.fmin(band_hi[live], mid + half)  # that all frozen pieces
+            band_lo[live] = np.fmax(band_lo[live], mid - half)  # lie within one band
+            top, bottom = np.fmax(top, band_hi[owner]), np.fmin(bottom, band_lo[owner])
         done = np.zeros(m_el, bool)
         done[live[settled]] = True
         keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
@@ -383,6 +387,8 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
             lv, st = np.unique(o, return_index=True)
             frozen_hi[lv] = np.maximum(frozen_hi[lv], _group(hi[fk], st, np.maximum))
             frozen_lo[lv] = np.minimum(frozen_lo[lv], _group(lo[fk], st, np.minimum))
+        if keep.all():  # nothing left to split: the open elements keep their bounds
+            break
         pieces = _split(pieces[~keep])
         owner = np.repeat(owner[~keep], 4)
         s = _samples(base, pieces, None if own is None else own[owner], first=3)
