@@ -141,7 +141,8 @@ def _timed(model, threshold, sampling, repeats, tree_bound="interval"):
     return res.stats.n_elements, statistics.median(times)
 
 
-def run_examples(threshold: float, repeats: int, hft_only: bool = False) -> None:
+def run_examples(threshold: float, repeats: int, hft_only: bool = False,
+                 only: list[str] | None = None) -> None:
     """Every shipped example with each sampling; feature-tree examples also with the
     Lipschitz estimate (``cert-lip``), the bound used before the interval enclosure."""
     from hetmesh.material.hft import HFTField
@@ -154,7 +155,7 @@ def run_examples(threshold: float, repeats: int, hft_only: bool = False) -> None
     for path in sorted(root.glob("*.toml")):
         model = load_model(path)
         tree = isinstance(model.material, HFTField)
-        if hft_only and not tree:
+        if (hft_only and not tree) or (only and path.stem not in only):
             continue
         row, ne, tt = [], {}, {}
         for col in cols:
@@ -187,6 +188,7 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-bumps", action="store_true")
     ap.add_argument("--hft-only", action="store_true",
                     help="examples: only the feature-tree models")
+    ap.add_argument("--only", nargs="+", metavar="MODEL", help="examples: only these")
     args = ap.parse_args(argv)
     import tempfile
     if not args.skip_bumps:
@@ -194,7 +196,8 @@ def main(argv=None) -> int:
             cs = centres(4 if args.quick else 20)
             run_bumps(cs, WIDTHS[:1] if args.quick else WIDTHS, args.threshold, Path(d))
     if not args.skip_examples:
-        run_examples(args.threshold, 1 if args.quick else args.repeats, args.hft_only)
+        run_examples(args.threshold, 1 if args.quick else args.repeats, args.hft_only,
+                     args.only)
     return 0
 
 
