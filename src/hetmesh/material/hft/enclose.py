@@ -26,8 +26,9 @@ import numpy as np
 
 from ...expr import Interval
 
-__all__ = ["Box", "Enclosure", "widen", "point_box", "segment_box", "arc_angles",
-           "arc_parameter", "circle_distance", "hull", "blend"]
+__all__ = ["ANGLE_PAD", "GEOMETRY_ULPS", "Box", "Enclosure", "arc_angles", "arc_parameter",
+           "blend", "centre_radius", "circle_distance", "constant_comp", "hull", "linear_comp",
+           "magnitude", "point_box", "segment_box", "widen"]
 
 #: A batch of boxes ``(xlo, xhi, ylo, yhi)``, each a ``(K,)`` array.
 Box = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
@@ -48,11 +49,6 @@ class Enclosure:
 
     dist: Interval | None
     comp: Interval
-
-    def take(self, idx) -> "Enclosure":
-        """The enclosures of the boxes ``idx``."""
-        d = None if self.dist is None else (self.dist[0][idx], self.dist[1][idx])
-        return Enclosure(d, (self.comp[0][idx], self.comp[1][idx]))
 
 
 def widen(lo: np.ndarray, hi: np.ndarray, scale: np.ndarray | float = 0.0) -> Interval:

@@ -96,7 +96,7 @@ class _Leaf:
         """Points ``(K, 2)`` on the feature: its point, or ``n`` points along its curve."""
         raise NotImplementedError
 
-    def enclose(self, box, region=None) -> "_enc.Enclosure":
+    def enclose(self, box, region=None) -> _enc.Enclosure:
         """Intervals containing the distance and the composition at every point of each box
         ``(xlo, xhi, ylo, yhi)`` (see :mod:`.enclose`); ``region`` is ignored (a leaf has
         one subregion)."""
@@ -123,7 +123,7 @@ class PointFeature(_Leaf):
     def sample(self, n: int = 64) -> np.ndarray:
         return self.at[None, :].copy()
 
-    def enclose(self, box, region=None) -> "_enc.Enclosure":
+    def enclose(self, box, region=None) -> _enc.Enclosure:
         return _enc.Enclosure(_enc.point_box(self.at, box),
                               _enc.constant_comp(self.c0, len(box[0])))
 
@@ -159,7 +159,7 @@ class CurveFeature(_Leaf):
     def sample(self, n: int = 64) -> np.ndarray:
         return np.asarray(self.curve.point(np.linspace(0.0, 1.0, n)), dtype=float).reshape(-1, 2)
 
-    def enclose(self, box, region=None) -> "_enc.Enclosure":
+    def enclose(self, box, region=None) -> _enc.Enclosure:
         k = len(box[0])
         if isinstance(self.curve, Segment):
             dist, t = _enc.segment_box(self._p0, self._p0 + self._d, box)
@@ -285,7 +285,7 @@ class _Parent:
     def _m(self) -> int:
         return _width(self)
 
-    def enclose(self, box, region=None) -> "_enc.Enclosure":
+    def enclose(self, box, region=None) -> _enc.Enclosure:
         """Intervals containing the distance (None unless every child is geometric) and the
         composition at every point of each box ``(xlo, xhi, ylo, yhi)``: with ``region``,
         those of the forced child; without, of any child that may own a point of the box
@@ -306,7 +306,7 @@ class _Parent:
             out.comp[0][idx], out.comp[1][idx] = e.comp
         return out
 
-    def _enclose_free(self, box) -> "_enc.Enclosure":
+    def _enclose_free(self, box) -> _enc.Enclosure:
         """Without a forced subregion: the hull over all children."""
         es = [c.enclose(box) for c in self.children]
         dist = _enc.hull([e.dist for e in es]) if self.geometric else None
@@ -374,10 +374,10 @@ class NearestFeature(_Parent):
     def distance(self, p, region=None):
         return super().distance(p, None if self.uniform else region)
 
-    def enclose(self, box, region=None) -> "_enc.Enclosure":
+    def enclose(self, box, region=None) -> _enc.Enclosure:
         return super().enclose(box, None if self.uniform else region)
 
-    def _enclose_free(self, box) -> "_enc.Enclosure":
+    def _enclose_free(self, box) -> _enc.Enclosure:
         """The distance is the children's minimum; a child may own a point of the box if
         its lower bound does not exceed the smallest upper bound."""
         es = [c.enclose(box) for c in self.children]
@@ -613,7 +613,7 @@ class BlendFeature:
             dW[idx] = g
         return W, dW, reg
 
-    def enclose(self, box, region=None) -> "_enc.Enclosure":
+    def enclose(self, box, region=None) -> _enc.Enclosure:
         """Intervals containing the composition at every point of each box ``(xlo, xhi,
         ylo, yhi)``, ``W M_1 + (1 - W) M_2`` enclosed at the corners of the intervals of
         ``W``, ``M_1`` and ``M_2``. ``W`` is enclosed by interval arithmetic on its formula
