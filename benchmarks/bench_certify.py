@@ -6,13 +6,17 @@ and three widths ``w``, at delta_0 = 0.1, with each sampling, and checks every m
 independently of hetmesh's field code: the true variation of a radial bump over a triangle
 is ``f(the triangle's point nearest the centre) - f(its farthest corner)``, computed here in
 closed form; a fine lattice (order 48) of every element is reported too. Then the shipped
-examples at delta_0 = 0.1 (elements and time of each sampling).
+examples at delta_0 = 0.1 (elements and time of each sampling; for the feature-tree
+examples also certified with the sampled Lipschitz estimate, ``cert-lip``, the bound the
+interval enclosure through the tree replaced).
 
 Prints, per width and sampling: meshes, failures (an error), median elements, median time,
 meshes with an element above delta_0 (exact check), largest exact variation found.
 
     python benchmarks/bench_certify.py            # all (about 2-4 minutes on 2 cores)
     python benchmarks/bench_certify.py --quick    # 5 centres, one width
+    python benchmarks/bench_certify.py --skip-bumps --hft-only   # feature trees: certified
+                                                  # by interval enclosure and by Lipschitz
 """
 
 from __future__ import annotations
@@ -119,31 +123,60 @@ def run_bumps(cs, widths, threshold: float, tmp: Path) -> None:
                   f"{med_t:>8.2f} {above:>8} {worst:>9.4f} {worst_lat:>11.4f}")
 
 
-def run_examples(threshold: float, repeats: int) -> None:
+def _timed(model, threshold, sampling, repeats, tree_bound="interval"):
+    """``(elements, median seconds)`` of meshing ``model`` with ``sampling``; feature trees
+    bounded by ``tree_bound`` (``certify.TREE_BOUND``: the interval enclosure or the sampled
+    Lipschitz estimate it replaced)."""
+    from hetmesh import certify
+    saved = certify.TREE_BOUND
+    certify.TREE_BOUND = tree_bound
+    try:
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = generate(model, threshold, sampling=sampling)
+            times.append(time.perf_counter() - t0)
+    finally:
+        certify.TREE_BOUND = saved
+    return res.stats.n_elements, statistics.median(times)
+
+
+def run_examples(threshold: float, repeats: int, hft_only: bool = False,
+                 only: list[str] | None = None) -> None:
+    """Every shipped example with each sampling; feature-tree examples also with the
+    Lipschitz estimate (``cert-lip``), the bound used before the interval enclosure."""
+    from hetmesh.material.hft import HFTField
     root = Path(__file__).resolve().parents[1] / "src" / "hetmesh" / "examples"
-    print(f"\nexamples at delta_0 = {threshold} (median of {repeats} runs)")
-    print(f"{'model':>18} " + " ".join(f"{s + ' Ne':>13} {s + ' s':>12}" for s in SAMPLINGS)
-          + f" {'cert/vert Ne':>12} {'cert/vert s':>11}")
+    cols = SAMPLINGS + ("cert-lip",)
+    print(f"\nexamples at delta_0 = {threshold} (median of {repeats} runs; cert-lip: certified "
+          f"with the sampled Lipschitz estimate for feature trees)")
+    print(f"{'model':>18} " + " ".join(f"{s + ' Ne':>13} {s + ' s':>10}" for s in cols)
+          + f" {'cert/vert Ne':>12} {'cert/vert s':>11} {'lip/vert s':>10}")
     for path in sorted(root.glob("*.toml")):
         model = load_model(path)
+        tree = isinstance(model.material, HFTField)
+        if (hft_only and not tree) or (only and path.stem not in only):
+            continue
         row, ne, tt = [], {}, {}
-        for sampling in SAMPLINGS:
-            times = []
-            try:
-                for _ in range(repeats):
-                    t0 = time.perf_counter()
-                    res = generate(model, threshold, sampling=sampling)
-                    times.append(time.perf_counter() - t0)
-            except HetmeshError as exc:
-                row.append(f"{'error':>13} {'':>12}")
-                print(f"   {path.stem} {sampling}: {exc}", file=sys.stderr)
+        for col in cols:
+            if col == "cert-lip" and not tree:
+                row.append(f"{'-':>13} {'':>10}")
                 continue
-            ne[sampling], tt[sampling] = res.stats.n_elements, statistics.median(times)
-            row.append(f"{ne[sampling]:>13} {tt[sampling]:>12.2f}")
-        ratio = (f"{ne['certified'] / ne['vertices']:>12.2f} "
-                 f"{tt['certified'] / tt['vertices']:>11.2f}"
-                 if "certified" in ne and "vertices" in ne else "")
-        print(f"{path.stem:>18} " + " ".join(row) + " " + ratio)
+            sampling, bound = ("certified", "lipschitz") if col == "cert-lip" else (col, "interval")
+            try:
+                ne[col], tt[col] = _timed(model, threshold, sampling, repeats, bound)
+            except HetmeshError as exc:
+                row.append(f"{'error':>13} {'':>10}")
+                print(f"   {path.stem} {col}: {exc}", file=sys.stderr)
+                continue
+            row.append(f"{ne[col]:>13} {tt[col]:>10.2f}")
+        ratio = ""
+        if "certified" in ne and "vertices" in ne:
+            ratio = (f"{ne['certified'] / ne['vertices']:>12.2f} "
+                     f"{tt['certified'] / tt['vertices']:>11.2f}")
+            if "cert-lip" in tt:
+                ratio += f" {tt['cert-lip'] / tt['vertices']:>10.2f}"
+        print(f"{path.stem:>18} " + " ".join(row) + " " + ratio, flush=True)
 
 
 def main(argv=None) -> int:
@@ -152,13 +185,19 @@ def main(argv=None) -> int:
     ap.add_argument("--threshold", type=float, default=0.1)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--skip-examples", action="store_true")
+    ap.add_argument("--skip-bumps", action="store_true")
+    ap.add_argument("--hft-only", action="store_true",
+                    help="examples: only the feature-tree models")
+    ap.add_argument("--only", nargs="+", metavar="MODEL", help="examples: only these")
     args = ap.parse_args(argv)
     import tempfile
-    with tempfile.TemporaryDirectory() as d:
-        cs = centres(4 if args.quick else 20)
-        run_bumps(cs, WIDTHS[:1] if args.quick else WIDTHS, args.threshold, Path(d))
+    if not args.skip_bumps:
+        with tempfile.TemporaryDirectory() as d:
+            cs = centres(4 if args.quick else 20)
+            run_bumps(cs, WIDTHS[:1] if args.quick else WIDTHS, args.threshold, Path(d))
     if not args.skip_examples:
-        run_examples(args.threshold, 1 if args.quick else args.repeats)
+        run_examples(args.threshold, 1 if args.quick else args.repeats, args.hft_only,
+                     args.only)
     return 0
 
 

@@ -191,3 +191,186 @@ def test_feature_tree_bound_is_above_a_fine_lattice():
 def test_a_narrow_bump_near_the_boundary_meshes_with_every_sampling(tmp_path, sampling):
     res = generate(_bump_model(tmp_path, 0.55, 0.91, 4e-4), 0.1, sampling=sampling)
     assert res.stats.delta_max < 0.1 and res.mesh.is_valid()
+
+
+# --------------------------------------------------------------------------- feature trees
+def _lattice_delta(f, P, T, regions, order=24):
+    """max - min of every constituent over an order-``order`` lattice of every element,
+    each evaluated on its own subregion."""
+    i, j = np.meshgrid(np.arange(order + 1), np.arange(order + 1), indexing="ij")
+    keep = i + j <= order
+    lam = np.stack([order - i[keep] - j[keep], i[keep], j[keep]], 1) / order
+    X = np.einsum("kv,mvd->mkd", lam, P[T]).reshape(-1, 2)
+    c = f.composition(X, region=np.repeat(regions, len(lam))).reshape(len(T), len(lam), -1)
+    return (c.max(axis=1) - c.min(axis=1)).max(axis=1)
+
+
+def _example(name):
+    from importlib import resources
+
+    from hetmesh.io.model import load_model
+    with resources.as_file(resources.files("hetmesh") / "examples" / f"{name}.toml") as p:
+        return load_model(p)
+
+
+@pytest.mark.parametrize("name", ["hft_ring", "hft_complex", "fgm_plate"])
+def test_feature_tree_interval_bound_is_above_a_fine_lattice_and_tight(name):
+    from hetmesh.material import element_subregions
+    from hetmesh.material.hft import HFTField
+
+    model = _example(name)
+    f = model.material
+    assert isinstance(f, HFTField) and f.unenclosable() is None
+    res = generate(model, 0.3)
+    P, T = res.mesh.points, res.mesh.triangles
+    regions = element_subregions(f, P, T)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", CertificationUnavailable)  # a proof, no fallback
+        bound = certified_delta(f, P, T, regions=regions)
+    fine = _lattice_delta(f, P, T, regions)
+    assert (bound >= fine).all()
+    # tight: the settling tolerance (1 % + 1e-4) of the samples, plus what the lattice misses
+    assert (bound <= fine * 1.02 + 2e-3).all()
+
+
+def _random_tree(seed, free_select=True):
+    """A seeded random feature tree on [0, 1]^2: points, segments, arcs and circles with
+    constant or linear compositions, nearest and select parents, nested blends with
+    per-subregion weights. ``free_select``: a select may also be a blend's distance only
+    (not one of its children), where no subregion forces its choice: its rules are opaque
+    predicates, so it is enclosed by the hull of its children."""
+    from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
+                                      PointFeature, SelectFeature)
+    from hetmesh.tri.geometry import Arc, Segment
+
+    rng = np.random.default_rng(seed)
+    count = iter(range(1000))
+
+    def comp():
+        a = float(rng.uniform())
+        return [a, 1.0 - a]
+
+    def leaf():
+        kind = rng.integers(4)
+        fid = f"L{next(count)}"
+        lin = rng.uniform() < 0.5
+        if kind == 0:
+            return PointFeature(fid, rng.uniform(0, 1, 2), comp())
+        if kind == 1:
+            curve = Segment(tuple(rng.uniform(0, 1, 2)), tuple(rng.uniform(0, 1, 2)))
+        else:
+            c = rng.uniform(0.2, 0.8, 2)
+            r = float(rng.uniform(0.05, 0.4))
+            t0 = float(rng.uniform(-np.pi, np.pi))
+            sweep = 2 * np.pi * (1 if rng.uniform() < 0.5 else -1) if kind == 3 else \
+                float(rng.uniform(-5.5, 5.5))
+            curve = Arc(tuple(c), r, t0, t0 + sweep)
+        return CurveFeature(fid, curve, comp(), comp() if lin else None)
+
+    def curve_like(select=True):
+        if rng.uniform() < 0.4:
+            return NearestFeature(f"N{next(count)}", [leaf() for _ in range(rng.integers(2, 4))])
+        if rng.uniform() < 0.3 and select:
+            a = float(rng.uniform(0.3, 0.7))
+            return SelectFeature(f"S{next(count)}", [leaf(), leaf()],
+                                 [(0, lambda p, a=a: p[:, 0] < a), (1, None)])
+        return leaf()
+
+    weights = ["d1/(d1 + d2)", "exp(-3*d1)", "(d2/(d1 + d2))**2", "1/(1 + 4*d1**2)",
+               "0.5 + 0.5*tanh(3*(d2 - d1))", "min(d1, 0.5)*2*(1 - d2)"]
+
+    def blend(depth):
+        first = blend(depth - 1) if depth and rng.uniform() < 0.5 else curve_like()
+        second = curve_like()
+        d1 = first if first.geometric else curve_like(free_select)
+        w = [(weights[rng.integers(len(weights))], None)]
+        if rng.uniform() < 0.5:  # a weight of its own for the subregions of one leaf
+            owner = next(f for f in _leaves(second))
+            w.insert(0, (weights[rng.integers(len(weights))], owner.id))
+        return BlendFeature(f"B{next(count)}", first, second, {"d1": d1, "d2": second}, w)
+
+    return HFTField(blend(2), ["a", "b"])
+
+
+def _leaves(feature):
+    if not feature.children:
+        yield feature
+    for c in feature.children:
+        yield from _leaves(c)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_feature_tree_enclosure_holds_on_random_boxes(seed):
+    f = _random_tree(seed)
+    rng = np.random.default_rng(100 + seed)
+    k = 300
+    lo_xy = rng.uniform(-0.1, 1.0, (k, 2))
+    size = rng.uniform(0.0, 0.3, (k, 2)) * (rng.uniform(size=(k, 1)) < 0.9)  # some points
+    box = (lo_xy[:, 0], lo_xy[:, 0] + size[:, 0], lo_xy[:, 1], lo_xy[:, 1] + size[:, 1])
+    u = rng.uniform(size=(k, 60, 2))
+    u[:, :4] = [[0, 0], [1, 0], [0, 1], [1, 1]]  # the corners too
+    pts = lo_xy[:, None, :] + u * size[:, None, :]
+    region = rng.integers(f.n_regions, size=k)
+    for reg in (None, region):
+        lo, hi = f.enclose(box, reg)
+        r = None if reg is None else np.repeat(reg, 60)
+        c = f.composition(pts.reshape(-1, 2), region=r).reshape(k, 60, -1)
+        ok = np.isfinite(c)
+        assert (np.where(ok, c >= lo[:, None], True)).all()
+        assert (np.where(ok, c <= hi[:, None], True)).all()
+
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_feature_tree_enclosure_shrinks_with_the_box(seed):
+    f = _random_tree(seed, free_select=False)
+    rng = np.random.default_rng(200 + seed)
+    k, h = 300, 1e-4
+    lo_xy = rng.uniform(0.0, 1.0, (k, 2))
+    region = f.region(lo_xy)  # where the subregion's field is the field
+    lo, hi = f.enclose((lo_xy[:, 0], lo_xy[:, 0] + h, lo_xy[:, 1], lo_xy[:, 1] + h), region)
+    pts = lo_xy[:, None, :] + rng.uniform(size=(k, 100, 2)) * h
+    c = f.composition(pts.reshape(-1, 2), region=np.repeat(region, 100)).reshape(k, 100, -1)
+    true = (c.max(axis=1) - c.min(axis=1)).max(axis=1)
+    width = (hi - lo).max(axis=1)
+    # first-order tight: over boxes of side 1e-4 the enclosure is a few times the variation
+    # (the distances are enclosed independently of each other); boxes a curve's end or a
+    # subregion's extrapolation crosses may be wider
+    assert np.median(width) < 20 * np.median(true) + 1e-9
+    assert np.mean(width < 1e-2) > 0.9
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_feature_tree_certified_bound_is_above_a_fine_lattice(seed):
+    from hetmesh.material import element_subregions
+
+    f = _random_tree(seed, free_select=seed % 2 == 0)
+    P, T = _grid(8)
+    regions = element_subregions(f, P, T)
+    bound = certified_delta(f, P, T, regions=regions, max_depth=6)
+    fine = _lattice_delta(f, P, T, regions, order=16)
+    assert (bound >= fine).all()
+    finite = np.isfinite(bound)
+    assert finite.mean() > 0.9
+    # without regions an element across a discontinuity is bounded across it
+    across = certified_delta(f, P, T, max_depth=4)
+    assert (across >= delta_dense(f, P, T, order=16)).all()
+
+
+def test_a_feature_without_an_enclosure_falls_back_with_a_warning_naming_it():
+    from hetmesh.material.hft import BlendFeature, CurveFeature, HFTField, PointFeature
+    from hetmesh.material.hft.features import _Leaf
+    from hetmesh.tri.geometry import Segment
+
+    class Wavy(PointFeature):  # a user's leaf kind: a point whose enclosure is unknown
+        enclose = _Leaf.enclose
+
+    bot = CurveFeature("bot", Segment((0, 0), (1, 0)), [1.0, 0.0])
+    top = Wavy("W", (0.5, 1.0), [0.0, 1.0])
+    f = HFTField(BlendFeature("r", bot, top, {"d_b": bot, "d_t": top},
+                              [("d_t/(d_b + d_t)", None)]), ["a", "b"])
+    assert f.unenclosable() == "Wavy 'W'"
+    P, T = _grid(3)
+    with pytest.warns(CertificationUnavailable, match="feature Wavy 'W' has no interval"):
+        bound = certified_delta(f, P, T)
+    assert (bound >= _lattice_delta(f, P, T, f.region(P[T].mean(axis=1)))).all()

@@ -11,14 +11,25 @@ samples. :func:`certified_delta` bounds it from above instead:
   ``f(c) + grad f(box) . (box - c)`` (the gradient's tree enclosed the same way) where the
   formula is smooth on the piece. A piecewise field's element is enclosed on its own
   subregion's branch, as the mesher evaluates it.
-* **Feature-tree fields** (:class:`~hetmesh.material.hft.HFTField`): distances are
-  1-Lipschitz, so within a subregion every composition is Lipschitz with the constant
-  ``L_j = sup |grad c_j|``; every point of a piece of circumradius ``R`` lies within
-  ``R / 2`` of one of its corners and edge midpoints, so ``c_j`` stays within
-  ``L_j R / 2`` of its values there. ``L_j`` is estimated per piece from the gradient at
-  seven samples times :data:`LIPSCHITZ_SAFETY`: a bound for the smooth field of the
-  element's own subregion under that estimate (which shrinks with the pieces), not an
-  interval proof.
+* **Feature-tree fields** (:class:`~hetmesh.material.hft.HFTField`): the fractions are
+  enclosed over the piece's bounding box through the tree
+  (:meth:`~hetmesh.material.hft.HFTField.enclose`, :mod:`hetmesh.material.hft.enclose`):
+  distances to points and segments exactly (the distance is convex), to circles and arcs by
+  ``|rho - R|`` (exact within the arc's angular span) and the 1-Lipschitz ``d(c) +- r``
+  beyond it; a curve's linear composition by the range of its nearest point's parameter;
+  a parent by its forced child (the element's subregion) or the hull of the children that
+  may own a point of the box (for a ``select`` used only as a distance, all of them: its
+  rules are opaque predicates, so such a bound is loose); a blend's weight by interval arithmetic on its formula over
+  the distances' intervals (by its corner values where every ``dW/dd_i`` keeps one sign),
+  and ``W M_1 + (1 - W) M_2`` at the corners of the three intervals. A proof, first-order
+  tight: the subdivision takes the pieces near the extremes down until the bound settles.
+  A tree with a node that has no enclosure (a user's own leaf class; see
+  :meth:`~hetmesh.material.hft.HFTField.unenclosable`) falls back, with a
+  :class:`CertificationUnavailable` warning naming the node, to a Lipschitz estimate:
+  within a subregion ``c_j`` stays within ``L_j R / 2`` of its values at a piece's corners
+  and edge midpoints (``R`` its circumradius), ``L_j`` the gradient norm at seven samples
+  times :data:`LIPSCHITZ_SAFETY` (an estimate, not a proof; :data:`TREE_BOUND` selects it
+  for every tree, for comparisons).
 * Anything else (a Python callable, :class:`~hetmesh.material.CallableField`) has no tree
   to enclose: :func:`certified_delta` warns and returns the dense-sampled delta.
 
@@ -45,7 +56,7 @@ import warnings
 import numpy as np
 
 __all__ = ["certified_delta", "certifiable", "CertificationUnavailable", "LIPSCHITZ_SAFETY",
-           "RTOL", "ATOL", "MAX_DEPTH"]
+           "TREE_BOUND", "RTOL", "ATOL", "MAX_DEPTH"]
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +73,10 @@ MAX_PIECES = 1 << 21
 #: feature trees: the sampled gradient norm is multiplied by this to bound the Lipschitz
 #: constant of a piece
 LIPSCHITZ_SAFETY = 2.0
+#: how feature trees are bounded: ``"interval"`` (an enclosure through the tree, a proof) or
+#: ``"lipschitz"`` (the sampled Lipschitz estimate, used anyway for a tree with a node that
+#: has no enclosure; benchmarks/bench_certify.py compares the two)
+TREE_BOUND = "interval"
 
 _CHILDREN = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])  # of (a, b, c, ab, bc, ca)
 
@@ -161,6 +176,17 @@ class _FormulaEnclosure:
         return lo, hi
 
 
+class _TreeEnclosure:
+    """Interval enclosures of an :class:`HFTField`'s fractions over boxes, through its tree
+    (:meth:`hetmesh.material.hft.HFTField.enclose`)."""
+
+    def __init__(self, field, offset: np.ndarray):
+        self.field = field
+
+    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        return self.field.enclose(_box(corners, np.zeros(2)), region)
+
+
 class _LipschitzEnclosure:
     """Enclosures of a feature-tree field's fractions from a Lipschitz bound per piece.
 
@@ -209,6 +235,13 @@ def _enclosure(field):
     if isinstance(base, AnalyticField):
         return base, scale, offset, _FormulaEnclosure(base, offset)
     if isinstance(base, HFTField):
+        missing = base.unenclosable()
+        if TREE_BOUND == "interval" and missing is None:
+            return base, scale, offset, _TreeEnclosure(base, offset)
+        if missing is not None:
+            warnings.warn(f"certified sampling: feature {missing} has no interval enclosure; "
+                          f"using a sampled Lipschitz bound instead (an estimate, not a "
+                          f"certificate)", CertificationUnavailable, stacklevel=3)
         return base, scale, offset, _LipschitzEnclosure(base, offset)
     return base, scale, offset, None
 
@@ -272,15 +305,19 @@ def certified_delta(field, points: np.ndarray, triangles: np.ndarray, *,
     return _bound(base, enc, corners, own, rtol, atol, max_depth, threshold)
 
 
-def _samples(base, corners: np.ndarray, region: np.ndarray | None) -> np.ndarray:
-    """Compositions ``(K, 7, m)`` at the corners, edge midpoints and centroid of pieces."""
-    pts = _seven(corners).reshape(-1, 2)
+def _samples(base, corners: np.ndarray, region: np.ndarray | None,
+             first: int = 0) -> np.ndarray:
+    """Compositions ``(K, 7 - first, m)`` at the corners, edge midpoints and centroid of
+    pieces, from the ``first`` of them (3: the corners of a child were sampled with its
+    parent)."""
+    pts = _seven(corners)[:, first:].reshape(-1, 2)
+    n = 7 - first
     with np.errstate(all="ignore"):
         if region is not None:
-            comp = base.composition(pts, region=np.repeat(region, 7))
+            comp = base.composition(pts, region=np.repeat(region, n))
         else:
             comp = base.composition(pts)
-    comp = np.asarray(comp, dtype=float).reshape(len(corners), 7, -1)
+    comp = np.asarray(comp, dtype=float).reshape(len(corners), n, -1)
     return comp if np.isfinite(comp).all() else np.where(np.isfinite(comp), comp, np.nan)
 
 
@@ -311,6 +348,8 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
     smax, smin = np.fmax.reduce(s, axis=1), np.fmin.reduce(s, axis=1)  # witnessed (M, m)
     frozen_hi = np.full_like(smax, -np.inf)
     frozen_lo = np.full_like(smin, np.inf)
+    band_hi = np.full_like(smax, np.inf)  # given delta_0: the band pieces are frozen in,
+    band_lo = np.full_like(smin, -np.inf)  # the intersection of all bands so far
     bound = np.full(m_el, np.inf)
     for depth in range(max_depth + 1):
         reg = None if own is None else own[owner]
@@ -331,9 +370,11 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         mo = margin[owner][:, None]
         top, bottom = smax[owner] + mo, smin[owner] - mo
         if threshold is not None:  # a piece inside the band of width delta_0 around the
-            half = 0.5 * threshold * (1.0 - 1e-9)  # witnessed middle needs no split
-            mid = 0.5 * (smax[owner] + smin[owner])
-            top, bottom = np.fmax(top, mid + half), np.fmin(bottom, mid - half)
+            half = 0.5 * threshold * (1.0 - 1e-9)  # witnessed middle needs no split; the
+            mid = 0.5 * (smax[live] + smin[live])  # bands met so far are intersected, so
+            band_hi[live] = np.fmin(band_hi[live], mid + half)  # that all frozen pieces
+            band_lo[live] = np.fmax(band_lo[live], mid - half)  # lie within one band
+            top, bottom = np.fmax(top, band_hi[owner]), np.fmin(bottom, band_lo[owner])
         done = np.zeros(m_el, bool)
         done[live[settled]] = True
         keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
@@ -346,9 +387,11 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
             lv, st = np.unique(o, return_index=True)
             frozen_hi[lv] = np.maximum(frozen_hi[lv], _group(hi[fk], st, np.maximum))
             frozen_lo[lv] = np.minimum(frozen_lo[lv], _group(lo[fk], st, np.minimum))
+        if keep.all():  # nothing left to split: the open elements keep their bounds
+            break
         pieces = _split(pieces[~keep])
         owner = np.repeat(owner[~keep], 4)
-        s = _samples(base, pieces, None if own is None else own[owner])
+        s = _samples(base, pieces, None if own is None else own[owner], first=3)
         lv, st = np.unique(owner, return_index=True)
         smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
         smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))

@@ -76,7 +76,7 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "definition), also on a 15-point lattice in every element, which "
                         "sees most composition peaks between vertices, or 'certified': "
                         "everywhere inside every element, proven by interval arithmetic on "
-                        "the formulas (a Lipschitz bound for feature trees; dense sampling, "
+                        "the formulas and feature trees (dense sampling, "
                         "with a warning, for other materials), or 'pixels' (image "
                         "materials): also at every pixel centre in every element "
                         "(default: vertices); the "

@@ -28,6 +28,7 @@ from ...errors import MaterialError, ModelFileError
 from ...expr import compile_expr
 from ...tri.geometry import Arc, Segment
 from ...tri.geometry.curves import TWO_PI
+from . import enclose as _enc
 
 __all__ = ["PointFeature", "CurveFeature", "NearestFeature", "SelectFeature", "BlendFeature",
            "inside_predicate"]
@@ -95,6 +96,13 @@ class LeafFeature:
         """Points ``(K, 2)`` on the feature: its point, or ``n`` points along its curve."""
         raise NotImplementedError
 
+    def enclose(self, box, region=None) -> _enc.Enclosure:
+        """Intervals containing the distance and the composition at every point of each box
+        ``(xlo, xhi, ylo, yhi)`` (see :mod:`.enclose`); ``region`` is ignored (a leaf has
+        one subregion)."""
+        raise NotImplementedError(f"feature {self.id!r}: no enclosure for "
+                                  f"{type(self).__name__}")
+
     def region_path(self, r: int) -> list[str]:
         return [self.id]
 
@@ -114,6 +122,10 @@ class PointFeature(LeafFeature):
 
     def sample(self, n: int = 64) -> np.ndarray:
         return self.at[None, :].copy()
+
+    def enclose(self, box, region=None) -> _enc.Enclosure:
+        return _enc.Enclosure(_enc.point_box(self.at, box),
+                              _enc.constant_comp(self.c0, len(box[0])))
 
     def _geom(self, p, need_grad):
         n = len(p)
@@ -146,6 +158,30 @@ class CurveFeature(LeafFeature):
 
     def sample(self, n: int = 64) -> np.ndarray:
         return np.asarray(self.curve.point(np.linspace(0.0, 1.0, n)), dtype=float).reshape(-1, 2)
+
+    def enclose(self, box, region=None) -> _enc.Enclosure:
+        k = len(box[0])
+        if isinstance(self.curve, Segment):
+            dist, t = _enc.segment_box(self._p0, self._p0 + self._d, box)
+        else:
+            arc = self.curve
+            dist, rho = _enc.circle_distance(self._c, arc.radius, box)
+            if np.any(self.dc) or not arc.is_full:
+                t, radial = _enc.arc_parameter(_enc.arc_angles(self._c, box, rho[0]),
+                                               arc.theta0, arc.sweep)
+                radial = radial | arc.is_full
+            else:
+                t, radial = None, np.ones(k, dtype=bool)
+            if not radial.all():  # beyond the arc's ends: 1-Lipschitz about the centre
+                c, r = _enc.centre_radius(box)
+                dc = self.distance(c)
+                llo, lhi = _enc.widen(dc - r, dc + r, _enc.magnitude(box, self._c)
+                                      + arc.radius)
+                dist = (np.where(radial, dist[0], np.maximum(dist[0], llo)),
+                        np.where(radial, dist[1], lhi))
+        if not np.any(self.dc):
+            return _enc.Enclosure(dist, _enc.constant_comp(self.c0, k))
+        return _enc.Enclosure(dist, _enc.linear_comp(self.c0, self.dc, t))
 
     def _geom(self, p, need_grad):
         if isinstance(self.curve, Segment):
@@ -249,6 +285,33 @@ class _Parent:
     def _m(self) -> int:
         return _width(self)
 
+    def enclose(self, box, region=None) -> _enc.Enclosure:
+        """Intervals containing the distance (None unless every child is geometric) and the
+        composition at every point of each box ``(xlo, xhi, ylo, yhi)``: with ``region``,
+        those of the forced child; without, of any child that may own a point of the box
+        (see :mod:`.enclose`)."""
+        if region is None:
+            return self._enclose_free(box)
+        k, sub = self._split(np.asarray(region))
+        n = len(box[0])
+        out = _enc.Enclosure((np.empty(n), np.empty(n)) if self.geometric else None,
+                             (np.empty((n, self._m)), np.empty((n, self._m))))
+        for j, child in enumerate(self.children):
+            idx = np.flatnonzero(k == j)
+            if not idx.size:
+                continue
+            e = child.enclose(tuple(b[idx] for b in box), sub[idx])
+            if self.geometric:
+                out.dist[0][idx], out.dist[1][idx] = e.dist
+            out.comp[0][idx], out.comp[1][idx] = e.comp
+        return out
+
+    def _enclose_free(self, box) -> _enc.Enclosure:
+        """Without a forced subregion: the hull over all children."""
+        es = [c.enclose(box) for c in self.children]
+        dist = _enc.hull([e.dist for e in es]) if self.geometric else None
+        return _enc.Enclosure(dist, _enc.hull([e.comp for e in es]))
+
     def _child_of(self, r: int):
         k = int(np.searchsorted(self.offsets[1:], r, side="right"))
         return self.children[k], r - int(self.offsets[k])
@@ -310,6 +373,25 @@ class NearestFeature(_Parent):
 
     def distance(self, p, region=None):
         return super().distance(p, None if self.uniform else region)
+
+    def enclose(self, box, region=None) -> _enc.Enclosure:
+        return super().enclose(box, None if self.uniform else region)
+
+    def _enclose_free(self, box) -> _enc.Enclosure:
+        """The distance is the children's minimum; a child may own a point of the box if
+        its lower bound does not exceed the smallest upper bound."""
+        es = [c.enclose(box) for c in self.children]
+        dlo = np.minimum.reduce([e.dist[0] for e in es])
+        dhi = np.minimum.reduce([e.dist[1] for e in es])
+        if self.constant is not None:
+            return _enc.Enclosure((dlo, dhi), _enc.constant_comp(self.constant, len(dlo)))
+        lo = np.full(es[0].comp[0].shape, np.inf)
+        hi = np.full(es[0].comp[1].shape, -np.inf)
+        for e in es:
+            may = (e.dist[0] <= dhi)[:, None]
+            lo = np.where(may, np.minimum(lo, e.comp[0]), lo)
+            hi = np.where(may, np.maximum(hi, e.comp[1]), hi)
+        return _enc.Enclosure((dlo, dhi), (lo, hi))
 
     def evaluate(self, p, region=None) -> _Eval:
         return super().evaluate(p, None if self.uniform else region)
@@ -530,6 +612,60 @@ class BlendFeature:
                 g += dexpr(**vals)[:, None] * dg[v][idx]
             dW[idx] = g
         return W, dW, reg
+
+    def enclose(self, box, region=None) -> _enc.Enclosure:
+        """Intervals containing the composition at every point of each box ``(xlo, xhi,
+        ylo, yhi)``, ``W M_1 + (1 - W) M_2`` enclosed at the corners of the intervals of
+        ``W``, ``M_1`` and ``M_2``. ``W`` is enclosed by interval arithmetic on its formula
+        over the distances' intervals; where each ``dW/dd_i`` keeps one sign there, by its
+        values at the corners of the distances' box (its exact range over that box).
+        With ``region``, the subregion's own children and weight; without, the hull over
+        the weights (see :mod:`.enclose`)."""
+        r1 = r2 = None
+        if region is not None:
+            r1, r2 = np.divmod(np.asarray(region, dtype=np.int64), self.n2)
+        e1 = self.first.enclose(box, r1)
+        e2 = e1 if self.second is self.first else self.second.enclose(box, r2)
+        cache = {id(self.first): e1, id(self.second): e2}
+        dist = {}
+        for var, feat in self.distances.items():
+            if id(feat) not in cache:
+                cache[id(feat)] = feat.enclose(box)
+            dist[var] = cache[id(feat)].dist
+        n = len(box[0])
+        if region is None or len(self.exprs) == 1:
+            parts = [self._enclose_weight(k, dist) for k in range(len(self.exprs))]
+            w = _enc.hull(parts)
+        else:
+            widx = self.weight_of_region[np.asarray(region, dtype=np.int64)]
+            w = (np.empty(n), np.empty(n))
+            for k in np.unique(widx):
+                idx = np.flatnonzero(widx == k)
+                lo, hi = self._enclose_weight(
+                    int(k), {v: (d[0][idx], d[1][idx]) for v, d in dist.items()})
+                w[0][idx], w[1][idx] = lo, hi
+        if self.second is self.first:  # W M + (1 - W) M = M
+            return _enc.Enclosure(None, e1.comp)
+        return _enc.Enclosure(None, _enc.blend(w, e1.comp, e2.comp))
+
+    def _enclose_weight(self, k: int, dist) -> tuple[np.ndarray, np.ndarray]:
+        e, de = self.exprs[k]
+        lo, hi = e.interval(**dist)
+        if not de:
+            return lo, hi
+        up = {}
+        mono = np.ones(len(lo), dtype=bool)
+        for v, dexpr in de.items():
+            glo, ghi = dexpr.interval(**dist)
+            mono &= (glo >= 0.0) | (ghi <= 0.0)
+            up[v] = glo >= 0.0
+        if not mono.any():
+            return lo, hi
+        low = {v: np.where(up.get(v, True), d[0], d[1]) for v, d in dist.items()}
+        high = {v: np.where(up.get(v, True), d[1], d[0]) for v, d in dist.items()}
+        a, b = e.interval(**low), e.interval(**high)
+        mlo, mhi = np.minimum(a[0], b[0]), np.maximum(a[1], b[1])
+        return np.where(mono, np.maximum(lo, mlo), lo), np.where(mono, np.minimum(hi, mhi), hi)
 
     def evaluate(self, p, region=None) -> _Eval:
         e1, e2 = self._children(p, region)

@@ -99,6 +99,42 @@ class HFTField(Shiftable):
         """The subregion id ``(N,)`` owning each point (see :attr:`region_names`)."""
         return self.root.region(self._global(points))
 
+    def enclose(self, box, region=None) -> tuple[np.ndarray, np.ndarray]:
+        """Intervals ``(lo, hi)`` ``(K, m)`` containing every constituent's fraction at every
+        point of each box ``(xlo, xhi, ylo, yhi)`` (four ``(K,)`` arrays, in the coordinates
+        the field takes), computed through the tree by interval arithmetic (see
+        :mod:`hetmesh.material.hft.enclose`); with ``region`` ``(K,)``, those of the given
+        subregions' smooth fields, as :meth:`composition` evaluates them. Raises
+        ``NotImplementedError`` for a tree with a node that has no enclosure
+        (:meth:`unenclosable`).
+
+        >>> from hetmesh.tri.geometry import Segment
+        >>> from hetmesh.material.hft import BlendFeature, CurveFeature
+        >>> bot = CurveFeature("bot", Segment((0, 0), (1, 0)), [1.0, 0.0])
+        >>> top = CurveFeature("top", Segment((1, 1), (0, 1)), [0.0, 1.0])
+        >>> f = HFTField(BlendFeature("r", bot, top, {"d_b": bot, "d_t": top},
+        ...                           [("d_t/(d_b + d_t)", None)]), ["ceramic", "metal"])
+        >>> lo, hi = f.enclose(tuple(np.array([v]) for v in (0.25, 0.75, 0.5, 0.75)))
+        >>> bool(lo[0, 1] <= 0.5 and 0.75 <= hi[0, 1] < 0.75 + 1e-12)
+        True
+        """
+        xlo, xhi, ylo, yhi = (np.asarray(b, dtype=float) for b in box)
+        ox, oy = self._offset_xy
+        if ox or oy:
+            xlo, xhi, ylo, yhi = xlo + ox, xhi + ox, ylo + oy, yhi + oy
+        r = None if region is None else self._region_arg(region, len(xlo))
+        with np.errstate(all="ignore"):
+            return self.root.enclose((xlo, xhi, ylo, yhi), r).comp
+
+    def unenclosable(self) -> str | None:
+        """None if :meth:`enclose` can enclose every node of the tree, else the first node
+        that it cannot, as ``"<kind> '<id>'"``."""
+        for node in _walk(self.root):
+            method = getattr(type(node), "enclose", None)
+            if method is None or method is _Leaf.enclose:
+                return f"{type(node).__name__} {node.id!r}"
+        return None
+
     def check_domain(self, domain, where: str = "", n: int = 60) -> None:
         """The checks of a tree against its domain (``where`` prefixes the messages), in
         order: :meth:`check_features_inside`, then on ``sample_domain(domain, n)``
