@@ -359,11 +359,11 @@ def test_random_feature_tree_certified_bound_is_above_a_fine_lattice(seed):
 
 def test_a_feature_without_an_enclosure_falls_back_with_a_warning_naming_it():
     from hetmesh.material.hft import BlendFeature, CurveFeature, HFTField, PointFeature
-    from hetmesh.material.hft.features import _Leaf
+    from hetmesh.material.hft.features import LeafFeature
     from hetmesh.tri.geometry import Segment
 
     class Wavy(PointFeature):  # a user's leaf kind: a point whose enclosure is unknown
-        enclose = _Leaf.enclose
+        enclose = LeafFeature.enclose
 
     bot = CurveFeature("bot", Segment((0, 0), (1, 0)), [1.0, 0.0])
     top = Wavy("W", (0.5, 1.0), [0.0, 1.0])

@@ -90,7 +90,7 @@ def write_tet_file(mesh, path, fmt: str) -> None:
 
 def _abaqus_surfaces(mesh) -> str:
     """``*SURFACE`` (element-based) per named face: element sets by local face number."""
-    from .verify import boundary_faces
+    from .faces import boundary_faces
 
     tets = np.asarray(mesh.cells)
     faces, _, rows = boundary_faces(tets, owners=True)

@@ -35,7 +35,8 @@ from ..errors import BudgetError, MeshingError
 from .mesher import BETA, MAX_PASSES, TetResult
 from .quality import delta_tets, volumes
 from .refine import bisect_edges, select_edges
-from .verify import boundary_faces, tet_problems
+from .faces import boundary_faces
+from .verify import tet_problems
 
 __all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]
 

@@ -35,7 +35,7 @@ from .extrude import prism_tets
 from .mesher import TetResult
 from .quality import delta_tets, volumes
 from .refine import repair
-from .verify import boundary_faces
+from .faces import boundary_faces
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
            "profile_field"]

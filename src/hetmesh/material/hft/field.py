@@ -129,9 +129,9 @@ class HFTField(Shiftable):
     def unenclosable(self) -> str | None:
         """None if :meth:`enclose` can enclose every node of the tree, else the first node
         that it cannot, as ``"<kind> '<id>'"``."""
-        for node in _walk(self.root):
+        for node in walk(self.root):
             method = getattr(type(node), "enclose", None)
-            if method is None or method is _Leaf.enclose:
+            if method is None or method is LeafFeature.enclose:
                 return f"{type(node).__name__} {node.id!r}"
         return None
 

@@ -1,0 +1,36 @@
+"""The boundary faces of a tetrahedral mesh, from its tetrahedra alone.
+
+>>> import numpy as np
+>>> t = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+>>> f, counts = boundary_faces(t)
+>>> len(f), int(counts.max())
+(6, 2)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .quality import TET_FACES
+
+__all__ = ["boundary_faces"]
+
+
+def boundary_faces(tets: np.ndarray, *, owners: bool = False):
+    """``(faces (K, 3), counts (F,))``: the faces of one tetrahedron only, oriented outward
+    (for positive tetrahedra), in first-occurrence order; ``counts`` the multiplicity of
+    every distinct face. With ``owners``, also ``(K,)`` the row ``4 t + k`` of every
+    boundary face: tetrahedron ``t``, the face opposite its vertex ``k``."""
+    f = tets[:, TET_FACES].reshape(-1, 3).astype(np.int64)
+    key = np.sort(f, axis=1)
+    n = int(key.max()) + 1 if len(key) else 1
+    if n < 2_000_000:  # one int64 per face: much faster than unique rows
+        key = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]
+        _, first, counts = np.unique(key, return_index=True, return_counts=True)
+    else:
+        _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    once = np.flatnonzero(counts == 1)
+    rows = np.sort(first[once])
+    if owners:
+        return f[rows], counts, rows
+    return f[rows], counts
