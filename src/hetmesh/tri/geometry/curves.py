@@ -378,6 +378,10 @@ class CurveBatch:
     sweep: np.ndarray
     length: np.ndarray
 
+    def slice(self, i0: int, i1: int) -> CurveBatch:
+        """The curves ``i0`` to ``i1 - 1`` as a batch."""
+        return CurveBatch(*(getattr(self, f)[i0:i1] for f in self.__dataclass_fields__))
+
     @classmethod
     def from_curves(cls, curves: Sequence[Curve]) -> CurveBatch:
         curves = list(curves)
