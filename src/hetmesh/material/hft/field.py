@@ -149,8 +149,8 @@ class HFTField(_Shiftable):
         for feat, p in reached(self.root, as_points(points)):
             if not isinstance(feat, BlendFeature):
                 continue
-            e1, e2 = feat._children(p, None)
-            W, _, reg = feat._weight(p, e1, e2)
+            e1, e2 = feat.evaluate_children(p, None)
+            W, _, reg = feat.weight(p, e1, e2)
             widx = feat.weight_of_region[reg]
             excess = np.where(np.isfinite(W), np.maximum(W - 1.0, -W), np.inf)
             i = int(np.argmax(excess)) if len(W) else 0
