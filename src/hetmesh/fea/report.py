@@ -51,7 +51,7 @@ def von_mises_figure(result, *, title: str | None = None, show_probes: bool = Tr
     """
     from matplotlib.tri import Triangulation
 
-    from ..plot import figure_size, new_figure, axis_labels, label_points
+    from ..plot import axis_labels, figure_size, label_points, new_figure
 
     mesh = result.mesh
     fig = new_figure(*figure_size(mesh))
