@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri.discontinuity import crossing_elements, has_subregions
 from hetmesh.metrics import delta_vertices, min_angle
+from hetmesh.tri.discontinuity import crossing_elements, has_subregions
 
 EXAMPLES = sorted((Path(hetmesh.__file__).parent / "examples").glob("*.toml"))
 
@@ -50,7 +50,8 @@ def check_invariants(result, model, threshold, min_angle_deg=30.0):
     assert np.all(delta <= mesh.cell_data["delta"] + 1e-12)  # dense sampling only adds
     # every constraint edge is an edge of the triangulation (conforming)
     t = mesh.triangles
-    tri_edges = {tuple(sorted(e)) for e in np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]).tolist()}
+    sides = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    tri_edges = {tuple(sorted(e)) for e in sides.tolist()}
     assert all(tuple(sorted(e)) in tri_edges for e in mesh.edges.tolist())
     # boundary edges of the mesh are all constraint edges on the outer loop or holes
     cons = {tuple(sorted(e)) for e in mesh.edges.tolist()}

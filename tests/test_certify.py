@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest
@@ -172,8 +171,8 @@ def test_piecewise_field_bounded_on_each_element_own_branch():
 def test_feature_tree_bound_is_above_a_fine_lattice():
     from importlib import resources
 
-    from hetmesh.tri.discontinuity import element_subregions
     from hetmesh.io.model import load_model
+    from hetmesh.tri.discontinuity import element_subregions
 
     with resources.as_file(resources.files("hetmesh") / "examples" / "hft_ring.toml") as p:
         model = load_model(p)

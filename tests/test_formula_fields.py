@@ -14,14 +14,13 @@ import numpy as np
 import pytest
 
 import hetmesh
+from conftest import check_invariants
 from hetmesh.cli import main
-from hetmesh.tri.discontinuity import has_subregions
 from hetmesh.errors import MaterialError, MeshingError
-from hetmesh.tri.geometry import Loop, Segment, make_domain
 from hetmesh.io.model import Model, load_model
 from hetmesh.material import AnalyticField
-
-from conftest import check_invariants
+from hetmesh.tri.discontinuity import has_subregions
+from hetmesh.tri.geometry import Loop, Segment, make_domain
 
 THRESHOLD = 0.1
 

@@ -9,13 +9,12 @@ import numpy as np
 import pytest
 
 import hetmesh
+from conftest import check_invariants
+from hetmesh.metrics import element_delta, quality, signed_area2
 from hetmesh.tri import adapt
 from hetmesh.tri.discontinuity import element_subregions, embed_discontinuities, has_subregions
-from hetmesh.metrics import element_delta, quality, signed_area2
-from hetmesh.tri.optimize import DeltaEvaluator, sweep, independent_sets, optimize
+from hetmesh.tri.optimize import DeltaEvaluator, independent_sets, optimize, sweep
 from hetmesh.tri.workset import FIXED
-
-from conftest import check_invariants
 
 
 def _repaired(name, threshold, sampling="vertices", method="layers"):

@@ -12,13 +12,22 @@ well-shaped elements as possible; every mesh returned is verified.
 
 from __future__ import annotations
 
-from .tri.adapt import Result, generate, mesh_statistics
-from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, MaterialError,
-                     MeshingError, ModelFileError, OptionError, OutputError)
+from .errors import (
+    BudgetError,
+    FormulaError,
+    GeometryError,
+    HetmeshError,
+    MaterialError,
+    MeshingError,
+    ModelFileError,
+    OptionError,
+    OutputError,
+)
 from .io.model import Model, example_path, load_model
 from .mesh import Mesh
-from .study import sweep
 from .metrics import MeshStats
+from .study import sweep
+from .tri.adapt import Result, generate, mesh_statistics
 from .tri.uniform import uniform
 from .version import __version__
 

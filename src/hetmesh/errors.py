@@ -83,8 +83,9 @@ class BudgetError(MeshingError):
 
 
 class VerificationError(MeshingError):
-    """The finished mesh failed a check of the final verification (:func:`hetmesh.tri.adapt.finish`):
-    a claim hetmesh makes about every mesh it returns does not hold. Internal (exit code 1)."""
+    """The finished mesh failed a check of the final verification
+    (:func:`hetmesh.tri.adapt.finish`): a claim hetmesh makes about every mesh it returns does
+    not hold. Internal (exit code 1)."""
 
 
 class MeshDataError(MeshingError):

@@ -44,7 +44,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
         epilog="Example: hetmesh export examples/fgm_plate.toml --mesh plate.vtu --to "
                "calculix --output deck/ && (cd deck && ccx -i fgm_plate)",
     )
-    p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML) with an [fea] table")
+    p.add_argument("model", type=Path, metavar="MODEL",
+                   help="model file (TOML) with an [fea] table")
     p.add_argument("--mesh", "-m", type=Path, required=True, metavar="MESH",
                    help="the mesh (.vtu, .msh, .xdmf, .inp, .vtk, .mesh), in the model's "
                         "coordinates")

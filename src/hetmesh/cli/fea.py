@@ -33,7 +33,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
         epilog="Example: hetmesh fea examples/fgm_plate.toml --mesh plate.vtu "
                "--output plate_fea.vtu --report fea.json --plot von_mises.png",
     )
-    p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML) with an [fea] table")
+    p.add_argument("model", type=Path, metavar="MODEL",
+                   help="model file (TOML) with an [fea] table")
     p.add_argument("--mesh", "-m", type=Path, required=True, metavar="MESH",
                    help="the mesh to analyse (.vtu, .msh, .xdmf, .inp, .vtk, .mesh), in the "
                         "model's coordinates")
@@ -78,7 +79,6 @@ def run(args: argparse.Namespace) -> int:
     from ..fea import plot_von_mises, solve, write_report
     from ..io.export import read_mesh, write_mesh
     from ..io.model import load_model
-
     from .examples import check_model_path
 
     check_fea_outputs(args)

@@ -23,8 +23,8 @@ boundary conditions not needed) and its mixing rule (``linear`` or ``mori-tanaka
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
@@ -100,8 +100,8 @@ def material_config(model):
 def element_material(mesh: Mesh, model, config=None) -> ElementMaterial:
     """Mean compositions, vertex ranges and mixed properties of every element of ``mesh``
     (a mesh of ``model``, in its coordinates)."""
-    from ..tri.discontinuity import element_subregions, has_subregions
     from ..fea.mixing import mix_config
+    from ..tri.discontinuity import element_subregions, has_subregions
 
     cfg = config if config is not None else material_config(model)
     field = model.material

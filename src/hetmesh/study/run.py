@@ -87,8 +87,8 @@ def _model(spec: dict):
 
 
 def _mesh(spec: dict, model):
-    from ..tri.adapt import generate
     from ..tri import uniform
+    from ..tri.adapt import generate
 
     opts = dict(spec["options"])
     if spec["method"] == "uniform":

@@ -13,11 +13,11 @@ import time
 
 import numpy as np
 
-from .adapt import CHORD_TOL, Result, evaluate, finish, prepare, repair
-from .discontinuity import embed_discontinuities
+from ..density import background_points, gradient_norm
 from ..errors import BudgetError
 from ..options import DEFAULT_MAX_ELEMENTS, check_options
-from ..density import background_points, gradient_norm
+from .adapt import CHORD_TOL, Result, evaluate, finish, prepare, repair
+from .discontinuity import embed_discontinuities
 from .geometry import build_pslg
 from .workset import Context, add_free_points, smooth, triangulate, workset_from_pslg
 
@@ -49,9 +49,9 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
     if est > 4 * max_elements:
         raise BudgetError(f"a uniform mesh of size {h:.3g} needs ~{2 * est:,} elements, above the "
                           f"budget of {max_elements:,}")
-    J, I = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
-    X = x0 + I * h + (J % 2) * 0.5 * h
-    Y = y0 + J * dy
+    row, col = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    X = x0 + col * h + (row % 2) * 0.5 * h
+    Y = y0 + row * dy
     pts = np.column_stack([X.ravel(), Y.ravel()])
     pts = pts[ctx.domain.contains(pts)]
     if len(pts):

@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import cvt
 from .. import density as dens
 from ..mesh import any_corner, points_near
 from ..parallel import BLOCK, block_concat
+from . import cvt
 from .cdt import constrained_delaunay, patch
 
 __all__ = ["WorkSet", "Context", "triangulate", "lineage", "split_constraint_edges",

@@ -20,7 +20,7 @@ equidistant from two children take the first child: never NaN.
 from __future__ import annotations
 
 import math
-from typing import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -220,7 +220,7 @@ class _Parent:
         else:
             owner, sub = self._split(np.asarray(region))
         out = np.empty(len(p))
-        for k, child, idx in self._groups(owner):
+        for _, child, idx in self._groups(owner):
             out[idx] = child.distance(p[idx], None if sub is None else sub[idx])
         return out
 

@@ -4,14 +4,14 @@ interface (composition, exact gradient, owning subregion), paper Section 3.3.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ...errors import MaterialError
 from ..analytic import _Shiftable, check_constituents
 from ..field import as_points, sample_domain
-from .features import BlendFeature, PointFeature, LeafFeature, reached, walk
+from .features import BlendFeature, LeafFeature, PointFeature, reached, walk
 
 __all__ = ["HFTField", "OUTSIDE_TOL"]
 

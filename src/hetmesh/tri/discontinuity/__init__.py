@@ -34,8 +34,16 @@ from __future__ import annotations
 from .check import crossing_elements
 from .embed import embed_discontinuities, embedded_count
 from .fit import fit_curves
-from .regions import (BISECT, DISCONTINUITY, FIT_TOL, GRID_CELLS, MAX_CROSSINGS_PER_CELL,
-                      Discontinuity, element_subregions, has_subregions)
+from .regions import (
+    BISECT,
+    DISCONTINUITY,
+    FIT_TOL,
+    GRID_CELLS,
+    MAX_CROSSINGS_PER_CELL,
+    Discontinuity,
+    element_subregions,
+    has_subregions,
+)
 from .trace import trace_discontinuities
 
 __all__ = ["Discontinuity", "DISCONTINUITY", "has_subregions", "trace_discontinuities",

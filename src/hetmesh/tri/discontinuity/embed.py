@@ -13,8 +13,15 @@ import shapely
 from ...errors import GeometryError, MaterialError
 from ..geometry import Arc, Path, Segment, make_domain
 from .fit import fit_curves
-from .regions import (DISCONTINUITY, FIT_TOL, GRID_CELLS, MAX_CROSSINGS_PER_CELL,
-                      Discontinuity, DomainRegions, has_subregions)
+from .regions import (
+    DISCONTINUITY,
+    FIT_TOL,
+    GRID_CELLS,
+    MAX_CROSSINGS_PER_CELL,
+    Discontinuity,
+    DomainRegions,
+    has_subregions,
+)
 from .trace import Untraceable, trace_discontinuities
 
 __all__ = ["embed_discontinuities", "embedded_count"]

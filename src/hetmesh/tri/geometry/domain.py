@@ -17,22 +17,21 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Mapping, NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import shapely
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 from shapely.geometry import Polygon
 
 from hetmesh.errors import GeometryError
 
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
-
-from .curves import (Arc, Curve, CurveBatch, Segment, sample_parameters, segments_through,
-                     tolerance)
+from .curves import Arc, Curve, CurveBatch, Segment, sample_parameters, segments_through, tolerance
 from .validate import VALIDATION_CHORD, validate_domain
 
 __all__ = ["Loop", "Path", "CurveInfo", "Domain", "make_domain", "fixed_vertices"]
