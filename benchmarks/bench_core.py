@@ -253,7 +253,8 @@ def unit_square_size(delta0: float, s: float, field: str = "callback"):
     return f"min({GMSH_H_CAP!r}, {sd!r} / max(2*(1-y), {floor!r}))"
 
 
-def gmsh_unit_square(delta0: float, s: float, *, field: str = "callback", threads: int = GMSH_THREADS):
+def gmsh_unit_square(delta0: float, s: float, *, field: str = "callback",
+                     threads: int = GMSH_THREADS):
     """Mesh the unit square with Gmsh (hetmesh.peers.gmsh_mesh), size from
     :func:`unit_square_size`. Returns (points (N,2), triangles (M,3), wall seconds of model
     build + generate + read back)."""
@@ -274,9 +275,9 @@ def table_plate(repeats: int) -> dict:
     rows = []
     for d0 in PLATE_THRESHOLDS:
         runs = {}
-        for name, fn in (("layers", lambda: hetmesh.generate(model, d0, method="layers")),
-                         ("cvt", lambda: hetmesh.generate(model, d0, method="cvt")),
-                         ("uniform", lambda: hetmesh.uniform(model, d0))):
+        for name, fn in (("layers", lambda d0=d0: hetmesh.generate(model, d0, method="layers")),
+                         ("cvt", lambda d0=d0: hetmesh.generate(model, d0, method="cvt")),
+                         ("uniform", lambda d0=d0: hetmesh.uniform(model, d0))):
             try:
                 res, times = timed(fn, repeats)
                 runs[name] = (res.stats.as_dict(), times)
@@ -358,7 +359,8 @@ def table_square(repeats: int) -> dict:
         niso = float(n_iso(model.material, model.domain, d0))
         for name in ("layers", "cvt"):
             try:
-                res, times = timed(lambda: hetmesh.generate(model, d0, method=name), repeats)
+                res, times = timed(
+                    lambda d0=d0, name=name: hetmesh.generate(model, d0, method=name), repeats)
             except Exception as e:
                 out.append(dict(threshold=d0, mesher=f"hetmesh {name}", error=err_text(e)))
                 rows.append([fmt(d0, "g"), f"hetmesh {name}", err_text(e)])
@@ -378,7 +380,7 @@ def table_square(repeats: int) -> dict:
             rows.append([fmt(d0, "g"), "gmsh FD", "not installed (pip install gmsh)"])
             continue
         try:
-            s, st, wall, trace, search_time = guarded(lambda: gmsh_search(model, d0))
+            s, st, wall, trace, search_time = guarded(lambda d0=d0: gmsh_search(model, d0))
         except Exception as e:
             out.append(dict(threshold=d0, mesher="gmsh", error=err_text(e)))
             rows.append([fmt(d0, "g"), "gmsh FD", err_text(e)])
@@ -389,7 +391,7 @@ def table_square(repeats: int) -> dict:
             continue
         times = [wall]  # the accepted s (the search may end on a failing, larger s)
         for _ in range(max(0, repeats - 1)):
-            _, _, wall = guarded(lambda: gmsh_unit_square(d0, s, field="callback"))
+            _, _, wall = guarded(lambda d0=d0, s=s: gmsh_unit_square(d0, s, field="callback"))
             times.append(wall)
         r = st["n_elements"] / niso
         rec = dict(threshold=d0, mesher="gmsh frontal-delaunay", n_iso=niso, s=s, **st,
@@ -428,7 +430,7 @@ def speed_plate(runs: int) -> dict:
     for method in ("layers", "cvt"):
         walls, phases = [], []
 
-        def once(tmp, i):
+        def once(tmp, i, method=method, walls=walls, phases=phases):
             t = time.perf_counter()
             model = hetmesh.load_model(POWER_PLATE)
             t_load = time.perf_counter() - t
@@ -445,7 +447,7 @@ def speed_plate(runs: int) -> dict:
         try:
             with tempfile.TemporaryDirectory() as tmp:
                 for i in range(runs):
-                    res = guarded(lambda: once(tmp, i))
+                    res = guarded(lambda i=i: once(tmp, i))
         except Exception as e:
             out[method] = dict(error=err_text(e))
             rows.append(["power_plate 0.03", method, err_text(e)])
@@ -624,7 +626,8 @@ def speed_big(repeats: int) -> dict:
                   f"  s calibrated so Ne ≈ hetmesh's Ne (one ~{cal['stats']['n_elements']:,}-"
                   "element calibration run, not timed); Gmsh wall = build+generate(2)+read back; "
                   "its δmax is w.r.t. the same δ0 for information only.",
-                  f"ratio hetmesh/gmsh: wall {out['ratio_wall']:.2f}x, cpu {out['ratio_cpu']:.2f}x, "
+                  f"ratio hetmesh/gmsh: wall {out['ratio_wall']:.2f}x, "
+                  f"cpu {out['ratio_cpu']:.2f}x, "
                   f"wall per element {out['ratio_wall_per_element']:.2f}x "
                   f"(target <= {TARGET_VS_GMSH}x: {pf(out['target_wall_per_element'])})"]
     else:

@@ -57,7 +57,8 @@ def agreement(model, mesh, workdir: Path, width: float) -> dict:
     probes = {}
     for name, q in model.fea.probes.items():
         e, lam = locate(mesh.points, mesh.triangles, np.asarray(q, float))
-        probes[name] = 100 * (float(lam @ vm[mesh.triangles[e]]) / ours.probes[name]["von_mises"] - 1)
+        ref = ours.probes[name]["von_mises"]
+        probes[name] = 100 * (float(lam @ vm[mesh.triangles[e]]) / ref - 1)
     return {"elements": mesh.n_elements, "bins": report.bins,
             "binning": 100 * report.max_property_error,
             "T": 100 * float(np.abs(T - ours.temperature).max() / np.ptp(ours.temperature)),
@@ -67,7 +68,8 @@ def agreement(model, mesh, workdir: Path, width: float) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--delta", type=float, nargs="+", default=[0.1, 0.05])
-    ap.add_argument("--plane", nargs="+", default=["strain", "stress"], choices=["strain", "stress"])
+    ap.add_argument("--plane", nargs="+", default=["strain", "stress"],
+                    choices=["strain", "stress"])
     args = ap.parse_args()
     import hetmesh
     from hetmesh.io.export import write_mesh
@@ -90,8 +92,10 @@ def main() -> None:
                 p = r["probes"]
                 rows.append([f"{d0:g}", plane, r["elements"], r["bins"], f"{r['binning']:.2f}",
                              f"{r['T']:.3f}",
-                             f"{min(p[k] for k in p if k[0] == 'P'):+.2f} .. {max(p[k] for k in p if k[0] == 'P'):+.2f}",
-                             f"{min(p[k] for k in p if k[0] == 'Q'):+.2f} .. {max(p[k] for k in p if k[0] == 'Q'):+.2f}",
+                             f"{min(p[k] for k in p if k[0] == 'P'):+.2f} .. "
+                             f"{max(p[k] for k in p if k[0] == 'P'):+.2f}",
+                             f"{min(p[k] for k in p if k[0] == 'Q'):+.2f} .. "
+                             f"{max(p[k] for k in p if k[0] == 'Q'):+.2f}",
                              f"{r['ccx_s']:.2f}"])
         print_table("E1. CalculiX on hetmesh's deck (bins delta_0 / 4) vs hetmesh fea, same mesh",
                     ["delta_0", "plane", "elements", "bins", "binning max %", "T diff % range",

@@ -36,8 +36,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_core import (ROOT, environment, err_text, limit_memory, median,  # noqa: E402
-                        print_table, timed)
+from bench_core import ROOT, environment, err_text, limit_memory, median, print_table, timed  # noqa: E402
 
 import hetmesh  # noqa: E402
 import hetmesh.fea as fea  # noqa: E402

@@ -27,13 +27,22 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_core import (ROOT, environment, err_text, fmt, limit_memory, median,  # noqa: E402
-                        print_table, save_json, timed)
+from bench_core import (  # noqa: E402
+    ROOT,
+    environment,
+    err_text,
+    fmt,
+    limit_memory,
+    median,
+    print_table,
+    save_json,
+    timed,
+)
 
 import hetmesh  # noqa: E402
 from hetmesh.density import n_iso  # noqa: E402
-from hetmesh.tri.discontinuity import crossing_elements, embedded_count, FIT_TOL  # noqa: E402
 from hetmesh.reproduce.paper import CASES  # noqa: E402
+from hetmesh.tri.discontinuity import FIT_TOL, crossing_elements, embedded_count  # noqa: E402
 
 EXAMPLES = ROOT / "examples"
 # (model, delta_0) -> the paper's (adaptive Ne, uniform Ne): Table 3 (ring), Table 5.
@@ -57,8 +66,8 @@ def table_cases(repeats: int) -> dict:
     for (name, d0), (pa, pu) in PAPER.items():
         model = models[name]
         runs = {}
-        for kind, fn in (("layers", lambda: hetmesh.generate(model, d0)),
-                         ("uniform", lambda: hetmesh.uniform(model, d0))):
+        for kind, fn in (("layers", lambda model=model, d0=d0: hetmesh.generate(model, d0)),
+                         ("uniform", lambda model=model, d0=d0: hetmesh.uniform(model, d0))):
             try:
                 res, times = timed(fn, repeats if kind == "layers" else 1)
                 runs[kind] = (res, times)

@@ -49,8 +49,16 @@ from pathlib import Path  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_core import (ROOT, environment, err_text, fmt, limit_memory, median,  # noqa: E402
-                        print_table, save_json)
+from bench_core import (  # noqa: E402
+    ROOT,
+    environment,
+    err_text,
+    fmt,
+    limit_memory,
+    median,
+    print_table,
+    save_json,
+)
 
 import hetmesh  # noqa: E402
 from hetmesh import peers  # noqa: E402
@@ -339,8 +347,8 @@ def table_families(records: list[dict]) -> dict:
                        "failed = raised, timed out, died or failed the check.",
                        "CVT fallbacks: entries of result.options['fallbacks'] (the layers "
                        "placement abandoned for the CVT one), by cause (from the warning when "
-                       "the CVT run failed too); warned = runs that logged a warning or raised a Python "
-                       "warning (e.g. numpy's RuntimeWarning), listed below.",
+                       "the CVT run failed too); warned = runs that logged a warning or raised a "
+                       "Python warning (e.g. numpy's RuntimeWarning), listed below.",
                        "times: generate() wall clock (median of the repeats) of the runs that "
                        "returned."])
     if causes_all:

@@ -9,8 +9,8 @@ import pytest
 
 import hetmesh
 from hetmesh.material import has_subregions
-from hetmesh.tri.discontinuity import crossing_elements
 from hetmesh.metrics import delta_vertices, min_angle
+from hetmesh.tri.discontinuity import crossing_elements
 
 _ALL_EXAMPLES = sorted((Path(hetmesh.__file__).parent / "examples").glob("*.toml"))
 #: the 3D example models (a [solid] table; hetmesh.tet), and the 2D ones
@@ -54,7 +54,8 @@ def check_invariants(result, model, threshold, min_angle_deg=30.0):
     assert np.all(delta <= mesh.cell_data["delta"] + 1e-12)  # dense sampling only adds
     # every constraint edge is an edge of the triangulation (conforming)
     t = mesh.triangles
-    tri_edges = {tuple(sorted(e)) for e in np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]).tolist()}
+    sides = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    tri_edges = {tuple(sorted(e)) for e in sides.tolist()}
     assert all(tuple(sorted(e)) in tri_edges for e in mesh.edges.tolist())
     # boundary edges of the mesh are all constraint edges on the outer loop or holes
     cons = {tuple(sorted(e)) for e in mesh.edges.tolist()}

@@ -172,8 +172,8 @@ def test_piecewise_field_bounded_on_each_element_own_branch():
 def test_feature_tree_bound_is_above_a_fine_lattice():
     from importlib import resources
 
-    from hetmesh.material import element_subregions
     from hetmesh.io.model import load_model
+    from hetmesh.material import element_subregions
 
     with resources.as_file(resources.files("hetmesh") / "examples" / "hft_ring.toml") as p:
         model = load_model(p)
@@ -239,8 +239,14 @@ def _random_tree(seed, free_select=True):
     per-subregion weights. ``free_select``: a select may also be a blend's distance only
     (not one of its children), where no subregion forces its choice: its rules are opaque
     predicates, so it is enclosed by the hull of its children."""
-    from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
-                                      PointFeature, SelectFeature)
+    from hetmesh.material.hft import (
+        BlendFeature,
+        CurveFeature,
+        HFTField,
+        NearestFeature,
+        PointFeature,
+        SelectFeature,
+    )
     from hetmesh.tri.geometry import Arc, Segment
 
     rng = np.random.default_rng(seed)

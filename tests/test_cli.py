@@ -344,7 +344,8 @@ def _noisy(then=None):
 
     def load(path, *a, **k):
         for _ in range(2):
-            logging.getLogger("hetmesh.tri.pipeline").warning("the angle floor was given up\nsomewhere")
+            logging.getLogger("hetmesh.tri.pipeline").warning(
+                "the angle floor was given up\nsomewhere")
             logging.getLogger("somelib").warning("a library warning")
             np.log(np.array([-1.0]))  # RuntimeWarning: invalid value encountered in log
         if then is not None:
@@ -509,8 +510,9 @@ def test_stats_prints_the_numbers(model, meshed, capsys):
 
 
 def test_delta_max_never_prints_as_the_threshold():
-    from hetmesh.cli.stats import stats_table
     from rich.console import Console
+
+    from hetmesh.cli.stats import stats_table
 
     console = Console(width=80, record=True)
     stats = dict(n_points=3, n_elements=1, q_min=1.0, q_avg=1.0, delta_min=0.01,

@@ -7,16 +7,27 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.material import has_subregions
-from hetmesh.tri.discontinuity import (crossing_elements, embed_discontinuities, embedded_count,
-                                   fit_curves, trace_discontinuities)
-from hetmesh.tri.geometry import Arc, CurveBatch, Segment
+from conftest import check_invariants, square_domain
 from hetmesh.errors import MaterialError
 from hetmesh.io.model import Model
-from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
-                                  PointFeature, SelectFeature, inside_predicate)
-
-from conftest import check_invariants, square_domain
+from hetmesh.material import has_subregions
+from hetmesh.material.hft import (
+    BlendFeature,
+    CurveFeature,
+    HFTField,
+    NearestFeature,
+    PointFeature,
+    SelectFeature,
+    inside_predicate,
+)
+from hetmesh.tri.discontinuity import (
+    crossing_elements,
+    embed_discontinuities,
+    embedded_count,
+    fit_curves,
+    trace_discontinuities,
+)
+from hetmesh.tri.geometry import Arc, CurveBatch, Segment
 
 EX = hetmesh.example_path
 
@@ -164,7 +175,8 @@ def test_crossing_elements_finds_straddling_elements():
     X, Y = np.meshgrid(g, g)
     P = np.column_stack([X.ravel(), Y.ravel()])
     idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
-    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
     T = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
     curves = CurveBatch.from_curves([Segment((0.3, 0.0), (0.3, 1.0))])
     bad = crossing_elements(model.material, P, T, curves)

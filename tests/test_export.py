@@ -53,7 +53,8 @@ def square_mesh() -> Mesh:
 
 def by_triangle(mesh: Mesh, values) -> dict:
     """Values keyed by the triangle's sorted vertex triple (order-independent)."""
-    return {tuple(sorted(t)): v for t, v in zip(mesh.triangles.tolist(), np.asarray(values).tolist())}
+    return {tuple(sorted(t)): v
+            for t, v in zip(mesh.triangles.tolist(), np.asarray(values).tolist())}
 
 
 def edge_set(mesh: Mesh) -> set:
@@ -80,7 +81,8 @@ def test_round_trip(tmp_path, ext, file_format, point_data, cell_data, names):
         for k, v in mesh.cell_data.items():
             got, want = by_triangle(back, back.cell_data[k]), by_triangle(mesh, v)
             assert got.keys() == want.keys()
-            np.testing.assert_allclose([got[t] for t in want], list(want.values()), rtol=0, atol=1e-12)
+            np.testing.assert_allclose([got[t] for t in want], list(want.values()), rtol=0,
+                                       atol=1e-12)
     if names:
         expected = {1: "bottom", 2: "interface x=0.5"}
         if ext == ".inp":
@@ -170,7 +172,8 @@ def test_abaqus_file(tmp_path):
 
 
 def test_unknown_extension(tmp_path):
-    with pytest.raises(OutputError, match=r"unknown mesh format '\.xyz' for .*out\.xyz \(known: \.inp, "):
+    with pytest.raises(OutputError,
+                       match=r"unknown mesh format '\.xyz' for .*out\.xyz \(known: \.inp, "):
         write_mesh(square_mesh(), tmp_path / "out.xyz")
     with pytest.raises(OutputError, match="unknown mesh file_format 'stl'"):
         write_mesh(square_mesh(), tmp_path / "out.vtu", file_format="stl")
@@ -357,7 +360,8 @@ def test_inp_element_types(tmp_path, plane, order, kind):
     if order == 2:  # mid-side nodes at the midpoints of sides 1-2, 2-3, 3-1
         p = m.points[:, :2]
         for k in range(3):
-            np.testing.assert_allclose(p[cells[:, 3 + k]], 0.5 * (p[cells[:, k]] + p[cells[:, (k + 1) % 3]]))
+            np.testing.assert_allclose(p[cells[:, 3 + k]],
+                                       0.5 * (p[cells[:, k]] + p[cells[:, (k + 1) % 3]]))
         assert len(points) == 9 + 16  # 16 edges in the 3 x 3 grid
         # the bottom's node set holds its mid-side nodes too
         assert len(m.point_sets["bottom"]) == 5

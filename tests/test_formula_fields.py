@@ -15,14 +15,12 @@ import pytest
 
 import hetmesh
 import hetmesh.io.read
-from hetmesh.cli import main
-from hetmesh.material import has_subregions
-from hetmesh.errors import MaterialError, MeshingError
-from hetmesh.tri.geometry import Loop, Segment, make_domain
-from hetmesh.io.model import Model, load_model
-from hetmesh.material import AnalyticField
-
 from conftest import check_invariants
+from hetmesh.cli import main
+from hetmesh.errors import MaterialError, MeshingError
+from hetmesh.io.model import Model, load_model
+from hetmesh.material import AnalyticField, has_subregions
+from hetmesh.tri.geometry import Loop, Segment, make_domain
 
 THRESHOLD = 0.1
 

@@ -3,16 +3,15 @@ and steep fronts (flat plateaus around a narrow transition) mesh with the defaul
 
 from __future__ import annotations
 
+import tomllib
+
 import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri.frame import local_field, local_frame
-import tomllib
-
-from hetmesh.io.model import parse_model
-
 from conftest import check_invariants
+from hetmesh.io.model import parse_model
+from hetmesh.tri.frame import local_field, local_frame
 
 SQUARE = """
 [parameters]

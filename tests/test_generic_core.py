@@ -9,8 +9,16 @@ from hetmesh.density import density
 from hetmesh.errors import MaterialError, MeshDataError
 from hetmesh.material import AnalyticField, CallableField, PiecewiseField, field_dim
 from hetmesh.mesh import Mesh, cell_faces
-from hetmesh.metrics import (delta_dense, delta_vertices, dihedral_angles, quality,
-                             quality_and_angle, statistics, tet_quality, tet_volumes6)
+from hetmesh.metrics import (
+    delta_dense,
+    delta_vertices,
+    dihedral_angles,
+    quality,
+    quality_and_angle,
+    statistics,
+    tet_quality,
+    tet_volumes6,
+)
 
 REGULAR = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
 

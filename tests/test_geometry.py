@@ -10,8 +10,18 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import GeometryError
-from hetmesh.tri.geometry import (PSLG, Arc, CurveBatch, Domain, Loop, Path, Segment, build_pslg,
-                              make_domain, sample_parameters)
+from hetmesh.tri.geometry import (
+    PSLG,
+    Arc,
+    CurveBatch,
+    Domain,
+    Loop,
+    Path,
+    Segment,
+    build_pslg,
+    make_domain,
+    sample_parameters,
+)
 
 SQUARE = [(0, 0), (1, 0), (1, 1), (0, 1)]
 R_PLATE, C_PLATE = 39.75, (21.0, -9.75)

@@ -15,10 +15,17 @@ import pytest
 
 import hetmesh
 from hetmesh.errors import FormulaError, MaterialError, ModelFileError
-from hetmesh.tri.geometry import Arc, Segment
 from hetmesh.io.model import load_model, parse_model
-from hetmesh.material.hft import (BlendFeature, CurveFeature, HFTField, NearestFeature,
-                                  PointFeature, SelectFeature, inside_predicate)
+from hetmesh.material.hft import (
+    BlendFeature,
+    CurveFeature,
+    HFTField,
+    NearestFeature,
+    PointFeature,
+    SelectFeature,
+    inside_predicate,
+)
+from hetmesh.tri.geometry import Arc, Segment
 
 EXAMPLES = Path(hetmesh.__file__).resolve().parent / "examples"
 PLATE = EXAMPLES / "fgm_plate.toml"

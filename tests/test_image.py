@@ -17,13 +17,28 @@ import tifffile
 
 from hetmesh.cli import main
 from hetmesh.errors import MaterialError
-from hetmesh.tri.geometry.trace import (OUTSIDE, label_domain, label_rings, mask_domain,
-                                        pixel_to_xy, region_lookup, ring_polygons,
-                                        simplify_chains, trace_labels)
 from hetmesh.io.model import load_model
-from hetmesh.material.image import (Image, channel_map, element_pixel_delta,
-                                    image_field, linear_map, pixel_centres_in_triangles,
-                                    read_image, table_map)
+from hetmesh.material.image import (
+    Image,
+    channel_map,
+    element_pixel_delta,
+    image_field,
+    linear_map,
+    pixel_centres_in_triangles,
+    read_image,
+    table_map,
+)
+from hetmesh.tri.geometry.trace import (
+    OUTSIDE,
+    label_domain,
+    label_rings,
+    mask_domain,
+    pixel_to_xy,
+    region_lookup,
+    ring_polygons,
+    simplify_chains,
+    trace_labels,
+)
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -477,7 +492,7 @@ def test_examples_mesh(tmp_path):
     from hetmesh.material.image import write_examples
 
     models = write_examples(tmp_path, shape=(64, 128))
-    for name, path in models.items():
+    for path in models.values():
         m = load_model(path)
         r = hetmesh.generate(m, 0.1)
         assert r.stats.delta_max < 0.1 and r.mesh.problems() == []
@@ -701,8 +716,8 @@ def test_pixel_sampling_statistics_and_frame(stripe):
     """mesh_statistics and element_delta through the local frame give the field's own
     pixel_delta: the elements reach the field in its coordinates."""
     import hetmesh
-    from hetmesh.tri.frame import local_field, local_frame
     from hetmesh.delta import element_delta
+    from hetmesh.tri.frame import local_field, local_frame
 
     m = load_model(stripe)
     P = np.array([[1.9, 0.0], [2.1, 0.0], [2.0, 0.3], [2.0, 0.5]])

@@ -7,8 +7,15 @@ import pytest
 import hetmesh
 from hetmesh.tri import layers
 from hetmesh.tri import pipeline as adapt
-from hetmesh.tri.layers.grading import (GRADE, EventKind, banding, path_crossings, path_events,
-                                        piece_spans, sub_band_bounds)
+from hetmesh.tri.layers.grading import (
+    GRADE,
+    EventKind,
+    banding,
+    path_crossings,
+    path_events,
+    piece_spans,
+    sub_band_bounds,
+)
 from hetmesh.tri.layers.levels import Levels
 from hetmesh.tri.layers.paths import GradientPaths
 from hetmesh.tri.workset import FREE, triangulate

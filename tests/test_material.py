@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import FormulaError, MaterialError
+from hetmesh.material import AnalyticField, CallableField, MaterialField, check_field, sample_domain
 from hetmesh.tri.geometry import Arc, Loop, Segment, make_domain
-from hetmesh.material import (AnalyticField, CallableField, MaterialField, check_field,
-                              sample_domain)
 
 
 def _rect(x0, y0, x1, y1):

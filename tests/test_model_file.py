@@ -8,11 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hetmesh.errors import (FormulaError, GeometryError, HetmeshError, MaterialError,
-                            ModelFileError)
-from hetmesh.tri.geometry import Loop, Segment, make_domain
+from hetmesh.errors import FormulaError, GeometryError, HetmeshError, MaterialError, ModelFileError
 from hetmesh.io.model import Model, load_model, parse_model
 from hetmesh.material import AnalyticField, CallableField, check_field
+from hetmesh.tri.geometry import Loop, Segment, make_domain
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "src" / "hetmesh" / "examples"
 EXAMPLE_FILES = sorted(p for p in EXAMPLES.glob("*.toml")  # 2D models (3D: test_tet_models)

@@ -9,15 +9,14 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.tri import pipeline as adapt
-from hetmesh.material import element_subregions, has_subregions
-from hetmesh.tri.discontinuity import embed_discontinuities
-from hetmesh.metrics import quality, signed_area2
-from hetmesh.delta import element_delta
-from hetmesh.tri.optimize import DeltaEvaluator, sweep, independent_sets, optimize
-from hetmesh.tri.workset import FIXED
-
 from conftest import check_invariants
+from hetmesh.delta import element_delta
+from hetmesh.material import element_subregions, has_subregions
+from hetmesh.metrics import quality, signed_area2
+from hetmesh.tri import pipeline as adapt
+from hetmesh.tri.discontinuity import embed_discontinuities
+from hetmesh.tri.optimize import DeltaEvaluator, independent_sets, optimize, sweep
+from hetmesh.tri.workset import FIXED
 
 
 def _repaired(name, threshold, sampling="vertices", method="layers"):

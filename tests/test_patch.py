@@ -27,7 +27,8 @@ def _model(seed):
     xs = np.linspace(0.55, 0.9, 12)
     iface = np.c_[xs, 0.7 + 0.05 * np.sin(9 * xs)]
     q = rng.random((3000, 2)) * 0.96 + 0.02
-    far = (np.hypot(*(q - 0.3).T) > 0.115) & (np.min(np.hypot(*(q[:, None] - iface[None]).transpose(2, 0, 1)), axis=1) > 0.01)
+    to_iface = np.min(np.hypot(*(q[:, None] - iface[None]).transpose(2, 0, 1)), axis=1)
+    far = (np.hypot(*(q - 0.3).T) > 0.115) & (to_iface > 0.01)
     q = q[far]
     P = np.vstack([sq, hole, iface, q])
     E = np.vstack([_loop(sq, 0), _loop(hole, len(sq)),
@@ -71,12 +72,14 @@ def test_patch_equals_full_rebuild(seed):
     # new interior points, a split square edge (on it), a split hole edge (on the circle:
     # off its chord) and a split interface edge
     new = rng.random((5, 2)) * 0.5 + 0.45
-    P2 = np.vstack([P2, new[np.min(np.hypot(*(new[:, None] - P2[None]).transpose(2, 0, 1)), axis=1) > 1e-3]])
+    gap = np.min(np.hypot(*(new[:, None] - P2[None]).transpose(2, 0, 1)), axis=1)
+    P2 = np.vstack([P2, new[gap > 1e-3]])
     E2, b2 = E.copy(), bnd.copy()
     P2, E2, b2 = _split(P2, E2, b2, 3, 0.5 * (P2[E2[3, 0]] + P2[E2[3, 1]]))
     a = -(2 * np.pi) * (10.5 / 48)
     P2, E2, b2 = _split(P2, E2, b2, n_sq + 10, [0.3 + 0.1 * np.cos(a), 0.3 + 0.1 * np.sin(a)])
-    P2, E2, b2 = _split(P2, E2, b2, len(bnd) - 4, 0.5 * (P2[E2[-4 + len(bnd), 0]] + P2[E2[-4 + len(bnd), 1]]))
+    P2, E2, b2 = _split(P2, E2, b2, len(bnd) - 4,
+                        0.5 * (P2[E2[-4 + len(bnd), 0]] + P2[E2[-4 + len(bnd), 1]]))
     full = constrained_delaunay(P2, E2, inside=inside, boundary_edges=E2[b2])
     up = patch(P2, E2, b2, P, E, T)
     assert up is not None
@@ -109,7 +112,8 @@ def test_band_flood_matches_full_flood():
     # the full flood and the band flood classify alike on the kernel's own triangles
     full = constrained_delaunay(P, E)  # convex hull
     nbr = np.full((len(full), 3), -1)
-    keys = edge_keys(np.r_[full[:, 0], full[:, 1], full[:, 2]], np.r_[full[:, 1], full[:, 2], full[:, 0]])
+    keys = edge_keys(np.r_[full[:, 0], full[:, 1], full[:, 2]],
+                     np.r_[full[:, 1], full[:, 2], full[:, 0]])
     order = np.argsort(keys, kind="stable")
     ks = keys[order]
     pair = np.flatnonzero(ks[1:] == ks[:-1])

@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 
 import hetmesh
+from conftest import EXAMPLES, check_invariants, square_domain
 from hetmesh.errors import BudgetError, OptionError
 from hetmesh.material import CallableField
-
-from conftest import EXAMPLES, check_invariants, square_domain
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
@@ -28,7 +27,8 @@ def test_random_fields(seed):
     a = rng.dirichlet(np.ones(3))
 
     def f(x, y):
-        v = sum(a[k] * np.exp(-((x - c[k, 0]) ** 2 + (y - c[k, 1]) ** 2) / w[k] ** 2) for k in range(3))
+        v = sum(a[k] * np.exp(-((x - c[k, 0]) ** 2 + (y - c[k, 1]) ** 2) / w[k] ** 2)
+                for k in range(3))
         return v
 
     model = hetmesh.Model(name="random", domain=square_domain(),
@@ -68,7 +68,8 @@ def test_budget_is_checked_before_meshing():
         hetmesh.generate(model, 0.01, max_elements=1000)
 
 
-@pytest.mark.parametrize("kw, msg", [({"threshold": 0}, "threshold"), ({"threshold": -1}, "threshold"),
+@pytest.mark.parametrize("kw, msg", [({"threshold": 0}, "threshold"),
+                                     ({"threshold": -1}, "threshold"),
                                      ({"threshold": 0.1, "min_angle": 40}, "min angle"),
                                      ({"threshold": 0.1, "sampling": "grid"}, "sampling"),
                                      ({"threshold": 0.1, "method": "magic"}, "method"),
@@ -84,7 +85,8 @@ def test_dense_sampling_catches_a_hidden_peak():
     def f(x, y):
         return 0.3 * np.exp(-((x - 0.5) ** 2 + (y - 0.5) ** 2) / 0.003)
 
-    model = hetmesh.Model(name="peak", domain=square_domain(), material=CallableField(f, ["a", "b"]))
+    model = hetmesh.Model(name="peak", domain=square_domain(),
+                          material=CallableField(f, ["a", "b"]))
     r = hetmesh.generate(model, 0.1, sampling="dense")
     from hetmesh.metrics import delta_dense
 
@@ -112,7 +114,8 @@ def test_regions_follow_the_closed_interface():
     e = mesh.edges[np.isin(mesh.edge_markers, iface)]
     assert len(e) > 0
     t = mesh.triangles
-    keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]), np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
+    keys = edge_keys(np.concatenate([t[:, 0], t[:, 1], t[:, 2]]),
+                     np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
     owner = np.tile(np.arange(len(t)), 3)
     hit = np.isin(keys, edge_keys(e[:, 0], e[:, 1]))
     order = np.argsort(keys[hit], kind="stable")

@@ -20,7 +20,8 @@ def graded_mesh(n: int = 9) -> Mesh:
     points = np.column_stack([x.ravel(), y.ravel()])
     j, i = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
     a = (j * n + i).ravel()
-    tris = np.concatenate([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    tris = np.concatenate([np.column_stack([a, a + 1, a + n + 1]),
+                           np.column_stack([a, a + n + 1, a + n])])
     c = points[tris].mean(axis=1)
     metal = points[:, 0] / 2
     bottom = np.column_stack([np.arange(n - 1), np.arange(1, n)])
@@ -41,7 +42,8 @@ def test_plot_mesh_writes_png(tmp_path):
 
 
 def test_plot_mesh_other_formats(tmp_path):
-    assert plot_mesh(graded_mesh(), tmp_path / "m.svg", show_edges=False).read_text().lstrip().startswith("<?xml")
+    svg = plot_mesh(graded_mesh(), tmp_path / "m.svg", show_edges=False).read_text()
+    assert svg.lstrip().startswith("<?xml")
     assert plot_mesh(graded_mesh(), tmp_path / "m.pdf").read_bytes().startswith(b"%PDF")
 
 
@@ -140,7 +142,7 @@ def test_mesh_figure_axes_carry_the_model_units_and_a_legend_for_interfaces():
 
 
 def test_point_labels_of_close_points_do_not_overlap():
-    from hetmesh.plot import new_figure, label_points
+    from hetmesh.plot import label_points, new_figure
 
     fig = new_figure(7, 3)
     ax = fig.add_subplot()

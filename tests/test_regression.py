@@ -7,7 +7,6 @@ import pytest
 import hetmesh
 from hetmesh.density import n_iso
 
-
 #: the economy row spacing: the fewest elements, most of them just under delta_0
 ECONOMY = 0.985
 

@@ -17,8 +17,7 @@ import pytest
 
 import hetmesh
 from hetmesh.density import estimate_elements
-from hetmesh.testing import (FAMILIES, RandomModel, independent_check, random_model,
-                             robust_suite)
+from hetmesh.testing import FAMILIES, RandomModel, independent_check, random_model, robust_suite
 
 
 @pytest.fixture(scope="module")

@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.material import CallableField
-
 from conftest import EXAMPLES, check_invariants, square_domain
+from hetmesh.material import CallableField
 
 pytestmark = pytest.mark.slow
 

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.io.read import read_mesh
 from hetmesh.io.export import write_mesh
 from hetmesh.io.groups import curve_groups
+from hetmesh.io.read import read_mesh
 from hetmesh.metrics import quality
 
 CI = os.environ.get("CI", "").lower() == "true"
@@ -76,7 +76,8 @@ def test_gmsh_reads_one_group_per_name_nodes_on_curves(tmp_path, case, request):
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.open(str(path))
-        groups = {(d, gmsh.model.getPhysicalName(d, t)): t for d, t in gmsh.model.getPhysicalGroups()}
+        groups = {(d, gmsh.model.getPhysicalName(d, t)): t
+                  for d, t in gmsh.model.getPhysicalGroups()}
         names = [n for d, n in groups if d == 1]
         assert sorted(names) == sorted({g.name for g in curve_groups(mesh)})
         assert len(names) == len(set(names))  # each name once
@@ -150,7 +151,8 @@ def _xdmf_grids(path: Path) -> dict:
             geo = grids[m.group(1)].find("Geometry")
         topo = g.find("Topology")
         out[name] = {"type": topo.get("TopologyType"), "cells": data(topo.find("DataItem")),
-                     "geometry": data(geo.find("DataItem")), "geometry_type": geo.get("GeometryType"),
+                     "geometry": data(geo.find("DataItem")),
+                     "geometry_type": geo.get("GeometryType"),
                      "attributes": {a.get("Name"): (a.get("Center"), data(a.find("DataItem")))
                                     for a in g.findall("Attribute")},
                      "info": {i.get("Name"): i.get("Value") for i in g.findall("Information")}}
@@ -183,7 +185,8 @@ def test_xdmf_dolfinx_layout_read_with_its_tags(tmp_path, plate):
     assert pt["type"] == "Polyvertex"
     for name, node in mesh.named_points.items():
         k = int(pt["info"][name])
-        assert pt["cells"][pt["attributes"]["point_tags"][1].ravel() == k].ravel().tolist() == [node]
+        tags = pt["attributes"]["point_tags"][1].ravel()
+        assert pt["cells"][tags == k].ravel().tolist() == [node]
 
 
 def test_xdmf_in_vtk_if_installed(tmp_path, plate):
@@ -197,12 +200,14 @@ def test_xdmf_in_vtk_if_installed(tmp_path, plate):
     reader.SetFileName(str(path))
     reader.Update()
     out = reader.GetOutputDataObject(0)
-    blocks = {out.GetMetaData(i).Get(out.NAME()): out.GetBlock(i) for i in range(out.GetNumberOfBlocks())}
+    blocks = {out.GetMetaData(i).Get(out.NAME()): out.GetBlock(i)
+              for i in range(out.GetNumberOfBlocks())}
     grid = blocks["mesh"]
     assert grid.GetNumberOfCells() == mesh.n_elements and grid.GetNumberOfPoints() == mesh.n_points
     delta = grid.GetCellData().GetArray("delta")
     lo, hi = delta.GetRange()
-    assert lo == pytest.approx(mesh.cell_data["delta"].min()) and hi == pytest.approx(mesh.cell_data["delta"].max())
+    assert lo == pytest.approx(mesh.cell_data["delta"].min())
+    assert hi == pytest.approx(mesh.cell_data["delta"].max())
     assert blocks["facet_tags"].GetNumberOfCells() == len(mesh.edges)
 
 
@@ -359,7 +364,8 @@ def test_read_mesh_of_a_file_gmsh_wrote(tmp_path):
     order = np.argsort(tags)
     np.testing.assert_allclose(mesh.points, coords.reshape(-1, 3)[order, :2], rtol=0, atol=1e-15)
     t = np.concatenate(enodes).reshape(-1, 3)[np.argsort(np.concatenate(etags))] - 1
-    assert {tuple(sorted(x)) for x in mesh.triangles.tolist()} == {tuple(sorted(x)) for x in t.tolist()}
+    assert ({tuple(sorted(x)) for x in mesh.triangles.tolist()}
+            == {tuple(sorted(x)) for x in t.tolist()})
     assert mesh.problems() == [] and set(mesh.marker_names.values()) == {"rim"}
 
 

@@ -16,7 +16,7 @@ import hetmesh
 import hetmesh.io.read
 from hetmesh.cli import main
 from hetmesh.errors import OptionError
-from hetmesh.study import load_study, parse_study, run_one, rows_to_frame, sweep
+from hetmesh.study import load_study, parse_study, rows_to_frame, run_one, sweep
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "studies" / "sweep.toml"
 

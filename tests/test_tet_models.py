@@ -59,7 +59,8 @@ def run(argv, capsys):
 
 def test_the_3d_examples_exist():
     names = {p.stem for p in EXAMPLES_3D}
-    assert {"unit_cube", "graded_rod", "graded_cylinder", "fgm_plate_3d", "blade_3d", "graded_ring"} <= names
+    assert {"unit_cube", "graded_rod", "graded_cylinder", "fgm_plate_3d", "blade_3d",
+            "graded_ring"} <= names
 
 
 #: the examples meshed in the default run; the others (larger at any threshold) run with -m slow

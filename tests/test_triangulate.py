@@ -37,5 +37,6 @@ def test_interface_edges_kept_and_both_sides_meshed():
     t = constrained_delaunay(P, E, inside=lambda q: np.ones(len(q), bool), boundary_edges=E[:4])
     m = Mesh(P, t)
     assert abs(m.area - 1.0) < 1e-12
-    edges = {tuple(sorted(e)) for e in np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]).tolist()}
+    sides = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    edges = {tuple(sorted(e)) for e in sides.tolist()}
     assert all(tuple(sorted(e)) in edges for e in E.tolist())

@@ -7,14 +7,18 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.errors import MeshingError, VerificationError
-from hetmesh.tri.geometry import Arc, CurveBatch, Segment
-from hetmesh.mesh import Mesh
-from hetmesh.tri.workset import curve_bounds
-from hetmesh.tri.verify import (CHORD_SLACK, chord_areas, chord_problems, chord_sagitta,
-                            coverage_problems)
-
 from conftest import EXAMPLES
+from hetmesh.errors import MeshingError, VerificationError
+from hetmesh.mesh import Mesh
+from hetmesh.tri.geometry import Arc, CurveBatch, Segment
+from hetmesh.tri.verify import (
+    CHORD_SLACK,
+    chord_areas,
+    chord_problems,
+    chord_sagitta,
+    coverage_problems,
+)
+from hetmesh.tri.workset import curve_bounds
 
 DISC = """
 [model]

@@ -12,13 +12,21 @@ well-shaped elements as possible; every mesh returned is verified.
 
 from __future__ import annotations
 
-from .kernel import Result, mesh_statistics
-from .meshing import generate, uniform
-from .errors import (BudgetError, FormulaError, GeometryError, HetmeshError, MaterialError,
-                     MeshingError, ModelFileError, OptionError, OutputError)
+from .errors import (
+                     BudgetError,
+                     FormulaError,
+                     GeometryError,
+                     HetmeshError,
+                     MaterialError,
+                     MeshingError,
+                     ModelFileError,
+                     OptionError,
+                     OutputError,
+)
 from .io.model import Model, example_path, load_model
+from .kernel import Result, mesh_statistics
 from .mesh import Mesh
-from .study import sweep
+from .meshing import generate, uniform
 from .metrics import MeshStats
 from .version import __version__
 

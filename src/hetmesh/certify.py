@@ -19,8 +19,9 @@ samples. :func:`certified_delta` bounds it from above instead:
   beyond it; a curve's linear composition by the range of its nearest point's parameter;
   a parent by its forced child (the element's subregion) or the hull of the children that
   may own a point of the box (for a ``select`` used only as a distance, all of them: its
-  rules are opaque predicates, so such a bound is loose); a blend's weight by interval arithmetic on its formula over
-  the distances' intervals (by its corner values where every ``dW/dd_i`` keeps one sign),
+  rules are opaque predicates, so such a bound is loose); a blend's weight by interval arithmetic
+  on its formula over the distances' intervals (by its corner values where every ``dW/dd_i`` keeps
+  one sign),
   and ``W M_1 + (1 - W) M_2`` at the corners of the three intervals. A proof, first-order
   tight: the subdivision takes the pieces near the extremes down until the bound settles.
   A tree with a node that has no enclosure (a user's own leaf class; see

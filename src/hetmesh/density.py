@@ -1,7 +1,8 @@
 """Material-driven density and size fields: Eqs. (5), (8)-(9) of the paper.
 
 g = |grad f| (Eq. 5), taken as the largest gradient norm over the constituents; the CVT density
-is rho = g^(d+2) (Eq. 9; d = 2 for a planar domain, 3 for a solid). The matching local element size follows from Eqs. (4) and (7):
+is rho = g^(d+2) (Eq. 9; d = 2 for a planar domain, 3 for a solid). The matching local element
+size follows from Eqs. (4) and (7):
 h = c * delta_0 / g, floored by a maximum size so that flat zones stay meshed.
 """
 

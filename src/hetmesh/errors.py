@@ -83,7 +83,8 @@ class BudgetError(MeshingError):
 
 
 class VerificationError(MeshingError):
-    """The finished mesh failed a check of the final verification (:func:`hetmesh.tri.finish.finish`):
+    """The finished mesh failed a check of the final verification
+    (:func:`hetmesh.tri.finish.finish`):
     a claim hetmesh makes about every mesh it returns does not hold. Internal (exit code 1)."""
 
 

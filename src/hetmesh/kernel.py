@@ -21,11 +21,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from .delta import element_delta
 from .errors import OptionError
 from .material.field import element_subregions, has_subregions
 from .mesh import Mesh
 from .metrics import MeshStats, statistics
-from .delta import element_delta
 from .options import SAMPLINGS
 
 if TYPE_CHECKING:

@@ -11,10 +11,10 @@ Transformations return new objects; derived topology is computed on first use an
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
@@ -22,7 +22,8 @@ from .errors import MeshDataError
 from .metrics import tet_volumes6, triangle_areas2
 from .topology import any_corner, component_labels, edge_keys, edge_order, points_near
 
-__all__ = ["Mesh", "CELL_TYPES", "cell_faces", "face_table", "simplex_measures", "edge_keys", "edge_order", "any_corner", "points_near", "component_labels"]
+__all__ = ["Mesh", "CELL_TYPES", "cell_faces", "face_table", "simplex_measures", "edge_keys",
+           "edge_order", "any_corner", "points_near", "component_labels"]
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -140,19 +141,22 @@ class Mesh:
         if t.size and (t.min() < 0 or t.max() >= len(p)):
             raise MeshDataError(f"cells index points outside 0..{len(p) - 1}")
         t = _oriented(p, t)
-        reg = np.zeros(len(t), np.int32) if self.regions is None else np.asarray(self.regions, np.int32)
+        reg = (np.zeros(len(t), np.int32) if self.regions is None
+               else np.asarray(self.regions, np.int32))
         if reg.shape != (len(t),):
             raise MeshDataError(f"len(cells) = {len(t)}, but regions has shape {reg.shape}")
         e = (np.zeros((0, d), np.int32) if self.facets is None
              else np.asarray(self.facets, np.int32).reshape(-1, d))
-        em = np.ones(len(e), np.int32) if self.facet_markers is None else np.asarray(self.facet_markers, np.int32)
+        em = (np.ones(len(e), np.int32) if self.facet_markers is None
+              else np.asarray(self.facet_markers, np.int32))
         if em.shape != (len(e),):
             raise MeshDataError(f"len(facets) = {len(e)}, but facet_markers has shape {em.shape}")
         pd = {}
         for k, v in dict(self.point_data).items():
             v = np.asarray(v)
             if len(v) != len(p):
-                raise MeshDataError(f"len(points) = {len(p)}, but len(point_data[{k!r}]) = {len(v)}")
+                raise MeshDataError(f"len(points) = {len(p)}, but "
+                                    f"len(point_data[{k!r}]) = {len(v)}")
             pd[k] = _frozen(v)
         cd = {}
         for k, v in dict(self.cell_data).items():
@@ -308,7 +312,8 @@ class Mesh:
             raise MeshDataError(f"Mesh.{what} is defined for 2D meshes; this mesh is {self.dim}D")
 
     # -- transformations ---------------------------------------------------
-    def with_data(self, point_data: Mapping | None = None, cell_data: Mapping | None = None) -> "Mesh":
+    def with_data(self, point_data: Mapping | None = None,
+                  cell_data: Mapping | None = None) -> Mesh:
         """A copy with point/cell data added (or replaced)."""
         pd = dict(self.point_data)
         pd.update(point_data or {})
@@ -316,7 +321,7 @@ class Mesh:
         cd.update(cell_data or {})
         return dataclasses.replace(self, point_data=pd, cell_data=cd)
 
-    def with_regions(self, regions: np.ndarray) -> "Mesh":
+    def with_regions(self, regions: np.ndarray) -> Mesh:
         return dataclasses.replace(self, regions=regions)
 
     # -- checks ------------------------------------------------------------
@@ -366,7 +371,8 @@ class Mesh:
         if d == 2:
             deg = np.bincount(be.ravel(), minlength=len(p))
             if np.any((deg != 0) & (deg != 2)):
-                out.append("the boundary is not a set of simple closed loops (hanging node or pinched vertex)")
+                out.append("the boundary is not a set of simple closed loops (hanging node "
+                           "or pinched vertex)")
         elif len(be):
             _, _, n_held = face_table(cell_faces(be).reshape(-1, 2))
             if np.any(n_held != 2):
@@ -379,7 +385,8 @@ class Mesh:
 
     # -- output ------------------------------------------------------------
     def write(self, path: str | Path, **kwargs) -> Path:
-        """Write the mesh; the format follows the extension (see :func:`hetmesh.io.export.write_mesh`)."""
+        """Write the mesh; the format follows the extension (see
+        :func:`hetmesh.io.export.write_mesh`)."""
         from .io.export import write_mesh
 
         return write_mesh(self, path, **kwargs)

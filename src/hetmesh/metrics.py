@@ -342,7 +342,9 @@ def delta_dense(field, points: np.ndarray, triangles: np.ndarray, order: int = 4
     cols = [np.ascontiguousarray(points[:, d]) for d in range(dim)]
     for s in range(0, len(triangles), chunk):
         t = triangles[s:s + chunk]
-        xy = block_concat(lambda b: _lattice_points(cols, t[b], lam), len(t)).reshape(-1, dim)
+        # the block function runs within this iteration: binding t late is safe
+        xy = block_concat(lambda b: _lattice_points(cols, t[b], lam),  # noqa: B023
+                          len(t)).reshape(-1, dim)
         if regions is not None:
             comp = field.composition(xy, region=np.repeat(regions[s:s + chunk], len(lam)))
         else:

@@ -12,9 +12,10 @@ field of Eqs. (4)-(7),
 (the size hetmesh itself aims for, with hetmesh's default largest size), sampled on a grid and
 graded so that it grows by at most 0.3 per unit length (:class:`SizeField`; without grading,
 elements where |grad f| ~ 0 next to fast change keep the size h_max whatever ``s``), and the
-scale ``s`` is searched (:func:`search`): starting at ``S_START`` it is lowered by the factor ``S_FACTOR``
-until the mesh's delta_max < delta_0 (raised while it already holds), then the last step is
-bisected, so the peer's mesh is the coarsest on that grid that meets the threshold. delta is
+scale ``s`` is searched (:func:`search`): starting at ``S_START`` it is lowered by the factor
+``S_FACTOR`` until the mesh's delta_max < delta_0 (raised while it already holds), then the
+last step is bisected, so the peer's mesh is the coarsest on that grid that meets the
+threshold. delta is
 evaluated exactly as for hetmesh's meshes (:func:`hetmesh.mesh_statistics`: vertex
 compositions, every element in its own subregion for feature-tree models). Both peers mesh the
 domain *as hetmesh meshed it* (``result.model``: material discontinuities embedded as
@@ -49,8 +50,8 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -141,9 +142,10 @@ class SizeField:
     regular grid covering the domain (``cells`` cells along its longer side; nodes outside the
     domain take the value of the nearest node inside), then limited to grow by at most
     ``gradation`` per unit length, ``h(x) = min_y h0(y) + gradation |x - y|_1`` (a Lipschitz
-    limit in the L1 distance, exact and fast on a grid; 0.3 is about MMG's ``hgrad = 1.3``): without it a peer's elements where the material is
-    flat (|grad f| ~ 0 next to the outer surface of the blade) keep the size ``h_max`` up to
-    where the material changes fast, and no ``s`` fixes them. Values between nodes are
+    limit in the L1 distance, exact and fast on a grid; 0.3 is about MMG's ``hgrad = 1.3``):
+    without it a peer's elements where the material is flat (|grad f| ~ 0 next to the outer
+    surface of the blade) keep the size ``h_max`` up to where the material changes fast, and
+    no ``s`` fixes them. Values between nodes are
     interpolated bilinearly. ``grid`` holds ``(X, Y, H)``.
     """
 
@@ -306,7 +308,8 @@ def gmsh_mesh(domain, size, *, field: str = "grid", cells: int = GRID_CELLS,
     """
     gmsh = _require("gmsh")
     if field not in ("grid", "callback", "matheval"):
-        raise OptionError(f"gmsh size field must be 'grid', 'callback' or 'matheval', got {field!r}")
+        raise OptionError(f"gmsh size field must be 'grid', 'callback' or 'matheval', "
+                          f"got {field!r}")
     t0 = time.perf_counter()
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
@@ -353,7 +356,8 @@ def _gmsh_grid_field(gmsh, domain, size, cells: int) -> None:
     X, Y, H = size.grid if hasattr(size, "grid") else _grid_sizes(domain, size, cells)
     ny, nx = X.shape
     idx = np.arange(nx * ny).reshape(ny, nx)
-    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
     tri = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
     x, y, h = X.ravel(), Y.ravel(), H.ravel()
     data = np.column_stack([x[tri], y[tri], np.zeros(tri.shape), h[tri]])  # ST layout

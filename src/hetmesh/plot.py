@@ -10,8 +10,8 @@ save it atomically (:func:`hetmesh.io.atomic.atomic_path`) in the format of the 
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -61,7 +61,8 @@ def _point_values(mesh: Mesh, data: str | None) -> tuple[str, np.ndarray] | None
         raise OptionError(f"no point data {data!r} to plot (available: {known})")
     values = np.asarray(mesh.point_data[data], np.float64)
     if values.ndim != 1:
-        raise OptionError(f"point data {data!r} has shape {values.shape}; only scalars can be plotted")
+        raise OptionError(f"point data {data!r} has shape {values.shape}; only scalars can be "
+                          f"plotted")
     return data, values
 
 
@@ -275,7 +276,8 @@ def delta_histogram_figure(delta, *, threshold: float, other: DeltaLike | None =
 
     Examples
     --------
-    >>> fig = delta_histogram_figure(adaptive.mesh, other=uniform.mesh, threshold=0.05)  # doctest: +SKIP
+    >>> fig = delta_histogram_figure(adaptive.mesh, other=uniform.mesh,  # doctest: +SKIP
+    ...                              threshold=0.05)
     """
     if not (np.isfinite(threshold) and threshold > 0):
         raise OptionError(f"threshold must be a positive number, got {threshold!r}")
@@ -292,7 +294,8 @@ def delta_histogram_figure(delta, *, threshold: float, other: DeltaLike | None =
         ax.hist(d, bins=edges, weights=w, histtype="stepfilled", alpha=0.35, color=color)
         ax.hist(d, bins=edges, weights=w, histtype="step", lw=1.5, color=color,
                 label=f"{label} ({d.size} elements)")
-    ax.axvline(threshold, color="red", ls="--", lw=1.5, label=f"threshold $\\delta_0$ = {threshold:g}")
+    ax.axvline(threshold, color="red", ls="--", lw=1.5,
+               label=f"threshold $\\delta_0$ = {threshold:g}")
     ax.set_xlabel(r"$\delta(T)$")
     ax.set_ylabel("fraction of elements")
     ax.set_xlim(edges[0], edges[-1])

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .delta import element_delta
 from .errors import BudgetError, MeshingError
 from .material.field import element_subregions, has_subregions
 from .mesh import edge_keys
 from .metrics import TET_EDGES
-from .delta import element_delta
 from .parallel import block_concat
 
 __all__ = ["SIMPLEX_EDGES", "cell_delta", "composition_at", "carried", "carry",

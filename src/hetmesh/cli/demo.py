@@ -44,10 +44,10 @@ def run(args: argparse.Namespace) -> int:
     out: Path = output_dir(args.out)
     check_writable_dir(out, f"--out {out}")
 
-    from ..tri.pipeline import generate
     from ..io.export import write_mesh
     from ..io.model import load_model
     from ..plot import interface_markers, plot_delta_histogram, plot_mesh
+    from ..tri.pipeline import generate
     from ..tri.uniform import uniform
 
     if args.image:

@@ -44,7 +44,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
         epilog="Example: hetmesh export examples/fgm_plate.toml --mesh plate.vtu --to "
                "calculix --output deck/ && (cd deck && ccx -i fgm_plate)",
     )
-    p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML) with an [fea] table")
+    p.add_argument("model", type=Path, metavar="MODEL",
+                   help="model file (TOML) with an [fea] table")
     p.add_argument("--mesh", "-m", type=Path, required=True, metavar="MESH",
                    help="the mesh (.vtu, .msh, .xdmf, .inp, .vtk, .mesh), in the model's "
                         "coordinates")
@@ -62,8 +63,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 def run(args: argparse.Namespace) -> int:
     from ..errors import OutputError
     from ..io.deck import write_deck
-    from ..io.read import read_mesh
     from ..io.model import load_model
+    from ..io.read import read_mesh
 
     if args.output.exists() and not args.output.is_dir():
         raise OutputError(f"--output {args.output} is a file, not a directory")

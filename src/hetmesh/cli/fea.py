@@ -35,7 +35,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
         epilog="Example: hetmesh fea examples/fgm_plate.toml --mesh plate.vtu "
                "--output plate_fea.vtu --report fea.json --plot von_mises.png",
     )
-    p.add_argument("model", type=Path, metavar="MODEL", help="model file (TOML) with an [fea] table")
+    p.add_argument("model", type=Path, metavar="MODEL",
+                   help="model file (TOML) with an [fea] table")
     p.add_argument("--mesh", "-m", type=Path, required=True, metavar="MESH",
                    help="the mesh to analyse (.vtu, .msh, .xdmf, .inp, .vtk, .mesh), in the "
                         "model's coordinates")
@@ -83,10 +84,9 @@ def probe_table(result) -> Table:
 def run(args: argparse.Namespace) -> int:
     from ..errors import FEAError
     from ..fea import plot_von_mises, solve, write_report
-    from ..io.read import read_mesh
     from ..io.export import write_mesh
     from ..io.model import load_model
-
+    from ..io.read import read_mesh
     from .examples import check_model_path
 
     check_fea_outputs(args)

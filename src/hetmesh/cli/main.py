@@ -25,11 +25,12 @@ import logging
 import os
 import sys
 import warnings
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Iterator, NoReturn, Sequence
+from typing import NoReturn
 
-from ..version import __version__
 from ..errors import HetmeshError, OptionError
+from ..version import __version__
 from . import demo, examples, export, fea, mesh, reproduce, stats, sweep, uniform
 
 __all__ = ["main", "build_parser"]

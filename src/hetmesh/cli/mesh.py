@@ -11,12 +11,14 @@ import json
 import os
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from rich.console import Console
 
 from ..errors import OutputError
+from ..io.export import FILE_FORMATS
 from ..io.jsondoc import jsonable
 from ..options import SAMPLINGS, check_options, check_sampling
 from .progress import progress_reporter
@@ -43,8 +45,6 @@ def _count(text: str) -> int:
 
 _count.__name__ = "count"
 
-
-from ..io.export import FILE_FORMATS
 
 
 def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
@@ -97,9 +97,11 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                             "lower gives more elements of better shape, 0.985 the fewest "
                             "(default: 0.85)")
         p.add_argument("--seed", type=int, metavar="S",
-                       help="random seed, >= 0; same input and seed give the same mesh (default: 0)")
+                       help="random seed, >= 0; same input and seed give the same mesh "
+                            "(default: 0)")
     p.add_argument("--plot", type=Path, metavar="PNG",
-                   help="also write a picture of the mesh coloured by composition (.png, .pdf, .svg)")
+                   help="also write a picture of the mesh coloured by composition "
+                        "(.png, .pdf, .svg)")
     p.add_argument("--stats", type=Path, metavar="JSON",
                    help="also write the statistics, history, timings and options as JSON")
     p.add_argument("--quiet", "-q", action="store_true",
@@ -160,7 +162,8 @@ def check_writable_dir(directory: Path, label: str) -> None:
     try:
         fd, tmp = tempfile.mkstemp(prefix=".hetmesh-check-", dir=directory)
     except OSError as exc:
-        raise OutputError(f"{label}: directory {directory} is not writable ({exc.strerror})") from None
+        raise OutputError(f"{label}: directory {directory} is not writable "
+                          f"({exc.strerror})") from None
     os.close(fd)
     os.unlink(tmp)
 

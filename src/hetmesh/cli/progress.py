@@ -7,18 +7,24 @@ The bar goes to stderr (results go to stdout) and disappears when done. It is of
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Callable, Iterator, Optional
 
 from rich.console import Console
-from rich.progress import (BarColumn, Progress, SpinnerColumn, TaskProgressColumn, TextColumn,
-                           TimeElapsedColumn)
+from rich.progress import (
+    BarColumn,
+    Progress,
+    SpinnerColumn,
+    TaskProgressColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 
 __all__ = ["ProgressCallback", "progress_reporter"]
 
 log = logging.getLogger(__name__)
 
-ProgressCallback = Callable[[str, Optional[float]], None]
+ProgressCallback = Callable[[str, float | None], None]
 
 
 def _logging_callback(label: str) -> ProgressCallback:

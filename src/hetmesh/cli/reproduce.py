@@ -60,7 +60,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..reproduce import plan, run as reproduce
+    from ..reproduce import plan
+    from ..reproduce import run as reproduce
 
     plan(args.cases, args.quick)  # unknown cases fail before anything is written
     out: Path = args.out

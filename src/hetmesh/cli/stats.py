@@ -8,8 +8,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Callable, Mapping
 
 from rich.console import Console
 from rich.table import Table
@@ -44,7 +44,8 @@ STAT_ROWS: tuple[tuple[str, str, Callable[[float], str]], ...] = (
 )
 
 
-def stats_table(columns: Mapping[str, object], *, times: Mapping[str, float] | None = None) -> Table:
+def stats_table(columns: Mapping[str, object], *,
+                times: Mapping[str, float] | None = None) -> Table:
     """A table with one row per statistic and one column per mesh.
 
     ``columns`` maps a column heading to a ``MeshStats`` (or its ``as_dict()``); ``times``
@@ -58,7 +59,8 @@ def stats_table(columns: Mapping[str, object], *, times: Mapping[str, float] | N
     for label, key, fmt in STAT_ROWS:
         table.add_row(label, *(fmt(d[key]) if d.get(key) is not None else "-" for d in dicts))
     if times is not None:
-        table.add_row("time", *(f"{times[name]:.2f} s" if name in times else "-" for name in columns))
+        table.add_row("time", *(f"{times[name]:.2f} s" if name in times else "-"
+                                for name in columns))
     return table
 
 
@@ -78,7 +80,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                     "bound on every element's variation) and the smallest angle. A mesh "
                     "that is not of the model is an error (exit 2).",
     )
-    p.add_argument("mesh", type=Path, metavar="MESH", help="mesh file written by hetmesh (.vtu, .msh, ...)")
+    p.add_argument("mesh", type=Path, metavar="MESH",
+                   help="mesh file written by hetmesh (.vtu, .msh, ...)")
     p.add_argument("--model", "-m", type=Path, required=True, metavar="MODEL",
                    help="the model file (TOML) the mesh was made for")
     p.add_argument("--sampling", choices=SAMPLINGS, default="vertices",
@@ -112,9 +115,9 @@ def with_bounds(stats, mesh, model, sampling: str | None):
     does."""
     import dataclasses
 
+    from ..delta import element_delta
     from ..material.field import element_subregions, has_subregions
     from ..metrics import delta_dense
-    from ..delta import element_delta
 
     fld = model.material
     regions = None
@@ -148,9 +151,9 @@ def check_mesh_of_model(mesh, model, mesh_path, *, geometry: bool = True) -> Non
 
 def _statistics(mesh, model, sampling: str, threshold: float | None):
     """:func:`hetmesh.mesh_statistics`, with ``threshold`` for certified sampling."""
+    from ..delta import element_delta
     from ..material.field import element_subregions, has_subregions
     from ..metrics import statistics
-    from ..delta import element_delta
 
     fld = model.material
     regions = (element_subregions(fld, mesh.points, mesh.triangles) if has_subregions(fld)
@@ -161,9 +164,8 @@ def _statistics(mesh, model, sampling: str, threshold: float | None):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io.read import read_mesh
     from ..io.model import load_model
-
+    from ..io.read import read_mesh
     from .examples import check_model_path
 
     check_model_path(args.model)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import logging
 import re
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterator
 
 from rich.console import Console
 
@@ -94,8 +94,14 @@ def sweep_progress(total: int, *, quiet: bool = False,
 
         yield log_callback
         return
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn,
-                               TextColumn, TimeElapsedColumn)
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        SpinnerColumn,
+        TextColumn,
+        TimeElapsedColumn,
+    )
 
     columns = (SpinnerColumn(), BarColumn(), MofNCompleteColumn(),
                TextColumn("{task.description}", markup=False), TimeElapsedColumn())

@@ -37,6 +37,11 @@ class Expr:
         self.names, self.variables, self.where = node.names, variables, where
 
     @property
+    def node(self) -> Node:
+        """The root of the formula's (simplified) expression tree."""
+        return self._node
+
+    @property
     def text(self) -> str:  # a derivative is printed on first use
         if self._text is None:
             self._text = to_text(self._node)[0]

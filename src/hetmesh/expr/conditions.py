@@ -92,14 +92,14 @@ def split_conditions(exprs: Iterable[Expr], prefix: str = "_c"
     exprs = list(exprs)
     atoms: dict[Node, None] = {}
     for e in exprs:
-        atoms.update(dict.fromkeys(_jump_atoms(e._node)))
+        atoms.update(dict.fromkeys(_jump_atoms(e.node)))
     names = [f"{prefix}{i}" for i in range(len(atoms))]
     table = {a: Node("var", value=v) for a, v in zip(atoms, names)}
     conditions = [Expr(a, e0.variables, e0.where) for a, e0 in
                   zip(atoms, [exprs[0]] * len(atoms))] if exprs else []
     fixed = []
     for e in exprs:
-        node = _substitute(e._node, table, {}) if atoms else e._node
+        node = _substitute(e.node, table, {}) if atoms else e.node
         fixed.append(Expr(node, (*e.variables, *names), e.where,
-                          text=None if node is not e._node else e.text))
+                          text=None if node is not e.node else e.text))
     return conditions, fixed

@@ -11,7 +11,7 @@ from itertools import accumulate
 
 from ..errors import FormulaError
 from .compiled import Expr
-from .tree import (Node, add, const, div, logic, make, mul, neg, power, sub, where_)
+from .tree import Node, add, const, div, logic, make, mul, neg, power, sub, where_
 
 __all__ = ["compile_expr", "FUNCTIONS", "MAX_LENGTH", "MAX_NODES", "MAX_DEPTH"]
 

@@ -25,7 +25,7 @@ the expansion is Levin's exact two-phase formula.
 
 from __future__ import annotations
 
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 

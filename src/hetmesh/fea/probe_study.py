@@ -21,8 +21,9 @@ import logging
 import math
 import re
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any, Callable, Optional, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -36,7 +37,7 @@ log = logging.getLogger(__name__)
 #: the study's probe accuracy: every probe within 0.5 % of the reference
 TOLERANCE = 0.005
 
-Progress = Callable[[str, Optional[float]], None]
+Progress = Callable[[str, float | None], None]
 
 
 @dataclass(frozen=True)
@@ -147,9 +148,9 @@ def uniform_mesher(model) -> Callable[[float], Any]:
     """A function ``h -> Mesh``: uniform quality meshes of edge ~h of ``model`` (its
     feature-tree discontinuities embedded, :func:`hetmesh.tri.uniform.uniform_at`), sharing
     one prepared domain."""
-    from ..tri.pipeline import prepare
-    from ..tri.discontinuity import embed_discontinuities
     from ..mesh import Mesh
+    from ..tri.discontinuity import embed_discontinuities
+    from ..tri.pipeline import prepare
     from ..tri.uniform import uniform_at
 
     ctx, frame = prepare(embed_discontinuities(model), 0.1, None)

@@ -37,7 +37,6 @@ from . import textio
 from .groups import curve_groups
 from .textio import check_ids
 
-
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 

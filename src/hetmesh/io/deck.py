@@ -180,8 +180,8 @@ def name_from_model(mesh: Mesh, model) -> Mesh:
     ``m - 1`` of the model as meshed (discontinuities embedded), checked node by node."""
     import dataclasses
 
-    from ..tri.discontinuity import embed_discontinuities
     from ..fea.config import ON_BOUNDARY
+    from ..tri.discontinuity import embed_discontinuities
 
     tol = ON_BOUNDARY * model.domain.diameter
     changes = {}
@@ -229,7 +229,8 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
     try:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OptionError(f"cannot create the output directory {directory}: {exc.strerror}") from None
+        raise OptionError(f"cannot create the output directory {directory}: "
+                          f"{exc.strerror}") from None
     material = element_material(mesh, model, cfg)
     width = bin_width if bin_width is not None else float(max(material.delta.max(initial=0), 1e-3))
     bins = bin_material(material, min(width, 1.0), cfg, model.material.constituents)

@@ -29,9 +29,10 @@ from __future__ import annotations
 
 import logging
 import re
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Mapping
+from typing import TYPE_CHECKING
 
 import meshio
 import numpy as np
@@ -41,11 +42,11 @@ from . import abaqus, gmsh_msh, xdmf
 from .atomic import atomic_path, atomic_write  # atomic_write re-exported (docs/internals.md)
 from .textio import float_pad, region_tag_offset
 
-
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 
-__all__ = ["FORMATS", "FILE_FORMATS", "MeshFormat", "write_mesh", "read_mesh_arrays", "region_tag_offset",
+__all__ = ["FORMATS", "FILE_FORMATS", "MeshFormat", "write_mesh", "read_mesh_arrays",
+           "region_tag_offset",
            "atomic_write"]
 
 log = logging.getLogger(__name__)
@@ -78,7 +79,7 @@ class MeshFormat:
     name: str
     meshio_format: str
     options: Mapping = field(default_factory=dict)
-    writer: Callable[[Mesh, Path, "MeshFormat"], None] | None = None
+    writer: Callable[[Mesh, Path, MeshFormat], None] | None = None
     meshio_writer: str | None = None
     dims: tuple[int, ...] = (2,)
 
@@ -172,7 +173,8 @@ FILE_FORMATS: dict[str, MeshFormat] = {
 
 FORMATS: dict[str, MeshFormat] = {
     ext: FILE_FORMATS[name] for ext, name in [(".vtu", "vtu"), (".vtk", "vtk"), (".xdmf", "xdmf"),
-                                              (".msh", "gmsh41"), (".inp", "abaqus"), (".mesh", "medit")]
+                                              (".msh", "gmsh41"), (".inp", "abaqus"),
+                                              (".mesh", "medit")]
 }
 """The default format of every known extension."""
 

@@ -43,7 +43,6 @@ from . import textio
 from .groups import curve_ends, curve_groups, node_entities, point_entities
 from .textio import check_ids, float_pad, region_tag_offset
 
-
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 
@@ -185,7 +184,8 @@ def write_msh41(mesh: Mesh, path: Path, fmt=None) -> None:
             ids = tri_order[a:b]
             surface = int(np.searchsorted(regions, mesh.regions[ids[0]])) + 1
             f.write(f"2 {surface} 2 {b - a}\n")
-            textio.write_rows(f, "%d %d %d %d\n", np.column_stack([ids + 1, mesh.triangles[ids] + 1]))
+            textio.write_rows(f, "%d %d %d %d\n",
+                              np.column_stack([ids + 1, mesh.triangles[ids] + 1]))
         f.write("$EndElements\n")
         for name, v in mesh.point_data.items():
             _write_data(f, "NodeData", name, node_order + 1, np.asarray(v)[node_order], path)

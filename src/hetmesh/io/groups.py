@@ -12,13 +12,10 @@ Pure numpy; shared by the Gmsh, Abaqus and XDMF writers.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from dataclasses import dataclass
-
 import numpy as np
-
-
 
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh

@@ -23,13 +23,13 @@ boundary conditions not needed) and its mixing rule (``linear`` or ``mori-tanaka
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import FEAError, OptionError
-
 
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
@@ -103,8 +103,8 @@ def material_config(model):
 def element_material(mesh: Mesh, model, config=None) -> ElementMaterial:
     """Mean compositions, vertex ranges and mixed properties of every element of ``mesh``
     (a mesh of ``model``, in its coordinates)."""
-    from ..material.field import element_subregions, has_subregions
     from ..fea.mixing import mix_config
+    from ..material.field import element_subregions, has_subregions
 
     cfg = config if config is not None else material_config(model)
     field = model.material

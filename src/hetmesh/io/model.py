@@ -16,22 +16,22 @@ import logging
 import math
 import os
 import tomllib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib.resources import files
 from pathlib import Path
-from typing import Callable, Mapping
 
 import numpy as np
 
 from ..errors import GeometryError, MaterialError, ModelFileError
 from ..expr import FUNCTIONS
 from ..fea.config import FEAConfig, parse_fea
-from .schema import SchemaContext, describe
-from ..tri.geometry import Arc, Domain, Loop, Segment, make_domain
-from ..tri.geometry import Path as CurvePath
 from ..material import AnalyticField, MaterialField, check_field
 from ..material.hft import parse_hft
 from ..material.image.parse import parse_image, parse_image_model
+from ..tri.geometry import Arc, Domain, Loop, Segment, make_domain
+from ..tri.geometry import Path as CurvePath
+from .schema import SchemaContext, describe
 
 __all__ = ["Model", "load_model", "parse_model", "example_path", "MATERIAL_TYPES", "MAX_FILE_BYTES"]
 

@@ -9,7 +9,6 @@ import numpy as np
 
 from ..errors import OutputError
 
-
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 
@@ -39,7 +38,8 @@ def float_pad(a: np.ndarray, n: int) -> np.ndarray:
 def check_ids(mesh: Mesh, path: Path, what: str, *, markers: bool = False) -> None:
     """Ids that name sets and physical groups: regions >= 0 (and edge markers >= 1)."""
     if mesh.n_elements and mesh.regions.min() < 0:
-        raise OutputError(f"cannot write {path}: {what} needs regions >= 0, got {mesh.regions.min()}")
+        raise OutputError(f"cannot write {path}: {what} needs regions >= 0, got "
+                          f"{mesh.regions.min()}")
     if markers and len(mesh.edges) and mesh.edge_markers.min() < 1:
         raise OutputError(f"cannot write {path}: {what} needs edge markers >= 1, "
                           f"got {mesh.edge_markers.min()}")

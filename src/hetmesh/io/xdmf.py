@@ -24,10 +24,9 @@ does. :func:`read_xdmf` reads this layout (ElementTree + h5py).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
@@ -35,7 +34,6 @@ import numpy as np
 from ..errors import OutputError
 from .atomic import atomic_path
 from .groups import curve_groups
-
 
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh

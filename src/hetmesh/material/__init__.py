@@ -9,8 +9,17 @@
 from __future__ import annotations
 
 from .analytic import AnalyticField, CallableField, check_constituents
-from .field import (TOLERANCE, MaterialField, PiecewiseField, as_points, check_field,
-                    element_subregions, field_dim, has_subregions, sample_domain)
+from .field import (
+                    TOLERANCE,
+                    MaterialField,
+                    PiecewiseField,
+                    as_points,
+                    check_field,
+                    element_subregions,
+                    field_dim,
+                    has_subregions,
+                    sample_domain,
+)
 
 __all__ = [
     "PiecewiseField",

@@ -23,8 +23,8 @@ has no ``region`` (``n_regions`` is 1) and ignores the ``region`` keyword.
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from collections.abc import Sequence as _SequenceABC
-from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -160,7 +160,7 @@ class Shiftable:
         """The offset added to the points before evaluation (zeros unless shifted)."""
         return self._offset_xy.copy()
 
-    def shifted(self, offset) -> "Shiftable":
+    def shifted(self, offset) -> Shiftable:
         """The same field evaluated at ``points + offset``.
 
         ``f.shifted(a).composition(p)`` equals ``f.composition(p + a)``; shifts add up.

@@ -4,7 +4,8 @@ A material field maps points ``(N, d)`` (d = 2 or 3, its ``dim``) to composition
 (volume fractions of the ``m`` constituents, rows summing to 1) and their gradients
 ``(N, m, d)``. Any object with ``constituents``, ``composition`` and ``gradient`` is a field
 (duck typing; see :class:`MaterialField`; without a ``dim`` it is a 2D field). A field with
-subregions (a feature tree, formulas with jumps) is a :class:`PiecewiseField`. :func:`check_field` samples a field densely over a domain and raises
+subregions (a feature tree, formulas with jumps) is a :class:`PiecewiseField`.
+:func:`check_field` samples a field densely over a domain and raises
 :class:`~hetmesh.errors.MaterialError` naming the constituent and a coordinate where it is
 not a valid composition.
 """

@@ -32,10 +32,10 @@ import math
 import os
 import platform
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
-from typing import Callable, Optional, Sequence
 
 from ..errors import HetmeshError, OptionError
 from ..io.atomic import output_dir
@@ -46,7 +46,7 @@ __all__ = ["run", "Report", "CASES", "plan", "fea_study_function"]
 
 log = logging.getLogger(__name__)
 
-Progress = Callable[[str, Optional[float]], None]
+Progress = Callable[[str, float | None], None]
 
 
 @dataclass
@@ -105,7 +105,7 @@ def _environment(command: str | None) -> dict:
     return {"hetmesh": __version__, "python": platform.python_version(),
             "numpy": numpy.__version__, "platform": platform.platform(),
             "cpus": os.cpu_count(),
-            "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
             "command": command or ""}
 
 
@@ -149,8 +149,8 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
     OutputError
         ``out`` cannot be created or written.
     """
-    from ..io.model import example_path, load_model
     from .. import peers as peer_module
+    from ..io.model import example_path, load_model
     from .report import render, write_report
 
     t_start = time.perf_counter()

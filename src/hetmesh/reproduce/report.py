@@ -8,8 +8,9 @@ its header.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 from .. import peers as pc
 from ..io.atomic import atomic_write
@@ -114,7 +115,7 @@ def stats_table(runs) -> list[str]:
             mr = getattr(r, kind)
             paper = paper_row(case, kind, r.threshold)
             cells = [r.case, num(r.threshold, 2), kind]
-            for label, key, digits in STAT_COLUMNS:
+            for _label, key, digits in STAT_COLUMNS:
                 cells.append(num(getattr(mr.stats, key), digits))
                 pv = num(getattr(paper, key), digits) if paper else NA
                 if paper and key in NOTE_KEYS.get(paper.note, ()):

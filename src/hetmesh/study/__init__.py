@@ -22,8 +22,8 @@ from __future__ import annotations
 import logging
 import os
 import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Callable, Mapping
 
 from ..errors import OptionError
 from ..io.atomic import output_dir
@@ -95,7 +95,8 @@ def sweep(study, client=None, *, workers: int | None = None, scheduler: str | No
 
     Examples
     --------
-    >>> t = hetmesh.sweep("examples/studies/sweep.toml", workers=2, out="sweep-out")  # doctest: +SKIP
+    >>> t = hetmesh.sweep("examples/studies/sweep.toml", workers=2,  # doctest: +SKIP
+    ...                   out="sweep-out")
     >>> t.groupby("model")["n_elements"].max()                                 # doctest: +SKIP
     """
     if client is not None and (workers is not None or scheduler is not None or serial):

@@ -18,11 +18,12 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-from concurrent.futures.process import BrokenProcessPool
 import logging
 import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any
 
 from ..errors import OptionError
 
@@ -102,8 +103,9 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
             else:
                 client = Client(scheduler, timeout=timeout)
         except (OSError, TimeoutError, ValueError) as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else "no answer"
             raise OptionError(f"--scheduler {scheduler}: cannot connect "
-                              f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'})") from None
+                              f"({type(exc).__name__}: {reason})") from None
         with client:
             log.info("connected to the Dask scheduler at %s", scheduler)
             yield client

@@ -87,8 +87,7 @@ def _model(spec: dict):
 
 
 def _mesh(spec: dict, model):
-    from ..tri.pipeline import generate
-    from ..tri import uniform
+    from ..meshing import generate, uniform
 
     opts = dict(spec["options"])
     if spec["method"] == "uniform":

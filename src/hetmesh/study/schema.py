@@ -17,13 +17,19 @@ import logging
 import math
 import os
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from ..errors import OptionError
-from ..options import (DEFAULT_CHORD_TOL, DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, SAMPLINGS,
-                       check_options)
+from ..options import (
+    DEFAULT_CHORD_TOL,
+    DEFAULT_MAX_ELEMENTS,
+    DEFAULT_ROW_SPACING,
+    SAMPLINGS,
+    check_options,
+)
 from .keys import content_key, text_digest
 
 __all__ = ["Study", "load_study", "parse_study", "METHODS", "RUN_KEYS", "MESH_FORMATS",
@@ -301,8 +307,8 @@ def resolve_model(ref: str, base: Path, w: _Where | None = None,
 
     The model is loaded once here, so that a bad model fails the study before any run.
     """
-    from ..io.model import example_path, load_model
     from ..errors import HetmeshError
+    from ..io.model import example_path, load_model
 
     w = w or _Where("study")
     is_path = ref.endswith(".toml") or "/" in ref or os.sep in ref
@@ -330,8 +336,8 @@ def _cost_model(base: Path, ref: str):
     """``(threshold, max_size) -> expected elements`` of a model (the a-priori count of
     equilateral elements of side ``min(delta_0 / |grad f|, max_size)``), so that a cluster can
     start the longest runs first and no long run is left alone at the end."""
-    from ..io.model import example_path, load_model
     from ..density import background_points, gradient_norm, integrate, size_at
+    from ..io.model import example_path, load_model
 
     is_path = ref.endswith(".toml") or "/" in ref or os.sep in ref
     model = load_model(base / ref if is_path else example_path(ref), check=False)

@@ -62,8 +62,16 @@ from __future__ import annotations
 
 from .check import independent_check
 from .geometry import MIN_CORNER_DEG
-from .models import (ELEMENT_BUDGET, FAMILIES, HARD_TAGS, RandomModel, bump_toml, estimate,
-                     random_model, robust_suite)
+from .models import (
+    ELEMENT_BUDGET,
+    FAMILIES,
+    HARD_TAGS,
+    RandomModel,
+    bump_toml,
+    estimate,
+    random_model,
+    robust_suite,
+)
 
 __all__ = ["RandomModel", "random_model", "robust_suite", "independent_check", "estimate",
            "bump_toml", "FAMILIES", "ELEMENT_BUDGET", "MIN_CORNER_DEG", "HARD_TAGS"]

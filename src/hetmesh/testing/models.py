@@ -170,10 +170,12 @@ def model_toml(name: str, geo: Geometry, formula: str, params: dict, tags) -> st
             out.append(f"  {{ to = {toml_point(to)}, through = {toml_point(extra)} }},")
         else:
             c, direction = extra
-            out.append(f'  {{ to = {toml_point(to)}, center = {toml_point(c)}, direction = "{direction}" }},')
+            out.append(f'  {{ to = {toml_point(to)}, center = {toml_point(c)}, '
+                       f'direction = "{direction}" }},')
     out += ["]", ""]
     for c, r in geo.holes:
-        out += ["[[domain.holes]]", f"circle = {{ center = {toml_point(c)}, radius = {toml_float(r)} }}", ""]
+        out += ["[[domain.holes]]",
+                f"circle = {{ center = {toml_point(c)}, radius = {toml_float(r)} }}", ""]
     if geo.interface:
         pts = geo.interface
         out += ["[[domain.interfaces]]", f"start = {toml_point(pts[0])}",

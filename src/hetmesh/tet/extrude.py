@@ -32,10 +32,10 @@ import time
 import numpy as np
 
 from ..errors import BudgetError, MeshingError
+from .faces import boundary_faces
 from .mesher import BETA, MAX_PASSES, TetResult
 from .quality import delta_tets, volumes
 from .refine import bisect_edges, select_edges
-from .faces import boundary_faces
 from .verify import tet_problems
 
 __all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]

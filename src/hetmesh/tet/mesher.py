@@ -33,11 +33,11 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from ..errors import BudgetError, GeometryError, MeshingError, OptionError
+from .faces import boundary_faces
 from .field3d import scalar_column
 from .place import BOUNDARY_GAP, arc_count, column_roots, level_values, section_points
 from .quality import delta_tets, min_dihedral, volumes
 from .refine import bisect_edges, select_edges
-from .faces import boundary_faces
 from .verify import verify_tets
 
 __all__ = ["TetResult", "generate_tets", "estimate_tets", "n_iso3", "is_planar", "BETA"]

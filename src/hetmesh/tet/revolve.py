@@ -32,10 +32,10 @@ import numpy as np
 
 from ..errors import GeometryError, VerificationError
 from .extrude import prism_tets
+from .faces import boundary_faces
 from .mesher import TetResult
 from .quality import delta_tets, volumes
 from .refine import repair
-from .faces import boundary_faces
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
            "profile_field"]

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mesh import Mesh
 from ..errors import VerificationError
+from ..mesh import Mesh
 from .quality import delta_tets, volumes
 
 __all__ = ["verify_tets", "tet_problems"]

@@ -4,9 +4,9 @@ One Lloyd iteration (paper Sec. 3.1.1, steps ii-iii) moves every generator to th
 rho-centroid of its Voronoi cell, Eq. (3). The cell of vertex ``i`` in a Delaunay triangulation
 is assembled from the pieces of its incident triangles: in triangle (i, j, k) with circumcenter
 ``o`` the part closer to ``i`` is the quadrilateral (x_i, m_ij, o, m_ki), split here into two
-signed sub-triangles; integrals use one-point quadrature (rho at the triangle's centroid, moments at the
-sub-triangle centroids). At the
-domain boundary the cell is cut at the boundary edges' midpoints, which is the clipped cell.
+signed sub-triangles; integrals use one-point quadrature (rho at the triangle's centroid,
+moments at the sub-triangle centroids). At the domain boundary the cell is cut at the
+boundary edges' midpoints, which is the clipped cell.
 
 Conforming CVT (Ju's CfCVDT, Du & Gunzburger): boundary and interface generators move only
 along their own curve and keep their order on it; corners and named points stay fixed. Those
@@ -73,7 +73,7 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     block_map(centres, m)
     # density at the triangle centroid, one evaluation per triangle
     rt = np.ones(m) if rho is None else rho(cen)
-    del cen
+    cen = None  # the centroids are no longer needed
     # the cells' sums over the points the triangles use (all points for a global step)
     if 3 * m < n:
         used, inv = np.unique(t, return_inverse=True)
@@ -89,7 +89,7 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     for c, (u, v) in ((0, (1, 2)), (1, (2, 0)), (2, (0, 1))):
         for first in (True, False):
 
-            def sub(s):
+            def sub(s, c=c, u=u, v=v, first=first):
                 tt = t[s]
                 cx_, cy_ = x[tt[:, c]], y[tt[:, c]]
                 # the midpoints of the edges (c, c+1) and (c-1, c), summed in that order

@@ -19,7 +19,8 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   level) and, as a second candidate, freely. A node takes the candidate that raises its
   star's mean quality most among those that keep, for every element of its star,
   (a) a positive orientation, (b) delta(T) < delta_0 (less a relative 1e-3, against
-  rounding elsewhere) evaluated exactly as the repair loop does (same sampling; each element in its own subregion for feature-tree fields),
+  rounding elsewhere) evaluated exactly as the repair loop does (same sampling; each element in
+  its own subregion for feature-tree fields),
   (c) the smallest angle at least the floor or its old value, and (d) the star's minimum
   quality no lower than before. (b) is the costly test: it is made only for each node's best
   geometric candidate, then its next best where that fails.
@@ -51,10 +52,10 @@ import logging
 
 import numpy as np
 
+from ..delta import element_delta
 from ..material.field import element_subregions, has_subregions
 from ..mesh import any_corner, edge_keys, edge_order
 from ..metrics import signed_area2, triangle_areas2
-from ..delta import element_delta
 from ..parallel import block_concat
 from .workset import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 

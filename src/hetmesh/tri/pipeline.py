@@ -8,8 +8,9 @@
   conforming CVT (``method="cvt"``: density-sampled nodes + Lloyd iterations, Sec. 3.2.3) or by
   aligning rows of nodes with the iso-composition curves (``method="layers"``, see
   :mod:`hetmesh.tri.layers`); the default ``method="auto"`` uses the rows, and on small models
-  both placements, keeping the better mesh; then elements with delta(T) >= delta_0 are refined (Eq. 13; we
-  split the edge carrying the largest composition jump, which removes both triangles sharing
+  both placements, keeping the better mesh; then elements with delta(T) >= delta_0 are refined
+  (Eq. 13; we split the edge carrying the largest composition jump, which removes both triangles
+  sharing
   it) and the new nodes are smoothed locally by conforming Lloyd steps, until
   delta_max < delta_0 (Eq. 1);
 * GOR: Delaunay refinement of triangles below the minimum angle or the quality floor

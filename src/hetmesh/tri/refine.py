@@ -20,11 +20,27 @@ from scipy.spatial import cKDTree
 from ..errors import MeshingError
 from ..mesh import any_corner, edge_keys
 from ..metrics import circumcircles, quality, quality_and_angle, side_lengths, triangle_angles
-from ..refinement import (carried, carry, cell_delta, check_budget, check_progress,
-                          composition_at, largest_jump_edges, round_record)
+from ..refinement import (
+    carried,
+    carry,
+    cell_delta,
+    check_budget,
+    check_progress,
+    composition_at,
+    largest_jump_edges,
+    round_record,
+)
 from .corners import corner_exempt, sharp_corners, shell_split
-from .workset import (Context, WorkSet, add_free_points, lineage, smooth,
-                      split_constraint_edges, thin_candidates_mask, triangulate)
+from .workset import (
+    Context,
+    WorkSet,
+    add_free_points,
+    lineage,
+    smooth,
+    split_constraint_edges,
+    thin_candidates_mask,
+    triangulate,
+)
 
 __all__ = ["repair", "evaluate", "below_floor", "copy_workset", "restore_workset",
            "too_long", "POLISH_ROUNDS", "POLISH_GROWTH"]
@@ -118,7 +134,8 @@ def repair(ws: WorkSet, ctx: Context, *, min_angle_deg: float, min_quality: floa
             if src is None:
                 q, ang = quality_and_angle(ws.P, tris)
             else:
-                q, ang = carry(src, state[3:], lambda r: quality_and_angle(ws.P, tris[r]))
+                q, ang = carry(src, state[3:],  # called now: binding tris late is safe
+                               lambda r: quality_and_angle(ws.P, tris[r]))  # noqa: B023
             state = None if lin is None else lin + (delta, q, ang)
         qfloor = min_quality if rnd < quality_rounds else (
             min(min_quality, 0.5) if rnd < angle_rounds else 0.0)
@@ -288,16 +305,17 @@ def _off_centers(P, t, angle_deg: float):
     """
     cc, r = circumcircles(P, t)
     p3 = P[t]
-    ln = np.stack([np.linalg.norm(p3[:, (k + 2) % 3] - p3[:, (k + 1) % 3], axis=1) for k in range(3)], 1)
+    ln = np.stack([np.linalg.norm(p3[:, (k + 2) % 3] - p3[:, (k + 1) % 3], axis=1)
+                   for k in range(3)], 1)
     k = ln.argmin(axis=1)
     i = np.arange(len(t))
     p = p3[i, (k + 1) % 3]
     q = p3[i, (k + 2) % 3]
     m = 0.5 * (p + q)
-    l = ln[i, k]
+    short = ln[i, k]
     d = cc - m
     dc = np.linalg.norm(d, axis=1)
-    h = l / (2.0 * np.tan(np.radians(angle_deg) / 2.0))
+    h = short / (2.0 * np.tan(np.radians(angle_deg) / 2.0))
     use = (h < dc) & (dc > 0)
     out = cc.copy()
     out[use] = m[use] + (d[use] / dc[use, None]) * h[use, None]

@@ -13,15 +13,15 @@ import time
 
 import numpy as np
 
+from ..density import background_points, gradient_norm
+from ..errors import BudgetError
 from ..kernel import Result
+from ..options import DEFAULT_MAX_ELEMENTS, check_options
+from .discontinuity import embed_discontinuities
 from .finish import CHORD_TOL, finish
+from .geometry import build_pslg
 from .pipeline import prepare
 from .refine import evaluate, repair
-from .discontinuity import embed_discontinuities
-from ..errors import BudgetError
-from ..options import DEFAULT_MAX_ELEMENTS, check_options
-from ..density import background_points, gradient_norm
-from .geometry import build_pslg
 from .workset import Context, add_free_points, smooth, triangulate, workset_from_pslg
 
 __all__ = ["uniform", "uniform_at"]
@@ -52,9 +52,9 @@ def uniform_at(ctx: Context, h: float, *, min_angle_deg=30.0, min_quality=0.6,
     if est > 4 * max_elements:
         raise BudgetError(f"a uniform mesh of size {h:.3g} needs ~{2 * est:,} elements, above the "
                           f"budget of {max_elements:,}")
-    J, I = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
-    X = x0 + I * h + (J % 2) * 0.5 * h
-    Y = y0 + J * dy
+    row, col = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    X = x0 + col * h + (row % 2) * 0.5 * h
+    Y = y0 + row * dy
     pts = np.column_stack([X.ravel(), Y.ravel()])
     pts = pts[ctx.domain.contains(pts)]
     if len(pts):

@@ -27,12 +27,12 @@ Examples
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
-from .geometry.curves import CurveBatch
 from ..mesh import edge_keys
+from .geometry.curves import CurveBatch
 
 __all__ = ["chord_sagitta", "chord_problems", "chord_areas", "coverage_problems",
            "mesh_model_problems", "CHORD_SLACK", "AREA_SLACK", "ON_BOUNDARY_TOL"]

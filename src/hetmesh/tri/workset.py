@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import cvt
 from .. import density as dens
 from ..material.field import field_dim
-from ..topology import any_corner, points_near
 from ..parallel import BLOCK, block_concat
+from ..topology import any_corner, points_near
+from . import cvt
 from .cdt import constrained_delaunay, patch
 
 if TYPE_CHECKING:

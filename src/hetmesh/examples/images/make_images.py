@@ -37,7 +37,7 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
     models = write_examples(a.out, shape=(a.size[1], a.size[0]), noise=a.noise, seed=a.seed)
-    for name, path in models.items():
+    for path in models.values():
         print(f"wrote {path} (and the images it reads)")
     return 0
 

@@ -107,8 +107,14 @@ domain (a point, or one of 64 samples of a curve, farther than 1e-6 x the domain
 
 from __future__ import annotations
 
-from .features import (BlendFeature, CurveFeature, NearestFeature, PointFeature,
-                       SelectFeature, inside_predicate)
+from .features import (
+    BlendFeature,
+    CurveFeature,
+    NearestFeature,
+    PointFeature,
+    SelectFeature,
+    inside_predicate,
+)
 from .field import HFTField
 from .parse import parse_hft
 

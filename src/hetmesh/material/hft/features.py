@@ -20,7 +20,7 @@ equidistant from two children take the first child: never NaN.
 from __future__ import annotations
 
 import math
-from typing import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -256,7 +256,7 @@ class _Parent:
         else:
             owner, sub = self._split(np.asarray(region))
         out = np.empty(len(p))
-        for k, child, idx in self._groups(owner):
+        for _, child, idx in self._groups(owner):
             out[idx] = child.distance(p[idx], None if sub is None else sub[idx])
         return out
 
@@ -577,7 +577,9 @@ class BlendFeature:
     def curves(self) -> list:
         return []
 
-    def _children(self, p, region):
+    def evaluate_children(self, p, region):
+        """The first and second features evaluated at ``p`` (in the subregions ``region``
+        encodes, if given)."""
         r1 = r2 = None
         if region is not None:
             r1, r2 = np.divmod(np.asarray(region, dtype=np.int64), self.n2)
@@ -585,7 +587,9 @@ class BlendFeature:
         e2 = e1 if self.second is self.first else self.second.evaluate(p, r2)
         return e1, e2
 
-    def _weight(self, p, e1, e2):
+    def weight(self, p, e1, e2):
+        """The blend weight ``W`` ``(N,)``, its gradient ``(N, 2)`` and the subregion
+        (that of the pair of the children's) at ``p``, given the children's evaluations."""
         cache = {id(self.first): e1, id(self.second): e2}
         dv, dg = {}, {}
         for var, feat in self.distances.items():
@@ -668,8 +672,8 @@ class BlendFeature:
         return np.where(mono, np.maximum(lo, mlo), lo), np.where(mono, np.minimum(hi, mhi), hi)
 
     def evaluate(self, p, region=None) -> _Eval:
-        e1, e2 = self._children(p, region)
-        W, dW, reg = self._weight(p, e1, e2)
+        e1, e2 = self.evaluate_children(p, region)
+        W, dW, reg = self.weight(p, e1, e2)
         delta = e1.comp - e2.comp
         comp = e2.comp + W[:, None] * delta  # Eqs. (19), (27): W M_1 + (1 - W) M_2
         dcomp = delta[:, :, None] * dW[:, None, :]

@@ -4,14 +4,14 @@ interface (composition, exact gradient, owning subregion), paper Section 3.3.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ...errors import MaterialError
 from ..analytic import Shiftable, check_constituents
 from ..field import as_points, sample_domain
-from .features import BlendFeature, PointFeature, LeafFeature, reached, walk
+from .features import BlendFeature, LeafFeature, PointFeature, reached, walk
 
 __all__ = ["HFTField", "OUTSIDE_TOL"]
 
@@ -185,8 +185,8 @@ class HFTField(Shiftable):
         for feat, p in reached(self.root, as_points(points)):
             if not isinstance(feat, BlendFeature):
                 continue
-            e1, e2 = feat._children(p, None)
-            W, _, reg = feat._weight(p, e1, e2)
+            e1, e2 = feat.evaluate_children(p, None)
+            W, _, reg = feat.weight(p, e1, e2)
             widx = feat.weight_of_region[reg]
             excess = np.where(np.isfinite(W), np.maximum(W - 1.0, -W), np.inf)
             i = int(np.argmax(excess)) if len(W) else 0

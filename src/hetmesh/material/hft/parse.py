@@ -5,8 +5,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from contextlib import contextmanager
-from typing import Callable, Mapping
 
 import numpy as np
 
@@ -15,8 +15,14 @@ from ...expr import compile_expr
 from ...io.schema import describe
 from ...tri.geometry import Arc, Segment
 from ..analytic import check_constituents
-from .features import (BlendFeature, CurveFeature, NearestFeature, PointFeature,
-                       SelectFeature, inside_predicate)
+from .features import (
+    BlendFeature,
+    CurveFeature,
+    NearestFeature,
+    PointFeature,
+    SelectFeature,
+    inside_predicate,
+)
 from .field import HFTField
 
 __all__ = ["parse_hft", "BUILDERS", "FeatureTree"]

@@ -5,15 +5,15 @@
 from __future__ import annotations
 
 import copy
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ...errors import MaterialError
 from ..field import as_points
 from .maps import ValueMap
-from .sampling import element_pixel_delta
 from .read import Image, image_error
+from .sampling import element_pixel_delta
 
 __all__ = ["ImageField", "LabelField", "image_field", "covers", "INTERPOLATIONS"]
 
@@ -111,7 +111,7 @@ class ImageField:
                 f"interpolation={self.interpolation!r}, smoothing={self.smoothing:g})")
 
     # -- the MaterialField interface
-    def shifted(self, offset) -> "ImageField":
+    def shifted(self, offset) -> ImageField:
         """The same field evaluated at ``points + offset``."""
         new = copy.copy(self)
         new._offset = self._offset + np.asarray(offset, float).reshape(self.dim)
@@ -280,7 +280,7 @@ class LabelField:
     def describe_jump(self, a: int, b: int) -> str:
         return f"{self.source}: between {self.region_names[a]} and {self.region_names[b]}"
 
-    def shifted(self, offset) -> "LabelField":
+    def shifted(self, offset) -> LabelField:
         new = copy.copy(self)
         new._offset = self._offset + np.asarray(offset, float).reshape(2)
         return new

@@ -5,8 +5,8 @@ levels, a lookup table, one channel or file per constituent), checked pixel by p
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

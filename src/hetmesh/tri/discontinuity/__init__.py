@@ -34,8 +34,14 @@ from __future__ import annotations
 from .check import crossing_elements
 from .embed import embed_discontinuities, embedded_count
 from .fit import fit_curves
-from .regions import (BISECT, DISCONTINUITY, FIT_TOL, GRID_CELLS, MAX_CROSSINGS_PER_CELL,
-                      Discontinuity)
+from .regions import (
+                      BISECT,
+                      DISCONTINUITY,
+                      FIT_TOL,
+                      GRID_CELLS,
+                      MAX_CROSSINGS_PER_CELL,
+                      Discontinuity,
+)
 from .trace import trace_discontinuities
 
 __all__ = ["Discontinuity", "DISCONTINUITY", "trace_discontinuities",

@@ -11,11 +11,17 @@ import numpy as np
 import shapely
 
 from ...errors import GeometryError, MaterialError
+from ...material.field import has_subregions
 from ..geometry import Arc, Path, Segment, make_domain
 from .fit import fit_curves
-from ...material.field import has_subregions
-from .regions import (DISCONTINUITY, FIT_TOL, GRID_CELLS, MAX_CROSSINGS_PER_CELL,
-                      Discontinuity, DomainRegions)
+from .regions import (
+    DISCONTINUITY,
+    FIT_TOL,
+    GRID_CELLS,
+    MAX_CROSSINGS_PER_CELL,
+    Discontinuity,
+    DomainRegions,
+)
 from .trace import Untraceable, trace_discontinuities
 
 __all__ = ["embed_discontinuities", "embedded_count"]

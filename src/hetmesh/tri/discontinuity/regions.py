@@ -9,7 +9,8 @@ import numpy as np
 
 from ...errors import MaterialError
 
-__all__ = ["Discontinuity", "DomainRegions", "DISCONTINUITY", "GRID_CELLS", "FIT_TOL", "BISECT", "MAX_CROSSINGS_PER_CELL"]
+__all__ = ["Discontinuity", "DomainRegions", "DISCONTINUITY", "GRID_CELLS", "FIT_TOL", "BISECT",
+           "MAX_CROSSINGS_PER_CELL"]
 
 #: name prefix of the interface paths holding discontinuities
 DISCONTINUITY = "discontinuity"

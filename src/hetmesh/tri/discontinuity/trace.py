@@ -200,8 +200,8 @@ def trace_discontinuities(field, bounds, *, cells: int = GRID_CELLS,
             links.append((int(cr[0]), int(cr[1])))
         elif len(cr) == 4:  # saddle: the centre decides which corners are connected
             cen = field.region(np.array([[xs[i] + 0.5 * h, ys[j] + 0.5 * h]]))[0]
-            b, r, t, l = (int(e) for e in edges)
-            links += [(b, r), (t, l)] if cen == c00[j, i] else [(b, l), (t, r)]
+            b, r, t, lf = (int(e) for e in edges)
+            links += [(b, r), (t, lf)] if cen == c00[j, i] else [(b, lf), (t, r)]
     if extra:
         P = np.vstack([P, np.array(extra)])
         pairs = np.vstack([pairs, np.full((len(extra), 2), -1)])

@@ -17,9 +17,9 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable, Sequence, Union
 
 import numpy as np
 import shapely
@@ -45,7 +45,7 @@ REL_TOL = 1e-9  # relative geometric tolerance (times the length scale)
 
 MAX_SAMPLES = 50_000_000  # most points sample_parameters places
 
-SizeLike = Union[float, Callable[[np.ndarray], np.ndarray]]
+SizeLike = float | Callable[[np.ndarray], np.ndarray]
 
 
 # ----------------------------------------------------------------------------- formatting
@@ -344,7 +344,7 @@ class Arc:
         return sample_parameters([self], size, chord_tol)[1]
 
 
-Curve = Union[Segment, Arc]
+Curve = Segment | Arc
 
 
 def _arc_project(dx, dy, theta0, sweep) -> np.ndarray:
@@ -377,6 +377,10 @@ class CurveBatch:
     theta0: np.ndarray
     sweep: np.ndarray
     length: np.ndarray
+
+    def slice(self, i0: int, i1: int) -> CurveBatch:
+        """The curves ``i0`` to ``i1 - 1`` as a batch."""
+        return CurveBatch(*(getattr(self, f)[i0:i1] for f in self.__dataclass_fields__))
 
     @classmethod
     def from_curves(cls, curves: Sequence[Curve]) -> CurveBatch:

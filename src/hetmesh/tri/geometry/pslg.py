@@ -85,7 +85,7 @@ def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -
     domain : Domain
         A validated domain.
     size : float or callable ``(N, 2) -> (N,)``
-        Target edge length along the curves (see :func:`~hetmesh.tri.geometry.curves.sample_parameters`).
+        Target edge length along the curves (see :func:`.curves.sample_parameters`).
     chord_tol : float, optional
         Largest distance between an arc and its chords; ``1e-3 * diameter`` by default.
 

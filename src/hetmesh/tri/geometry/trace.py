@@ -191,11 +191,11 @@ def _chains(ea, eb, el, er, W, junction, saddle, join1) -> list[Chain]:
     return out
 
 
-def _make(pos, verts, l, r, forward, vcorner, closed=False) -> list[Chain]:
+def _make(pos, verts, left, right, forward, vcorner, closed=False) -> list[Chain]:
     """The marching-squares polyline of one walk: the midpoints of its pixel edges, from
     junction to junction (the junction corners kept as ends); a closed boundary (or one
     returning to its junction) is cut in two at the point farthest from its start."""
-    lab_l, lab_r = (int(l), int(r)) if forward else (int(r), int(l))
+    lab_l, lab_r = (int(left), int(right)) if forward else (int(right), int(left))
     p = pos[verts]
     mids = 0.5 * (p[:-1] + p[1:])
     ids = [int(vcorner[verts[0]]), int(vcorner[verts[-1]])]

@@ -13,9 +13,9 @@ from .fill import fill_flat_zones
 from .grading import grade_levels
 from .levels import piece_levels
 from .pieces import Pieces
+from .rows import place_rows
 from .rowstep import row_step_at
 from .stagger import STAGGER_ITERS, stagger
-from .rows import place_rows
 
 log = logging.getLogger(__name__)
 

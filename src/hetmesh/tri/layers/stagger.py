@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...topology import any_corner
 from ...parallel import block_map, blocks
+from ...topology import any_corner
 from .. import cvt
 from ..workset import FREE, Context, WorkSet, slide_along_rows, triangulate
 
