@@ -310,3 +310,14 @@ def test_a_run_whose_process_dies_is_reported_lost(tmp_path):
     ok_out, ok_got, error = run.stdout.strip().split(" ", 2)
     assert ok_out == "True" and ok_got == "True"
     assert error.startswith("lost: BrokenProcessPool")
+
+
+def test_a_uniform_run_meshes_the_uniform_baseline():
+    """method = "uniform" meshes the uniform baseline (through hetmesh.meshing, as
+    hetmesh.uniform does)."""
+    spec = parse_study({"runs": [{"model": "unit_square", "threshold": 0.3,
+                                  "method": "uniform"}]}).specs[0]
+    row = run_one(spec)
+    assert row["status"] == "ok" and row["n_elements"] > 0, row
+    assert row["n_elements"] == hetmesh.uniform(
+        hetmesh.load_model(hetmesh.example_path("unit_square")), 0.3).stats.n_elements
