@@ -107,8 +107,8 @@ domain (a point, or one of 64 samples of a curve, farther than 1e-6 x the domain
 
 from __future__ import annotations
 
+from .blend import BlendFeature
 from .features import (
-    BlendFeature,
     CurveFeature,
     NearestFeature,
     PointFeature,

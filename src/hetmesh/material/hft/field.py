@@ -11,7 +11,8 @@ import numpy as np
 from ...errors import MaterialError
 from ..analytic import Shiftable, check_constituents
 from ..field import as_points, sample_domain
-from .features import BlendFeature, LeafFeature, PointFeature, reached, walk
+from .blend import BlendFeature
+from .features import LeafFeature, PointFeature, reached, walk
 
 __all__ = ["HFTField", "OUTSIDE_TOL"]
 

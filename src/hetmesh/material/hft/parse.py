@@ -15,8 +15,8 @@ from ...expr import compile_expr
 from ...io.schema import describe
 from ...tri.geometry import Arc, Segment
 from ..analytic import check_constituents
+from .blend import BlendFeature
 from .features import (
-    BlendFeature,
     CurveFeature,
     NearestFeature,
     PointFeature,
