@@ -11,7 +11,7 @@ this module does not import scikit-fem.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import ModelFileError
 
 __all__ = ["FEAConfig", "Properties", "TemperatureBC", "DisplacementBC", "parse_fea",
-           "parse_choice", "table_array", "parse_properties",
+           "parse_choice", "table_array", "parse_properties", "parse_settings",
            "LENGTH_UNITS", "PLANES", "MIXINGS", "PROPERTY_KEYS", "rigid_rank",
            "length_scale"]
 
@@ -135,6 +135,38 @@ def length_scale(units: str) -> float | None:
 
 # --------------------------------------------------------------------------------- parsing
 
+def parse_settings(ctx, t: Mapping, units: str, constituents: Sequence[str]
+                   ) -> tuple[float, str, float, int, str | None]:
+    """The settings every ``[fea]`` table has, 2D or 3D: ``(length scale to m, mixing,
+    reference temperature, element order, matrix constituent or None)``, each checked with
+    the key it came from."""
+    scale = length_scale(units)
+    if scale is None:
+        raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
+                                      f"{', '.join(u for u in LENGTH_UNITS if u)}; none means m)")
+    mixing = parse_choice(ctx, t, "mixing", MIXINGS, "linear")
+    ref = ctx.number(t.get("reference_temperature", 293.15), "fea.reference_temperature")
+    if ref <= 0:
+        raise ctx.fail("fea.reference_temperature", f"expected a temperature in K above 0, "
+                                                    f"got {ref:g}")
+    order = t.get("order", 1)
+    if isinstance(order, bool) or order not in (1, 2):
+        raise ctx.fail("fea.order", f"expected 1 (linear) or 2 (quadratic elements), got "
+                                    f"{order!r}")
+    matrix = ctx.string(t, "fea", "matrix")
+    if mixing == "mori-tanaka":
+        if matrix is None:
+            raise ModelFileError(f"{ctx.pre}missing key 'fea.matrix' (mixing = \"mori-tanaka\" "
+                                 f"needs the matrix constituent, one of: "
+                                 f"{', '.join(constituents)})")
+        if matrix not in constituents:
+            raise ctx.fail("fea.matrix", f"unknown constituent {matrix!r} (expected one of: "
+                                         f"{', '.join(constituents)})")
+    elif matrix is not None:
+        raise ctx.fail("fea.matrix", "only mixing = \"mori-tanaka\" has a matrix constituent")
+    return scale, mixing, ref, int(order), matrix
+
+
 def parse_fea(ctx, value, domain, constituents, units: str = ""):
     """Parse and check the ``[fea]`` table (see the module docstring).
 
@@ -163,31 +195,8 @@ def parse_fea(ctx, value, domain, constituents, units: str = ""):
         raise ModelFileError(f"{ctx.pre}missing key 'fea.{missing}' (the analysis needs both "
                              f"fixed temperatures and displacement conditions; give neither "
                              f"for the material properties alone)")
-    scale = length_scale(units)
-    if scale is None:
-        raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
-                                      f"{', '.join(u for u in LENGTH_UNITS if u)}; none means m)")
     plane = parse_choice(ctx, t, "plane", PLANES, "strain")
-    mixing = parse_choice(ctx, t, "mixing", MIXINGS, "linear")
-    ref = ctx.number(t.get("reference_temperature", 293.15), "fea.reference_temperature")
-    if ref <= 0:
-        raise ctx.fail("fea.reference_temperature", f"expected a temperature in K above 0, "
-                                                    f"got {ref:g}")
-    order = t.get("order", 1)
-    if isinstance(order, bool) or order not in (1, 2):
-        raise ctx.fail("fea.order", f"expected 1 (linear) or 2 (quadratic elements), got "
-                                    f"{order!r}")
-    matrix = ctx.string(t, "fea", "matrix")
-    if mixing == "mori-tanaka":
-        if matrix is None:
-            raise ModelFileError(f"{ctx.pre}missing key 'fea.matrix' (mixing = \"mori-tanaka\" "
-                                 f"needs the matrix constituent, one of: "
-                                 f"{', '.join(constituents)})")
-        if matrix not in constituents:
-            raise ctx.fail("fea.matrix", f"unknown constituent {matrix!r} (expected one of: "
-                                         f"{', '.join(constituents)})")
-    elif matrix is not None:
-        raise ctx.fail("fea.matrix", "only mixing = \"mori-tanaka\" has a matrix constituent")
+    scale, mixing, ref, order, matrix = parse_settings(ctx, t, units, constituents)
     props = parse_properties(ctx, t["properties"], constituents)
     names = _curve_names(domain)
     temps, disps = (), ()

@@ -46,13 +46,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .config import (
-    LENGTH_UNITS,
-    MIXINGS,
     PROPERTY_KEYS,
     Properties,
-    length_scale,
     parse_choice,
     parse_properties,
+    parse_settings,
     table_array,
 )
 
@@ -207,27 +205,8 @@ def parse_fea3d(ctx, value, solid, constituents, units: str = "") -> FEAConfig3D
     t = ctx.table(value, "fea", required=("properties",),
                   optional=("temperature", "displacement", "pressure", "reference_temperature",
                             "mixing", "matrix", "probes", "order", "solver"))
-    scale = length_scale(units)
-    if scale is None:
-        raise ctx.fail("model.units", f"unknown length unit {units!r} for the FEA (known: "
-                                      f"{', '.join(u for u in LENGTH_UNITS if u)}; none means m)")
-    mixing = parse_choice(ctx, t, "mixing", MIXINGS, "linear")
+    scale, mixing, ref, order, matrix = parse_settings(ctx, t, units, constituents)
     solver = parse_choice(ctx, t, "solver", SOLVERS, "auto")
-    ref = ctx.number(t.get("reference_temperature", 293.15), "fea.reference_temperature")
-    if ref <= 0:
-        raise ctx.fail("fea.reference_temperature", f"expected a temperature in K above 0, "
-                                                    f"got {ref:g}")
-    order = t.get("order", 1)
-    if isinstance(order, bool) or order not in (1, 2):
-        raise ctx.fail("fea.order", f"expected 1 (linear) or 2 (quadratic elements), got "
-                                    f"{order!r}")
-    matrix = ctx.string(t, "fea", "matrix")
-    if mixing == "mori-tanaka":
-        if matrix is None or matrix not in constituents:
-            raise ctx.fail("fea.matrix", f"mixing = \"mori-tanaka\" needs the matrix "
-                                         f"constituent, one of: {', '.join(constituents)}")
-    elif matrix is not None:
-        raise ctx.fail("fea.matrix", "only mixing = \"mori-tanaka\" has a matrix constituent")
     props = parse_properties(ctx, t["properties"], constituents)
     known = tuple(getattr(solid, "face_names", ())) or None
     temps = []
