@@ -321,3 +321,12 @@ def test_a_uniform_run_meshes_the_uniform_baseline():
     assert row["status"] == "ok" and row["n_elements"] > 0, row
     assert row["n_elements"] == hetmesh.uniform(
         hetmesh.load_model(hetmesh.example_path("unit_square")), 0.3).stats.n_elements
+
+
+def test_a_solid_runs_on_the_tetrahedral_kernel():
+    """A 3D model in a study: its cost from the tetrahedral estimate, its run through
+    hetmesh.generate's tetrahedral kernel."""
+    spec = parse_study({"runs": [{"model": "unit_cube", "threshold": 0.3}]}).specs[0]
+    row = run_one(spec)
+    assert row["status"] == "ok", row
+    assert 0 < row["delta_max"] < 0.3 and row["n_elements"] > 0

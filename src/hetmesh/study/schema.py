@@ -341,6 +341,11 @@ def _cost_model(base: Path, ref: str):
 
     is_path = ref.endswith(".toml") or "/" in ref or os.sep in ref
     model = load_model(base / ref if is_path else example_path(ref), check=False)
+    if getattr(model, "dim", 2) == 3:  # a solid: the tetrahedral kernel's a-priori count
+        from ..tet.mesher import estimate_tets
+
+        return lambda threshold, max_size: float(
+            estimate_tets(model.solid, model.material, threshold))
     domain = model.domain
     g = gradient_norm(model.material, background_points(domain, 100))
     default = domain.diameter / 8.0
