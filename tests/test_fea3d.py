@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hetmesh.errors import FEAError
-from hetmesh.fea import linsolve, solid, verification
+from hetmesh.fea import linsolve, recovery3d, solid, verification
 from hetmesh.fea.solid import Displacement, solve_tets
 
 E0, NU0, ALPHA0, K0 = 200e9, 0.3, 1.2e-5, 40.0
@@ -106,7 +106,7 @@ def test_patch_test_linear_displacement(order):
     np.testing.assert_allclose(u, exact, rtol=0, atol=1e-15)
     U = u.reshape(-1, 3)
     du = np.einsum("mia,mqib->mqab", U[space.dofs], space.gradients(slice(None)))
-    s = solid.stresses_3d(du, lam, mu, np.zeros((M, Q)), np.zeros((M, Q)))
+    s = recovery3d.stresses_3d(du, lam, mu, np.zeros((M, Q)), np.zeros((M, Q)))
     eps = 0.5 * (G + G.T)
     sig = lam[0, 0] * np.trace(eps) * np.eye(3) + 2 * mu[0, 0] * eps
     want = [sig[0, 0], sig[1, 1], sig[2, 2], sig[0, 1], sig[1, 2], sig[0, 2]]
@@ -207,7 +207,7 @@ def test_singular_systems_are_named():
         linsolve.solve_spd(np.eye(2), np.ones(2), np.zeros(2, bool), np.zeros(2),
                            what="thermal", method="cholesky")
     with pytest.raises(FEAError, match="outside the mesh"):
-        solid.locate_tet(P, T, (10.0, 10.0, 10.0))
+        recovery3d.locate_tet(P, T, (10.0, 10.0, 10.0))
 
 
 def test_amg_and_direct_agree():

@@ -39,21 +39,24 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import FEAError
+from .blocks import CHUNK, sum_into
 from .linsolve import blas_threads, rigid_modes, solve_spd
+from .recovery3d import (
+    STRESS_NAMES_3D,
+    displacement_gradients,
+    probe_values,
+    recover_stresses,
+    stresses_3d,
+    von_mises_3d,
+)
 
 __all__ = ["STRESS_NAMES_3D", "TetSpace", "tet_space", "node_pattern", "conduction_matrix",
            "elasticity_matrix", "thermal_load", "pressure_load", "surface_dofs",
-           "boundary_faces", "stresses_3d", "von_mises_3d", "recover_3d", "cg_columns",
-           "locate_tet", "tet_boxes",
-           "rigid_rank_3d", "SolidResult", "solve_tets", "Displacement"]
+           "boundary_faces", "stresses_3d", "von_mises_3d", "rigid_rank_3d", "SolidResult",
+           "solve_tets", "Displacement"]
 
 log = logging.getLogger(__name__)
 
-#: the stress components, in the column order of :attr:`SolidResult.stress`
-STRESS_NAMES_3D = ("stress_xx", "stress_yy", "stress_zz", "stress_xy", "stress_yz",
-                   "stress_xz")
-#: elements per assembly chunk (bounds the temporaries: chunk x (3 nb)^2 floats)
-CHUNK = 50_000
 
 Material = Callable[[np.ndarray], Mapping[str, np.ndarray]]
 
@@ -156,10 +159,6 @@ def node_pattern(dofs: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.n
     return A.indptr.astype(np.int64), A.indices.astype(np.int32), slot.reshape(d.shape + (nb,))
 
 
-def _sum_into(slot: np.ndarray, values: np.ndarray, size: int) -> np.ndarray:
-    return np.bincount(slot.ravel(), weights=values.ravel(), minlength=size)
-
-
 def conduction_matrix(space: TetSpace, k: np.ndarray, pattern=None) -> sp.csr_matrix:
     """``int k grad u . grad v`` with ``k`` at the quadrature points ``(M, Q)``."""
     indptr, indices, slot = pattern if pattern is not None else node_pattern(space.dofs,
@@ -170,7 +169,7 @@ def conduction_matrix(space: TetSpace, k: np.ndarray, pattern=None) -> sp.csr_ma
         sl = slice(s, min(s + CHUNK, M))
         g, (w,) = space.weighted(sl, k)                  # (m, Q, nb, 3), (m, Q)
         Ke = np.einsum("mqia,mqja->mij", g * w[:, :, None, None], g, optimize=True)
-        data += _sum_into(slot[sl], Ke, len(indices))
+        data += sum_into(slot[sl], Ke, len(indices))
     return sp.csr_matrix((data, indices, indptr), shape=(space.n, space.n))
 
 
@@ -270,130 +269,8 @@ def pressure_load(space: TetSpace, facets: np.ndarray, p: float) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ stresses
 
-def stresses_3d(du: np.ndarray, lam, mu, beta, dT) -> np.ndarray:
-    """Stresses ``(..., 6)`` (``xx, yy, zz, xy, yz, xz``) from displacement gradients
-    ``du (..., 3, 3)`` (``du_a/dx_b``) and ``lam, mu, beta, dT`` ``(...)``."""
-    tr = du[..., 0, 0] + du[..., 1, 1] + du[..., 2, 2]
-    iso = lam * tr - beta * dT
-    s = np.empty(np.shape(lam) + (6,))
-    for c in range(3):
-        s[..., c] = iso + 2 * mu * du[..., c, c]
-    for c, (a, b) in zip((3, 4, 5), ((0, 1), (1, 2), (0, 2))):
-        s[..., c] = mu * (du[..., a, b] + du[..., b, a])
-    return s
-
-
-def von_mises_3d(s: np.ndarray) -> np.ndarray:
-    """Von Mises stress of ``(..., 6)`` stresses ``xx, yy, zz, xy, yz, xz``."""
-    xx, yy, zz, xy, yz, xz = (s[..., i] for i in range(6))
-    return np.sqrt(0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2)
-                   + 3.0 * (xy ** 2 + yz ** 2 + xz ** 2))
-
-
-def _pieces(t: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vertex copies per piece: ``(element copy ids (M, 4), vertex of each copy (D,))``."""
-    _, g = np.unique(groups, return_inverse=True)
-    G = int(g.max()) + 1
-    key = t.astype(np.int64) * G + g[:, None]
-    uniq, inv = np.unique(key.ravel(), return_inverse=True)
-    return inv.reshape(t.shape), uniq // G
-
-
-def recover_3d(copies: np.ndarray, ncopy: int, dx: np.ndarray, phi: np.ndarray,
-               values: np.ndarray, rtol: float = 1e-10, pattern=None) -> np.ndarray:
-    """L2 projection of quadrature values ``(M, Q, C)`` onto continuous P1 on the vertex
-    copies ``copies (M, 4)``; ``phi (4, Q)`` the P1 basis at the quadrature points, ``dx``
-    ``(M, Q)``. Consistent mass; all components at once by Jacobi-preconditioned CG
-    (:func:`cg_columns`). ``pattern``: :func:`node_pattern` of ``copies``, if at hand."""
-    vol = dx.sum(axis=1)
-    M4 = (np.ones((4, 4)) + np.eye(4)) / 20.0
-    local_mass = M4[None] * vol[:, None, None]
-    if pattern is not None:
-        indptr, indices, slot = pattern
-        mass = sp.csr_matrix((_sum_into(slot, local_mass, len(indices)), indices, indptr),
-                             shape=(ncopy, ncopy))
-    else:
-        rows = np.repeat(copies, 4, axis=1).ravel()
-        cols = np.tile(copies, (1, 4)).ravel()
-        mass = sp.csr_matrix((local_mass.ravel(), (rows, cols)), shape=(ncopy, ncopy))
-    C = values.shape[-1]
-    local = np.einsum("mq,iq,mqc->mic", dx, phi, values)
-    rhs = np.column_stack([np.bincount(copies.ravel(), weights=local[..., c].ravel(),
-                                       minlength=ncopy) for c in range(C)])
-    return cg_columns(mass, rhs, mass.diagonal(), rtol)
-
-
-def cg_columns(A: sp.spmatrix, B: np.ndarray, diag: np.ndarray, rtol: float = 1e-10,
-               maxiter: int = 1000) -> np.ndarray:
-    """Solve ``A X = B`` for every column of ``B`` ``(n, C)`` by Jacobi-preconditioned
-    conjugate gradients run side by side (one sparse product per iteration for all
-    columns); ``A`` symmetric positive definite and well conditioned (a mass matrix)."""
-    X = B / diag[:, None]
-    R = B - A @ X
-    Z = R / diag[:, None]
-    D = Z.copy()
-    rz = (R * Z).sum(axis=0)
-    goal = rtol * np.linalg.norm(B, axis=0)
-    for _ in range(maxiter):
-        if (np.linalg.norm(R, axis=0) <= goal).all():
-            return X
-        AD = A @ D
-        dad = (D * AD).sum(axis=0)
-        alpha = np.divide(rz, dad, out=np.zeros_like(rz), where=dad != 0)
-        X += alpha * D
-        R -= alpha * AD
-        Z = R / diag[:, None]
-        rz_new = (R * Z).sum(axis=0)
-        beta = np.divide(rz_new, rz, out=np.zeros_like(rz), where=rz != 0)
-        D = Z + beta * D
-        rz = rz_new
-    log.warning("stress recovery: CG did not converge in %d iterations", maxiter)
-    return X
-
 
 # ------------------------------------------------------------------------------- probes
-
-def tet_boxes(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Bounding boxes ``(lo (M, 3), hi (M, 3))`` of the tetrahedra."""
-    c = P[T]
-    return c.min(axis=1), c.max(axis=1)
-
-
-def locate_tet(P: np.ndarray, T: np.ndarray, q, boxes=None) -> tuple[int, np.ndarray]:
-    """The tetrahedron holding point ``q`` and its barycentric coordinates ``(4,)``; a point
-    just outside (a curved surface between its facets) takes the element it is least outside
-    of. Raises :class:`FEAError` for a point far from the mesh. ``boxes``:
-    :func:`tet_boxes`, when locating several points."""
-    q = np.asarray(q, dtype=np.float64)
-    lo, hi = boxes if boxes is not None else tet_boxes(P, T)
-    span = float(np.max(P.max(axis=0) - P.min(axis=0)))
-    pad = 1e-9 * span
-    cand = np.flatnonzero(np.all((lo - pad <= q) & (q <= hi + pad), axis=1))
-    if not len(cand):
-        # nearest element centroids: the point is outside every bounding box
-        c = P[T].mean(axis=1)
-        cand = np.argsort(np.linalg.norm(c - q, axis=1))[:64]
-    a = P[T[cand, 0]]
-    J = np.stack([P[T[cand, 1]] - a, P[T[cand, 2]] - a, P[T[cand, 3]] - a], axis=-1)
-    lam3 = np.linalg.solve(J, (q - a)[..., None])[..., 0]
-    lam = np.column_stack([1 - lam3.sum(axis=1), lam3])
-    worst = lam.min(axis=1)
-    e = int(np.argmax(worst))
-    if worst[e] < -1.0:
-        raise FEAError(f"point ({q[0]:.6g}, {q[1]:.6g}, {q[2]:.6g}) is outside the mesh: is "
-                       f"the mesh for this model?")
-    inside = np.flatnonzero(worst >= -1e-9)
-    if len(inside):
-        e = int(inside[np.argmin(cand[inside])])
-    return int(cand[e]), lam[e]
-
-
-def _p2_values(lam: np.ndarray) -> np.ndarray:
-    """The 10 P2 basis functions at barycentric ``lam (4,)``, in scikit-fem's local order
-    (vertices, then the edges 01, 12, 02, 03, 13, 23)."""
-    v = lam * (2 * lam - 1)
-    e = [4 * lam[i] * lam[j] for i, j in ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))]
-    return np.concatenate([v, e])
 
 
 # ------------------------------------------------------------------------------ checks
@@ -506,6 +383,46 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
     if P.ndim != 2 or P.shape[1] != 3 or T.ndim != 2 or T.shape[1] != 4:
         raise FEAError(f"expected points (N, 3) and tetrahedra (M, 4), got {P.shape} and "
                        f"{T.shape}")
+    _check_conditions(P, T, temperature, displacement)
+    origin = 0.5 * (P.min(axis=0) + P.max(axis=0))
+    space = tet_space((P - origin) * length_scale, T, order)
+    props = _properties(space, material, origin, length_scale)
+    timings["material"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    pattern = node_pattern(space.dofs, space.n)
+    timings["pattern"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    Tfull, dT = _thermal(space, props, temperature, reference_temperature, pattern, solver,
+                         rtol, info)
+    timings["thermal"] = time.perf_counter() - t1
+    u = _elastic(space, props, dT, bool(temperature), displacement, pressure, length_scale,
+                 pattern, solver, rtol, info, timings)
+
+    t1 = time.perf_counter()
+    U = u.reshape(-1, 3)
+    sq = stresses_3d(displacement_gradients(space, U), props["lam"], props["mu"],
+                     props["beta"], dT)
+    w = space.dx / space.dx.sum(axis=1, keepdims=True)
+    cell = np.einsum("mq,mqc->mc", w, sq)
+    rec, copies, nodal = recover_stresses(space, T, len(P), sq, groups, order, pattern)
+    timings["recovery"] = time.perf_counter() - t1
+
+    Tv = Tfull[space.basis.nodal_dofs[0]]
+    Uv = U[space.basis.nodal_dofs[0]]
+    out_probes = probe_values(P, T, space, probes, order, rec, copies, Tfull, U)
+    timings["total"] = time.perf_counter() - t0
+    log.info("fea 3d: %d tetrahedra, P%d, %d unknowns, T in [%.6g, %.6g] K (%.2f s)", len(T),
+             order, 3 * space.n, Tv.min(), Tv.max(), timings["total"])
+    return SolidResult(points=P, tets=T, order=order, temperature=Tv, displacement=Uv,
+                       stress=nodal, von_mises=von_mises_3d(nodal), cell_stress=cell,
+                       cell_von_mises=von_mises_3d(cell), probes=out_probes,
+                       timings=timings, solver=info)
+
+
+def _check_conditions(P, T, temperature, displacement) -> None:
+    """Every condition selects a vertex; no mesh piece without a fixed temperature (when
+    there is a thermal problem) or with a rigid-body mode left free."""
     n = len(P)
     parts = _components(T, n)
     for mask, _ in temperature:
@@ -522,11 +439,11 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
                 fixed_v[bc.mask, c] = True
     _check_rigid(parts, T, P, fixed_v)
 
-    lo, hi = P.min(axis=0), P.max(axis=0)
-    origin = 0.5 * (lo + hi)
-    Pm = (P - origin) * length_scale
-    space = tet_space(Pm, T, order)
-    M = len(T)
+
+def _properties(space: TetSpace, material, origin, length_scale) -> dict[str, np.ndarray]:
+    """The mixed properties ``(M, Q)`` at every quadrature point (model coordinates), with
+    the Lame constants ``lam``, ``mu`` and the thermal modulus ``beta`` of the solid."""
+    M = len(space.dofs)
     xq = space.quadrature_points() / length_scale + origin      # (M, Q, 3) model
     Q = xq.shape[1]
     props = {k: np.asarray(v, dtype=np.float64).reshape(M, Q)
@@ -535,30 +452,30 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
         if not np.isfinite(v).all():
             raise FEAError(f"the material gave a non-finite {k} at a quadrature point")
     E, nu = props["youngs_modulus"], props["poisson_ratio"]
-    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
-    mu = E / (2 * (1 + nu))
-    beta = E * props["expansion"] / (1 - 2 * nu)
-    timings["material"] = time.perf_counter() - t0
+    props["lam"] = E * nu / ((1 + nu) * (1 - 2 * nu))
+    props["mu"] = E / (2 * (1 + nu))
+    props["beta"] = E * props["expansion"] / (1 - 2 * nu)
+    return props
 
-    t1 = time.perf_counter()
-    pattern = node_pattern(space.dofs, space.n)
-    timings["pattern"] = time.perf_counter() - t1
-    t1 = time.perf_counter()
-    if temperature:
-        value = np.full(space.n, np.nan)
-        for mask, v in temperature:  # later conditions win where they meet
-            value[surface_dofs(space, np.asarray(mask, dtype=bool))] = v
-        fixed = ~np.isnan(value)
-        K = conduction_matrix(space, props["conductivity"], pattern)
-        Tfull, info["thermal"] = solve_spd(K, np.zeros(space.n), fixed,
-                                           np.nan_to_num(value), what="thermal",
-                                           method=solver, rtol=rtol)
-        dT = np.asarray(space.basis.interpolate(Tfull)) - reference_temperature
-    else:
-        Tfull = np.full(space.n, reference_temperature)
-        dT = np.zeros((M, Q))
-    timings["thermal"] = time.perf_counter() - t1
 
+def _thermal(space, props, temperature, reference_temperature, pattern, solver, rtol, info):
+    """The temperature at every dof and its rise ``(M, Q)`` over the reference at the
+    quadrature points (zero without a thermal problem)."""
+    if not temperature:
+        return np.full(space.n, reference_temperature), np.zeros(space.dx.shape)
+    value = np.full(space.n, np.nan)
+    for mask, v in temperature:  # later conditions win where they meet
+        value[surface_dofs(space, np.asarray(mask, dtype=bool))] = v
+    fixed = ~np.isnan(value)
+    K = conduction_matrix(space, props["conductivity"], pattern)
+    Tfull, info["thermal"] = solve_spd(K, np.zeros(space.n), fixed, np.nan_to_num(value),
+                                       what="thermal", method=solver, rtol=rtol)
+    return Tfull, np.asarray(space.basis.interpolate(Tfull)) - reference_temperature
+
+
+def _elastic(space, props, dT, thermal: bool, displacement, pressure, length_scale, pattern,
+             solver, rtol, info, timings) -> np.ndarray:
+    """The displacement dofs ``(3 n,)`` (m) of the thermoelastic problem."""
     t1 = time.perf_counter()
     fixed = np.zeros(3 * space.n, dtype=bool)
     u0 = np.zeros(3 * space.n)
@@ -568,8 +485,8 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
             if v is not None:
                 fixed[3 * d + c] = True
                 u0[3 * d + c] = v * length_scale
-    A = elasticity_matrix(space, lam, mu, pattern)
-    f = thermal_load(space, beta, dT) if temperature else np.zeros(3 * space.n)
+    A = elasticity_matrix(space, props["lam"], props["mu"], pattern)
+    f = thermal_load(space, props["beta"], dT) if thermal else np.zeros(3 * space.n)
     for mask, p in pressure:
         faces = boundary_faces(space, np.asarray(mask, dtype=bool))
         if not len(faces):
@@ -581,55 +498,7 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
                                    blocksize=3, near_nullspace=rigid_modes(
                                        np.asarray(space.basis.doflocs).T), rtol=rtol)
     timings["elastic_solve"] = time.perf_counter() - t1
-
-    t1 = time.perf_counter()
-    U = u.reshape(-1, 3)
-    du = np.empty((M, Q, 3, 3))
-    for s in range(0, M, CHUNK):
-        sl = slice(s, min(s + CHUNK, M))
-        g = space.weighted(sl)[0]        # P1: one point, broadcast over the element
-        du[sl] = np.einsum("mia,mqib->mqab", U[space.dofs[sl]], g)
-    sq = stresses_3d(du, lam, mu, beta, dT)
-    w = space.dx / space.dx.sum(axis=1, keepdims=True)
-    cell = np.einsum("mq,mqc->mc", w, sq)
-    groups = np.zeros(M, dtype=np.int64) if groups is None else np.asarray(groups)
-    X = space.basis.X
-    phi = np.vstack([1 - X.sum(axis=0), X])
-    one_piece = bool((groups == groups[0]).all()) if M else True
-    if one_piece and order == 1 and np.bincount(T.ravel(), minlength=n).all():
-        # one piece of P1 elements: the copies are the vertices, the pattern is the matrix's
-        copies, cnode = space.dofs, np.arange(n)
-        rec = recover_3d(copies, n, space.dx, phi, sq, pattern=pattern)
-    else:
-        copies, cnode = _pieces(T, groups)
-        rec = recover_3d(copies, len(cnode), space.dx, phi, sq)
-    nodal = np.zeros((n, 6))
-    np.add.at(nodal, cnode, rec)
-    nodal /= np.bincount(cnode, minlength=n)[:, None]
-    timings["recovery"] = time.perf_counter() - t1
-
-    Tv = Tfull[space.basis.nodal_dofs[0]]
-    Uv = U[space.basis.nodal_dofs[0]]
-    out_probes = {}
-    boxes = tet_boxes(P, T) if probes else None
-    for name, q in (probes or {}).items():
-        e, bary = locate_tet(P, T, q, boxes)
-        vals = _p2_values(bary) if order == 2 else bary
-        s = bary @ rec[copies[e]]
-        entry = {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "element": e,
-                 "temperature": float(vals @ Tfull[space.dofs[e]])}
-        ue = vals @ U[space.dofs[e]]
-        entry.update({"ux": float(ue[0]), "uy": float(ue[1]), "uz": float(ue[2])})
-        entry.update({k: float(s[j]) for j, k in enumerate(STRESS_NAMES_3D)})
-        entry["von_mises"] = float(von_mises_3d(s))
-        out_probes[name] = entry
-    timings["total"] = time.perf_counter() - t0
-    log.info("fea 3d: %d tetrahedra, P%d, %d unknowns, T in [%.6g, %.6g] K (%.2f s)", M,
-             order, 3 * space.n, Tv.min(), Tv.max(), timings["total"])
-    return SolidResult(points=P, tets=T, order=order, temperature=Tv, displacement=Uv,
-                       stress=nodal, von_mises=von_mises_3d(nodal), cell_stress=cell,
-                       cell_von_mises=von_mises_3d(cell), probes=out_probes,
-                       timings=timings, solver=info)
+    return u
 
 
 def _check_thermal(parts, fixed_mask: np.ndarray, P: np.ndarray) -> None:
