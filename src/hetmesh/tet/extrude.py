@@ -31,11 +31,11 @@ import time
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError
+from ..errors import BudgetError
 from .faces import boundary_faces
-from .mesher import BETA, MAX_PASSES, TetResult
+from .mesher import BETA, TetResult
 from .quality import delta_tets, volumes
-from .refine import bisect_edges, select_edges
+from .refine import repair
 from .verify import tet_problems
 
 __all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]
@@ -189,21 +189,8 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     if swept:
         delta = _swept_delta(field2d, p2, tets, len(p2), regions)
     else:
-        comp = field3d.composition(points)
-        delta = delta_tets(comp, tets)
-        passes = 0
-        while (delta >= threshold).any():
-            if passes >= MAX_PASSES:
-                raise MeshingError(f"delta repair did not converge in {MAX_PASSES} passes")
-            if max_elements is not None and len(tets) > max_elements:
-                raise BudgetError(f"the mesh exceeds the budget of {max_elements} tetrahedra "
-                                  f"before delta < {threshold} everywhere")
-            split = select_edges(tets, comp, delta >= threshold)
-            n0 = len(points)
-            points, tets = bisect_edges(points, tets, split)
-            comp = np.concatenate([comp, field3d.composition(points[n0:])])
-            delta = delta_tets(comp, tets)
-            passes += 1
+        points, tets, _, delta, _ = repair(points, tets, field3d, threshold,
+                                           max_elements=max_elements)
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1

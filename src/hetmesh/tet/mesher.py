@@ -36,8 +36,8 @@ from ..errors import BudgetError, GeometryError, MeshingError, OptionError
 from .faces import boundary_faces
 from .field3d import scalar_column
 from .place import BOUNDARY_GAP, arc_count, column_roots, level_values, section_points
-from .quality import delta_tets, min_dihedral, volumes
-from .refine import bisect_edges, select_edges
+from .quality import min_dihedral, volumes
+from .refine import repair
 from .verify import verify_tets
 
 __all__ = ["TetResult", "generate_tets", "estimate_tets", "n_iso3", "is_planar", "BETA"]
@@ -60,9 +60,6 @@ SLIVER_ANGLE = 15.0
 SLIVER_ROUNDS = 12
 #: largest in-plane move of a vertex in sliver removal, x its layer's spacing
 PERTURB = 0.15
-#: repair passes before giving up
-MAX_PASSES = 60
-
 
 @dataclass
 class TetResult:
@@ -480,22 +477,8 @@ def generate_tets(solid, field, threshold: float, *, seed: int = 0,
         points, df = _layers_curved(solid, field, threshold, rng, chord, hmax, samples)
         tets = _delaunay(points)
     t_place = time.perf_counter() - t0
-    comp = field.composition(points)
-    delta = delta_tets(comp, tets)
-    passes = 0
-    while (delta >= threshold).any():
-        if passes >= MAX_PASSES:
-            raise MeshingError(f"delta repair did not converge in {MAX_PASSES} passes "
-                               f"({int((delta >= threshold).sum())} tetrahedra left)")
-        if max_elements is not None and len(tets) > max_elements:
-            raise BudgetError(f"the mesh exceeds the budget of {max_elements} tetrahedra "
-                              f"before delta < {threshold} everywhere")
-        split = select_edges(tets, comp, delta >= threshold)
-        n0 = len(points)
-        points, tets = bisect_edges(points, tets, split)
-        comp = np.concatenate([comp, field.composition(points[n0:])])
-        delta = delta_tets(comp, tets)
-        passes += 1
+    points, tets, _, delta, passes = repair(points, tets, field, threshold,
+                                            max_elements=max_elements)
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
