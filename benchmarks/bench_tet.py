@@ -42,8 +42,9 @@ except ImportError:
     sys.path.insert(0, str(ROOT / "src"))
 
 from hetmesh.material import AnalyticField  # noqa: E402
+from hetmesh.mesh import simplex_measures  # noqa: E402
+from hetmesh.metrics import delta_vertices  # noqa: E402
 from hetmesh.tet import box, generate_tets, n_iso3, quality_summary  # noqa: E402
-from hetmesh.tet.quality import delta_tets, volumes  # noqa: E402
 
 logging.getLogger("hetmesh").setLevel(logging.WARNING)
 
@@ -57,9 +58,10 @@ def unit_cube():
 
 def figures(points, tets, field, d0, niso, wall):
     q = quality_summary(points, tets)
-    delta = delta_tets(field.composition(points), tets)
+    delta = delta_vertices(field.composition(points), tets)
     return {"Ne": len(tets), "ratio": len(tets) / niso, "delta_max": float(delta.max()),
-            "n_bad": int((delta >= d0).sum()), "vol_min": float(volumes(points, tets).min()),
+            "n_bad": int((delta >= d0).sum()),
+            "vol_min": float(simplex_measures(points, tets).min()),
             **q, "time": wall}
 
 
@@ -106,7 +108,7 @@ def gmsh_cube(field, s, d0, cap=1.0, threads=1):
         tets = index[en.astype(np.int64)].reshape(-1, 4)
     finally:
         gmsh.finalize()
-    v = volumes(pts, tets)
+    v = simplex_measures(pts, tets)
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
     return pts, tets, wall
 
@@ -122,7 +124,7 @@ def _kuhn_cube(n=4):
                  axis=1)  # corner (a, b, c) -> column 4a + 2b + c
     paths = [(0, 4, 6, 7), (0, 4, 5, 7), (0, 2, 6, 7), (0, 2, 3, 7), (0, 1, 5, 7), (0, 1, 3, 7)]
     t = np.concatenate([c[:, list(pp)] for pp in paths])
-    v = volumes(p, t)
+    v = simplex_measures(p, t)
     t[v < 0] = t[v < 0][:, [0, 1, 3, 2]]
     return p, t
 
@@ -138,7 +140,7 @@ def mmg_cube(field, s, d0, cap=1.0):
         m.remesh(verbose=-1, hausd=0.01, hgrad=1.3)
         p, t = m.get_vertices(), m.get_tetrahedra().astype(np.int64)
     wall = time.perf_counter() - t0
-    v = volumes(p, t)
+    v = simplex_measures(p, t)
     t[v < 0] = t[v < 0][:, [0, 1, 3, 2]]
     return p, t, wall
 

@@ -7,8 +7,8 @@ import pytest
 
 from hetmesh.errors import GeometryError, OptionError
 from hetmesh.material import AnalyticField
+from hetmesh.metrics import dihedral_angles, tet_quality
 from hetmesh.tet import box, cylinder, generate_tets
-from hetmesh.tet.quality import dihedral_angles, radius_ratio
 
 
 def check_tet_mesh(points, tets, composition, threshold, *, box_bounds=None,
@@ -82,7 +82,7 @@ def test_unit_cube(d0):
     names = {res.face_names[m - 1] for m in res.face_markers}
     assert names == {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"}
     assert np.degrees(0) < dihedral_angles(res.points, res.tets).min()
-    assert radius_ratio(res.points, res.tets).min() > 0
+    assert tet_quality(res.points, res.tets).min() > 0
 
 
 def test_deterministic():

@@ -5,9 +5,8 @@ from __future__ import annotations
 
 from .api import mesh_model
 from .mesher import TetResult, estimate_tets, generate_tets, n_iso3
-from .quality import delta_tets, dihedral_angles, quality_summary, radius_ratio, volumes
+from .quality import quality_summary
 from .solid import Prism, box, cylinder
 
 __all__ = ["mesh_model", "TetResult", "generate_tets", "estimate_tets", "n_iso3", "Prism",
-           "box", "cylinder", "delta_tets", "dihedral_angles", "quality_summary",
-           "radius_ratio", "volumes"]
+           "box", "cylinder", "quality_summary"]

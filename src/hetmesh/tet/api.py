@@ -28,11 +28,10 @@ import numpy as np
 from ..errors import OptionError
 from ..kernel import Result
 from ..mesh import Mesh
-from ..metrics import dihedral_angles, statistics
+from ..metrics import dihedral_angles, statistics, tet_quality
 from ..options import DEFAULT_ROW_SPACING
 from .extrude import generate_extruded
 from .mesher import TetResult, generate_tets
-from .quality import radius_ratio
 
 __all__ = ["mesh_model", "generate", "to_mesh", "DEFAULT_MAX_ELEMENTS", "OPTIONS_2D"]
 
@@ -120,7 +119,7 @@ def to_mesh(res: TetResult, constituents) -> Mesh:
     of an extruded feature-tree model as regions (and cell data ``subregion``)."""
     comp = res.info.get("composition")
     pd = {} if comp is None else {c: comp[:, j] for j, c in enumerate(constituents)}
-    cd = {"delta": res.delta, "quality": radius_ratio(res.points, res.tets)}
+    cd = {"delta": res.delta, "quality": tet_quality(res.points, res.tets)}
     regions = res.info.get("regions")
     if regions is not None:
         cd["subregion"] = regions

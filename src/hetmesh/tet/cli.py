@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OptionError, OutputError
+from ..mesh import simplex_measures
 from .api import mesh_model
 from .mesher import n_iso3
-from .quality import quality_summary, volumes
+from .quality import quality_summary
 
 __all__ = ["run_tet", "run_tet_stats", "tet_statistics", "plot_tets"]
 
@@ -48,7 +49,7 @@ def tet_statistics(model, res) -> dict:
     niso = n_iso3(model.solid, model.material, res.threshold)
     return {"n_points": int(len(res.points)), "n_elements": int(len(res.tets)),
             "delta_max": float(res.delta.max()), "delta_avg": float(res.delta.mean()),
-            "volume": float(volumes(res.points, res.tets).sum()),
+            "volume": float(simplex_measures(res.points, res.tets).sum()),
             "n_iso3": float(niso), "ratio_n_iso3": float(len(res.tets) / niso),
             **q}
 
@@ -187,7 +188,7 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
 
     from ..errors import MeshDataError
     from ..io.xdmf import read_xdmf
-    from .quality import delta_tets
+    from ..metrics import delta_vertices
 
     path = Path(args.mesh)
     if not path.is_file():
@@ -211,10 +212,10 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
         x, y, z = points[i]
         raise MeshDataError(f"{path}: point {i} at ({x:.6g}, {y:.6g}, {z:.6g}) is outside "
                             f"the solid of {model.name}")
-    v = volumes(points, tets)
+    v = simplex_measures(points, tets)
     tets = tets.copy()
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
-    delta = delta_tets(model.material.composition(points), tets)
+    delta = delta_vertices(model.material.composition(points), tets)
     stats = {"n_points": int(len(points)), "n_elements": int(len(tets)),
              "delta_max": float(delta.max()), "delta_avg": float(delta.mean()),
              "volume": float(np.abs(v).sum()), "solid_volume": float(model.solid.volume),

@@ -32,9 +32,10 @@ import time
 import numpy as np
 
 from ..errors import BudgetError
+from ..mesh import simplex_measures
+from ..metrics import delta_vertices
 from .faces import boundary_faces
 from .mesher import BETA, TetResult
-from .quality import delta_tets, volumes
 from .refine import repair
 from .verify import tet_problems
 
@@ -94,7 +95,7 @@ def prism_tets(points2: np.ndarray, tris2: np.ndarray, levels: np.ndarray
 
 
 def _orient(points, tets):
-    v = volumes(points, tets)
+    v = simplex_measures(points, tets)
     neg = v < 0
     t = tets.copy()
     t[neg, 2], t[neg, 3] = tets[neg, 3], tets[neg, 2]
@@ -223,7 +224,7 @@ def _swept_delta(field2d, p2, tets, n2, regions) -> np.ndarray:
     ids = tets % n2
     if regions is None:
         comp = field2d.composition(p2)
-        return delta_tets(comp, ids)
+        return delta_vertices(comp, ids)
     c = field2d.composition(p2[ids.ravel()], region=np.repeat(regions, 4))
     c = c.reshape(len(tets), 4, -1)
     return (c.max(axis=1) - c.min(axis=1)).max(axis=1)

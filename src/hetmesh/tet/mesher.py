@@ -33,10 +33,11 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from ..errors import BudgetError, GeometryError, MeshingError, OptionError
+from ..mesh import simplex_measures
 from .faces import boundary_faces
 from .field3d import scalar_column
 from .place import BOUNDARY_GAP, arc_count, column_roots, level_values, section_points
-from .quality import min_dihedral, volumes
+from .quality import min_dihedral
 from .refine import repair
 from .verify import verify_tets
 
@@ -230,7 +231,7 @@ def _delaunay(points: np.ndarray, axis: int | None = None) -> np.ndarray:
     t = d.simplices.astype(np.int64)
     if axis is not None:
         t = t[(t < n).all(axis=1)]
-    v = volumes(points, t)
+    v = simplex_measures(points, t)
     neg = v < 0
     t[neg, 2], t[neg, 3] = t[neg, 3], t[neg, 2].copy()
     scale = np.ptp(points, axis=0).max() ** 3
@@ -286,10 +287,10 @@ def _local_delaunay(p_old: np.ndarray, p_new: np.ndarray, tets: np.ndarray,
         st = np.sort(t, axis=1).astype(np.int64)
         return ((st[:, 0] * n + st[:, 1]) * n + st[:, 2]) * n + st[:, 3]
     new = cand[~np.isin(keys(cand), keys(kept))]
-    vol_new = volumes(p_new, new)
-    want = float(np.abs(volumes(p_old, cav)).sum())
+    vol_new = simplex_measures(p_new, new)
+    want = float(np.abs(simplex_measures(p_old, cav)).sum())
     if (vol_new <= 0).any() or abs(float(vol_new.sum()) - want) > 1e-9 * max(want, 1e-300) \
-            + 1e-12 * float(np.abs(volumes(p_old, kept)).sum()):
+            + 1e-12 * float(np.abs(simplex_measures(p_old, kept)).sum()):
         return None
     return np.concatenate([kept, new])
 

@@ -20,8 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MeshingError
+from ..metrics import delta_vertices
 from ..refinement import check_budget, check_progress
-from .quality import TET_EDGES, delta_tets
+from .quality import TET_EDGES
 
 #: repair passes before giving up
 MAX_PASSES = 60
@@ -109,7 +110,7 @@ def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
     are none: ``(points, tets, comp, delta, passes)``. :class:`BudgetError` past
     ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes."""
     comp = field.composition(points) if comp is None else comp
-    delta = delta_tets(comp, tets)
+    delta = delta_vertices(comp, tets)
     passes = 0
     while (delta >= threshold).any():
         if passes >= MAX_PASSES:
@@ -122,6 +123,6 @@ def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
         points, tets = bisect_edges(points, tets, split)
         check_progress(n0, len(points), passes, int((delta >= threshold).sum()), 0, threshold)
         comp = np.concatenate([comp, field.composition(points[n0:])])
-        delta = delta_tets(comp, tets)
+        delta = delta_vertices(comp, tets)
         passes += 1
     return points, tets, comp, delta, passes

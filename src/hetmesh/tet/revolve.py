@@ -31,10 +31,11 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import GeometryError, VerificationError
-from .extrude import prism_tets
+from ..mesh import simplex_measures
+from ..metrics import delta_vertices
+from .extrude import SectionField, prism_tets
 from .faces import boundary_faces
 from .mesher import TetResult
-from .quality import delta_tets, volumes
 from .refine import repair
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
@@ -148,22 +149,11 @@ class Revolution:
         return p[self.contains(p)]
 
 
-class RevolvedField:
+class RevolvedField(SectionField):
     """A 2D material field of the profile's ``(r, z)`` seen in 3D: the same at every angle
-    (a feature tree of a revolved model keeps its subregions: ``region`` as in 2D)."""
-
-    dim = 3
-
-    def __init__(self, field2d, solid: Revolution):
-        self.field2d = field2d
-        self.solid = solid
-        self.constituents = tuple(field2d.constituents)
-
-    def composition(self, points, region=None) -> np.ndarray:
-        q, _ = self.solid.to2d(points)
-        if region is None:
-            return self.field2d.composition(q)
-        return self.field2d.composition(q, region=region)
+    (a feature tree of a revolved model keeps its subregions: ``region`` as in 2D). The
+    composition is :class:`~hetmesh.tet.extrude.SectionField`'s through the solid's
+    ``to2d``; the gradient turns d/dr into the radial direction."""
 
     def gradient(self, points) -> np.ndarray:
         p = np.asarray(points, dtype=float).reshape(-1, 3)
@@ -260,7 +250,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     on_axis_pts = np.abs(q[:, 0]) <= 1e-12 * prof.diameter
     points[on_axis_pts, :2] = 0.0
     tets = inv.reshape(-1, 4)
-    v = volumes(points, tets)
+    v = simplex_measures(points, tets)
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
     tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), n)[keep]
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
@@ -268,7 +258,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     prof_ids = used % n2  # the 2D vertex of every point
     if axisym:
         if regions is None:
-            delta = delta_tets(f2.composition(p2)[prof_ids], tets)
+            delta = delta_vertices(f2.composition(p2)[prof_ids], tets)
         else:
             c = f2.composition(p2[prof_ids[tets].ravel()], region=np.repeat(regions, 4))
             c = c.reshape(len(tets), 4, -1)
@@ -329,7 +319,7 @@ def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str
     the chord tolerance of its face, the volume within the chord tolerance, delta."""
     p, t = res.points, res.tets
     out = []
-    v = volumes(p, t)
+    v = simplex_measures(p, t)
     if (v <= 0).any():
         out.append(f"{int((v <= 0).sum())} tetrahedra of non-positive volume")
     used = np.zeros(len(p), bool)
@@ -360,7 +350,7 @@ def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str
     if abs(float(v.sum()) - solid.volume) > slack:
         out.append(f"volume {float(v.sum()):.9g} differs from the solid's "
                    f"{solid.volume:.9g} by more than the chord tolerance allows")
-    delta = res.delta if field is None else delta_tets(field.composition(p), t)
+    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
     if not float(delta.max()) < res.threshold:
         out.append(f"delta_max = {float(delta.max()):.6g} is not below {res.threshold:g}")
     return out

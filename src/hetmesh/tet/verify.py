@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import VerificationError
-from ..mesh import Mesh
-from .quality import delta_tets, volumes
+from ..mesh import Mesh, simplex_measures
+from ..metrics import delta_vertices
 
 __all__ = ["verify_tets", "tet_problems"]
 
@@ -24,7 +24,7 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
     """Every broken claim, one line each (empty: the mesh is valid)."""
     if len(tets) == 0:
         return ["no tetrahedra"]
-    v = volumes(points, tets)
+    v = simplex_measures(points, tets)
     out = []
     if (v <= 0).any():  # before Mesh re-orients them
         i = int(np.argmin(v))
@@ -91,7 +91,7 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
 def verify_tets(res, solid, field, chord_tol: float) -> None:
     """Raise :class:`VerificationError` naming the first broken claim of ``res``
     (a :class:`~hetmesh.tet.mesher.TetResult`); delta is recomputed from ``field``."""
-    delta = delta_tets(field.composition(res.points), res.tets)
+    delta = delta_vertices(field.composition(res.points), res.tets)
     probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid, delta,
                          res.threshold, chord_tol)
     if probs:
