@@ -86,8 +86,9 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
                                       material=mid_section_field(solid, model.material)),
                                 swept=False, seed=seed, chord_tol=chord,
                                 max_elements=max_elements, max_size=max_size, check=check)
-    res.info["composition"] = np.asarray(model.material.composition(res.points),
-                                         dtype=np.float64)
+    if "composition" not in res.info:  # the swept meshes' delta came from the 2D field
+        res.info["composition"] = np.asarray(model.material.composition(res.points),
+                                             dtype=np.float64)
     res.mesh = to_mesh(res, model.constituents)
     return res
 

@@ -187,11 +187,12 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     if max_elements is not None and len(tets) > max_elements:
         raise BudgetError(f"the swept mesh has {len(tets)} tetrahedra, over the budget of "
                           f"{max_elements}")
+    comp = None
     if swept:
         delta = _swept_delta(field2d, p2, tets, len(p2), regions)
     else:
-        points, tets, _, delta, _ = repair(points, tets, field3d, threshold,
-                                           max_elements=max_elements)
+        points, tets, comp, delta, _ = repair(points, tets, field3d, threshold,
+                                              max_elements=max_elements)
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
@@ -201,6 +202,8 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
                      "section_triangles": ntri, "time_total": 0.0})
     if regions is not None:
         res.info["regions"] = regions.astype(np.int32)
+    if comp is not None:
+        res.info["composition"] = comp
     chord_abs = _chord_abs(kw.get("chord_tol", CHORD_TOL), sec)
     if check:
         probs = tet_problems(points, tets, res.faces, res.face_markers, solid, delta,

@@ -478,13 +478,13 @@ def generate_tets(solid, field, threshold: float, *, seed: int = 0,
         points, df = _layers_curved(solid, field, threshold, rng, chord, hmax, samples)
         tets = _delaunay(points)
     t_place = time.perf_counter() - t0
-    points, tets, _, delta, passes = repair(points, tets, field, threshold,
-                                            max_elements=max_elements)
+    points, tets, comp, delta, passes = repair(points, tets, field, threshold,
+                                               max_elements=max_elements)
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
     info = {"placement": "planar" if planar else "curved", "level_step": df,
-            "repair_passes": passes, "estimate": est,
+            "repair_passes": passes, "estimate": est, "composition": comp,
             "time_place": t_place, "time_total": time.perf_counter() - t0}
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold), info)

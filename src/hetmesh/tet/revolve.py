@@ -265,8 +265,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
             delta = (c.max(axis=1) - c.min(axis=1)).max(axis=1)
         passes = 0
     else:
-        points, tets, _, delta, passes = repair(points, tets, field, threshold,
-                                                max_elements=max_elements)
+        points, tets, comp, delta, passes = repair(points, tets, field, threshold,
+                                                   max_elements=max_elements)
         regions = None
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
@@ -278,6 +278,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
                      "repair_passes": passes})
     if regions is not None:
         res.info["regions"] = regions.astype(np.int32)
+    if not axisym:
+        res.info["composition"] = comp
     if check:
         probs = revolution_problems(res, solid, field if not axisym else None, chord)
         if probs:
