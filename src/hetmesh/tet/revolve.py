@@ -37,6 +37,7 @@ from .extrude import SectionField, prism_tets
 from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import repair
+from .verify import validity_problems
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
            "profile_field"]
@@ -320,17 +321,8 @@ def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str
     point used, boundary triangles on the solid's faces with every edge's midpoint within
     the chord tolerance of its face, the volume within the chord tolerance, delta."""
     p, t = res.points, res.tets
-    out = []
+    out = validity_problems(p, t)
     v = simplex_measures(p, t)
-    if (v <= 0).any():
-        out.append(f"{int((v <= 0).sum())} tetrahedra of non-positive volume")
-    used = np.zeros(len(p), bool)
-    used[t.ravel()] = True
-    if not used.all():
-        out.append(f"{int((~used).sum())} points used by no tetrahedron")
-    _, counts = boundary_faces(t)
-    if (counts > 2).any():
-        out.append(f"{int((counts > 2).sum())} faces shared by more than two tetrahedra")
     if (res.face_markers <= 0).any():
         out.append(f"{int((res.face_markers <= 0).sum())} boundary triangles on no face")
     curved = res.face_markers > 2

@@ -12,11 +12,25 @@ from ..errors import VerificationError
 from ..mesh import Mesh, simplex_measures
 from ..metrics import delta_vertices
 
-__all__ = ["verify_tets", "tet_problems"]
+__all__ = ["verify_tets", "tet_problems", "validity_problems"]
 
 
 def _tri_area(p: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def validity_problems(points: np.ndarray, tets: np.ndarray) -> list[str]:
+    """What every tetrahedral mesh must satisfy, one line per broken claim: the mesher's
+    own orientation (positive volumes, checked before :class:`~hetmesh.mesh.Mesh`
+    re-orients), then :meth:`hetmesh.mesh.Mesh.problems` (degenerate cells, unused or
+    repeated points, faces held by more than two tetrahedra, a boundary not closed)."""
+    v = simplex_measures(points, tets)
+    out = []
+    if (v < 0).any():
+        i = int(np.argmin(v))
+        out.append(f"{int((v < 0).sum())} tetrahedra of negative volume (smallest "
+                   f"{v[i]:.3g}, tetrahedron {i})")
+    return out + Mesh(points, tets).problems()
 
 
 def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_tol
@@ -24,15 +38,8 @@ def tet_problems(points, tets, faces, markers, solid, delta, threshold, chord_to
     """Every broken claim, one line each (empty: the mesh is valid)."""
     if len(tets) == 0:
         return ["no tetrahedra"]
+    out = validity_problems(points, tets)
     v = simplex_measures(points, tets)
-    out = []
-    if (v <= 0).any():  # before Mesh re-orients them
-        i = int(np.argmin(v))
-        out.append(f"{int((v <= 0).sum())} tetrahedra of non-positive volume (smallest "
-                   f"{v[i]:.3g}, tetrahedron {i})")
-    # validity and conformity as for every mesh: degenerate cells, unused or repeated
-    # points, faces held by more than two tetrahedra, a boundary that is not closed
-    out += [p for p in Mesh(points, tets).problems() if "degenerate" not in p or not out]
     if (markers <= 0).any():
         k = int(np.flatnonzero(markers <= 0)[0])
         c = points[faces[k]].mean(axis=0)
