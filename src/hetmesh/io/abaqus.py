@@ -214,10 +214,11 @@ def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", 
     return points
 
 
-def write_materials(f: TextIO, bins, *, thickness: float = 1.0,
+def write_materials(f: TextIO, bins, *, thickness: float | None = 1.0,
                     reference_temperature: float | None = None, heat: bool = True) -> None:
     """Element sets ``MAT_<i>`` (1-based), one ``*MATERIAL`` (``*ELASTIC``, ``*EXPANSION``,
-    ``*CONDUCTIVITY`` with ``heat``) and one ``*SOLID SECTION`` (thickness) per bin of a
+    ``*CONDUCTIVITY`` with ``heat``) and one ``*SOLID SECTION`` (with the ``thickness``
+    of plane elements; none for solids) per bin of a
     :class:`~hetmesh.io.material.MaterialBins`."""
     p = bins.properties
     for b in range(bins.count):
@@ -234,8 +235,9 @@ def write_materials(f: TextIO, bins, *, thickness: float = 1.0,
         f.write(f"*EXPANSION{zero}\n{alpha}\n")
         if heat:
             f.write(f"*CONDUCTIVITY\n{k}\n")
-        f.write(f"*SOLID SECTION, ELSET={name}, MATERIAL={name}\n"
-                f"{format_reals(np.array([thickness]))[0]}\n")
+        f.write(f"*SOLID SECTION, ELSET={name}, MATERIAL={name}\n")
+        if thickness is not None:  # plane elements: the thickness; solids: no data line
+            f.write(f"{format_reals(np.array([thickness]))[0]}\n")
 
 
 def write_inp(mesh: Mesh, path: Path, fmt=None) -> None:

@@ -22,10 +22,15 @@ mid-side nodes of the edges along a curve for six-node elements.
 
 ``fenics``: ``<model>.xdmf`` + ``.h5`` in the dolfinx layout (:mod:`hetmesh.io.xdmf`)
 with the element properties and mean composition as cell attributes (DG0 data).
-``comsol``: ``<model>.nas`` (NASTRAN bulk data: ``GRID``, ``CTRIA3`` with the region as
-property id, which COMSOL imports as domains) and ``<model>_composition.txt``, an
-interpolation table ``x y <constituent fractions...>`` at the nodes (COMSOL: Definitions >
-Functions > Interpolation, data from file, two arguments).
+``comsol``: ``<model>.nas`` (NASTRAN bulk data: ``GRID``, ``CTRIA3`` (``CTETRA`` in 3-D)
+with the region as property id, which COMSOL imports as domains) and
+``<model>_composition.txt``, an interpolation table ``x y [z] <constituent fractions...>``
+at the nodes (COMSOL: Definitions > Functions > Interpolation, data from file, two or three
+arguments).
+
+Tetrahedral meshes of 3-D models: the same targets; the Abaqus/CalculiX deck is written by
+:func:`hetmesh.io.abaqus3d.write_deck3d` (``C3D4``/``C3D10``, named faces as surfaces,
+pressures as ``*DLOAD``).
 """
 
 from __future__ import annotations
@@ -160,15 +165,16 @@ def _write_comsol(directory: Path, stem: str, mesh: Mesh) -> list[Path]:
     from .atomic import atomic_path
 
     nas = directory / f"{stem}.nas"
-    m = meshio.Mesh(np.column_stack([mesh.points, np.zeros(mesh.n_points)]),
-                    [("triangle", mesh.triangles)],
+    p = mesh.points if mesh.dim == 3 else np.column_stack([mesh.points,
+                                                           np.zeros(mesh.n_points)])
+    m = meshio.Mesh(p, [(mesh.cell_type, np.asarray(mesh.cells))],
                     cell_data={"nastran:ref": [mesh.regions.astype(np.int64) + 1]})
     with atomic_path(nas) as tmp:
         meshio.write(tmp, m, file_format="nastran")
     table = directory / f"{stem}_composition.txt"
     cons = [k for k in mesh.point_data if np.asarray(mesh.point_data[k]).ndim == 1]
     with atomic_write(table) as f:
-        f.write("% x y " + " ".join(cons) + "\n")
+        f.write("% " + " ".join("xyz"[:mesh.dim]) + " " + " ".join(cons) + "\n")
         rows = np.column_stack([mesh.points] + [mesh.point_data[k] for k in cons])
         np.savetxt(f, rows, fmt="%.17g")
     return [nas, table]
@@ -224,7 +230,8 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
     if len(cfg.properties) != len(model.material.constituents):
         raise FEAError(f"the [fea] properties are for {len(cfg.properties)} constituents, the "
                        f"material has {len(model.material.constituents)}")
-    mesh = name_from_model(mesh, model)
+    if mesh.dim == 2:
+        mesh = name_from_model(mesh, model)
     directory = Path(directory)
     try:
         directory.mkdir(parents=True, exist_ok=True)
@@ -240,7 +247,12 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
     graded = with_material(mesh, material)
     if target in ("calculix", "abaqus"):
         path = directory / f"{stem}.inp"
-        report.analysis = _write_inp_deck(path, graded, model, bins, target)
+        if mesh.dim == 3:
+            from .abaqus3d import write_deck3d
+
+            report.analysis = write_deck3d(path, graded, model, bins, target)
+        else:
+            report.analysis = _write_inp_deck(path, graded, model, bins, target)
         report.files.append(path)
     elif target == "fenics":
         report.files.append(write_mesh(graded, directory / f"{stem}.xdmf"))
