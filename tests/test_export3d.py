@@ -229,3 +229,76 @@ def test_calculix_on_graded_cylinder_agrees_with_hetmesh_fea(tmp_path, capsys):
         assert bary[e] @ vm[T[e]] == pytest.approx(mine["von_mises"], rel=0.02), name
         # the probes sit on y = 0: the radial stress is sigma_xx
         assert bary[e] @ xx[T[e]] == pytest.approx(mine["stress_xx"], rel=0.02), name
+
+
+CUBE_FEA = """
+[fea]
+reference_temperature = 300
+order = {order}
+[fea.properties.ceramic]
+conductivity = 35.0
+youngs_modulus = 393e9
+poisson_ratio = 0.25
+expansion = 7.4e-6
+[fea.properties.metal]
+conductivity = 90.7
+youngs_modulus = 199.5e9
+poisson_ratio = 0.3
+expansion = 15.4e-6
+[[fea.temperature]]
+faces = ["zmin"]
+value = 900
+[[fea.temperature]]
+faces = ["zmax"]
+value = 300
+[[fea.displacement]]
+faces = ["xmin"]
+ux = 0
+[[fea.displacement]]
+faces = ["ymin"]
+uy = 0
+[[fea.displacement]]
+faces = ["zmin"]
+uz = 0
+"""
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_calculix_heat_then_static_step_in_3d(tmp_path, order):
+    """unit_cube heated from below (900 K on zmin, 300 K on zmax), on rollers: CalculiX's
+    heat step then its thermoelastic step (C3D4 / C3D10) against hetmesh fea."""
+    ccx = need_ccx()
+    text = hetmesh.example_path("unit_cube").read_text() + CUBE_FEA.format(order=order)
+    (tmp_path / "cube.toml").write_text(text)
+    model = hetmesh.load_model(tmp_path / "cube.toml")
+    mesh = hetmesh.generate(model, 0.2).mesh
+    report = write_deck(mesh, model, tmp_path, "calculix", bin_width=0.05)
+    deck = (tmp_path / "unit_cube.inp").read_text()
+    assert report.analysis and deck.index("*HEAT TRANSFER") < deck.index("*STATIC")
+    run = subprocess.run([ccx, "-i", "unit_cube"], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0 and "*ERROR" not in run.stdout, run.stdout[-2000:]
+    frd = read_frd(tmp_path / "unit_cube.frd")
+    ours = hetmesh.fea.solve(mesh, model)
+    n = mesh.n_points
+    T = frd_nodal(frd, "NDTEMP", n)[:, 0]
+    assert np.abs(T - ours.temperature).max() <= 0.005 * np.ptp(ours.temperature)
+    U = frd_nodal(frd, "DISP", n)[:, :3]
+    assert np.abs(U - ours.displacement).max() <= 0.01 * np.abs(ours.displacement).max()
+
+
+def test_fenics_and_comsol_bundles_of_a_tet_mesh(tmp_path, cylinder):
+    import meshio
+
+    model, mesh = cylinder
+    write_deck(mesh, model, tmp_path / "fenics", "fenics")
+    back = read_mesh(tmp_path / "fenics" / "graded_cylinder.xdmf")
+    np.testing.assert_array_equal(back.cells, mesh.cells)
+    assert {"youngs_modulus", "mean_metal"} <= set(back.cell_data)
+    write_deck(mesh, model, tmp_path / "comsol", "comsol")
+    nas = meshio.read(tmp_path / "comsol" / "graded_cylinder.nas")
+    assert [c.type for c in nas.cells] == ["tetra"] and len(nas.cells[0]) == mesh.n_elements
+    np.testing.assert_allclose(nas.points, mesh.points, rtol=0, atol=1e-9)
+    table = np.loadtxt(tmp_path / "comsol" / "graded_cylinder_composition.txt", comments="%")
+    assert table.shape == (mesh.n_points, 5)  # x y z ceramic metal
+    np.testing.assert_array_equal(table[:, 4], mesh.point_data["metal"])

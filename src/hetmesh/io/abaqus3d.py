@@ -32,7 +32,14 @@ import numpy as np
 
 from ..errors import OutputError
 from . import textio
-from .abaqus import abaqus_name, format_reals, write_id_list, write_materials
+from .abaqus import (
+    DISTRIBUTION,
+    abaqus_name,
+    format_reals,
+    write_distribution,
+    write_id_list,
+    write_materials,
+)
 from .atomic import atomic_write
 
 if TYPE_CHECKING:
@@ -212,10 +219,12 @@ def _condition_nodes(mask: np.ndarray, boundary: np.ndarray, medges: np.ndarray 
     return np.concatenate([nodes, n + np.flatnonzero(both & np.isin(ekeys, bkeys))])
 
 
-def write_deck3d(path: Path, mesh: Mesh, model, bins, target: str) -> bool:
+def write_deck3d(path: Path, mesh: Mesh, model, bins, target: str,
+                 distribution: bool = False) -> bool:
     """Write the ``target`` (``"calculix"`` or ``"abaqus"``) deck of a tetrahedral ``mesh``
     of a 3-D ``model`` to ``path`` (see the module docstring); ``True`` if it holds the
-    analysis (the model's ``[fea]`` table has conditions)."""
+    analysis (the model's ``[fea]`` table has conditions). ``distribution``: the
+    elasticity element by element (:func:`hetmesh.io.abaqus.write_distribution`)."""
     from ..fea.analysis3d import face_vertices, selection_mask
     from ..tet.faces import boundary_faces
 
@@ -234,8 +243,13 @@ def write_deck3d(path: Path, mesh: Mesh, model, bins, target: str) -> bool:
                     f"{kind} elements in SI units (m Pa K W)")
         f.write("*NSET, NSET=NALL\n")
         write_id_list(f, np.arange(1, len(points) + 1))
+        name = None
+        if distribution:
+            name = DISTRIBUTION
+            write_distribution(f, mesh.cell_data["youngs_modulus"],
+                               mesh.cell_data["poisson_ratio"], name)
         write_materials(f, bins, thickness=None,
-                        reference_temperature=cfg.reference_temperature)
+                        reference_temperature=cfg.reference_temperature, distribution=name)
         if not cfg.has_problem:
             return False
         faces = face_vertices(mesh, getattr(model, "solid", None))

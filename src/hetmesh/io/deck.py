@@ -67,12 +67,14 @@ class DeckReport:
     max_property_error: float | None = None
     property_errors: dict = field(default_factory=dict)
     analysis: bool = False
+    distribution: bool = False
 
     def to_dict(self) -> dict:
         return {"target": self.target, "files": [str(p) for p in self.files],
                 "bins": self.bins, "bin_width": self.bin_width,
                 "max_property_error": self.max_property_error,
-                "property_errors": self.property_errors, "analysis": self.analysis}
+                "property_errors": self.property_errors, "analysis": self.analysis,
+                "distribution": self.distribution}
 
 
 def condition_nodes(mesh: Mesh, model, points: np.ndarray, mid: np.ndarray | None):
@@ -117,7 +119,8 @@ def _write_id_set(f, name: str, ids: np.ndarray) -> None:
     abaqus.write_id_list(f, np.asarray(ids, np.int64) + 1)
 
 
-def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: str) -> bool:
+def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: str,
+                    distribution: bool = False) -> bool:
     cfg = model.fea
     order, plane = cfg.order, cfg.plane
     kind = abaqus.element_type(plane, order)
@@ -130,8 +133,14 @@ def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: s
             heading=f"hetmesh {target} deck for model {model.name}: {mesh.n_elements} "
                     f"{kind} elements in SI units (m Pa K W)")
         _write_id_set(f, "NALL", np.arange(len(points)))
+        name = None
+        if distribution:
+            name = abaqus.DISTRIBUTION
+            abaqus.write_distribution(f, mesh.cell_data["youngs_modulus"],
+                                      mesh.cell_data["poisson_ratio"], name)
         abaqus.write_materials(f, bins, thickness=section_thickness(model),
-                               reference_temperature=cfg.reference_temperature)
+                               reference_temperature=cfg.reference_temperature,
+                               distribution=name)
         if not cfg.has_problem:
             return False
         mid = abaqus.quadratic_nodes(mesh)[1] if order == 2 else None
@@ -215,17 +224,24 @@ def name_from_model(mesh: Mesh, model) -> Mesh:
 
 
 def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
-               bin_width: float | None = None) -> DeckReport:
+               bin_width: float | None = None, distribution: bool = False) -> DeckReport:
     """Write the bundle of ``target`` (:data:`TARGETS`) for ``mesh`` of ``model`` into
     ``directory`` (created if missing); returns a :class:`DeckReport`.
 
     ``bin_width`` (composition) defaults to the mesh's largest element delta (below the
     delta_0 it was meshed for), so the bins add no more variation than the mesh's own.
+    ``distribution`` (``abaqus`` only): every element's own ``E`` and ``nu`` through an
+    Abaqus ``*DISTRIBUTION`` (:func:`hetmesh.io.abaqus.write_distribution`); the bins then
+    carry the expansion and the conductivity, and the report's Young's modulus and Poisson
+    ratio errors are zero.
     """
     from .export import write_mesh
 
     if target not in TARGETS:
         raise OptionError(f"unknown export target {target!r} (known: {', '.join(TARGETS)})")
+    if distribution and target != "abaqus":
+        raise OptionError(f"--distribution is for --to abaqus (Abaqus/Standard's *DISTRIBUTION); "
+                          f"{target} has no element distributions: use the material bins")
     cfg = material_config(model)
     if len(cfg.properties) != len(model.material.constituents):
         raise FEAError(f"the [fea] properties are for {len(cfg.properties)} constituents, the "
@@ -241,8 +257,12 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
     material = element_material(mesh, model, cfg)
     width = bin_width if bin_width is not None else float(max(material.delta.max(initial=0), 1e-3))
     bins = bin_material(material, min(width, 1.0), cfg, model.material.constituents)
+    errors = dict(bins.errors)
+    if distribution:
+        errors.update(youngs_modulus=0.0, poisson_ratio=0.0)
     report = DeckReport(target, bins=bins.count, bin_width=bins.width,
-                        max_property_error=bins.max_error, property_errors=dict(bins.errors))
+                        max_property_error=max(errors.values(), default=0.0),
+                        property_errors=errors, distribution=distribution)
     stem = model.name or "model"
     graded = with_material(mesh, material)
     if target in ("calculix", "abaqus"):
@@ -250,9 +270,9 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
         if mesh.dim == 3:
             from .abaqus3d import write_deck3d
 
-            report.analysis = write_deck3d(path, graded, model, bins, target)
+            report.analysis = write_deck3d(path, graded, model, bins, target, distribution)
         else:
-            report.analysis = _write_inp_deck(path, graded, model, bins, target)
+            report.analysis = _write_inp_deck(path, graded, model, bins, target, distribution)
         report.files.append(path)
     elif target == "fenics":
         report.files.append(write_mesh(graded, directory / f"{stem}.xdmf"))
