@@ -302,3 +302,75 @@ def test_fenics_and_comsol_bundles_of_a_tet_mesh(tmp_path, cylinder):
     table = np.loadtxt(tmp_path / "comsol" / "graded_cylinder_composition.txt", comments="%")
     assert table.shape == (mesh.n_points, 5)  # x y z ceramic metal
     np.testing.assert_array_equal(table[:, 4], mesh.point_data["metal"])
+
+
+@pytest.fixture(scope="module")
+def regions_and_shared_names():
+    """unit_cube with its tetrahedra dealt into three interleaved regions and the four side
+    faces (four markers) sharing one name."""
+    import dataclasses
+
+    model = hetmesh.load_model(hetmesh.example_path("unit_cube"))
+    mesh = hetmesh.generate(model, 0.3).mesh
+    names = {m: ("sides" if n not in ("zmin", "zmax") else n)
+             for m, n in mesh.marker_names.items()}
+    return dataclasses.replace(mesh, regions=np.arange(mesh.n_elements) % 3,
+                               marker_names=names)
+
+
+def test_msh_regions_keep_element_ids_and_names_once(tmp_path, regions_and_shared_names):
+    mesh = regions_and_shared_names
+    path = write_mesh(mesh, tmp_path / "cube.msh")
+    back = read_mesh(path)
+    np.testing.assert_array_equal(back.cells, mesh.cells)
+    np.testing.assert_array_equal(back.regions, mesh.regions)
+    np.testing.assert_array_equal(back.cell_data["quality"], mesh.cell_data["quality"])
+    assert back.marker_names == mesh.marker_names
+    gmsh = need_module("gmsh")
+    gmsh.initialize(["-noenv"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        groups = {(d, gmsh.model.getPhysicalName(d, t)): t
+                  for d, t in gmsh.model.getPhysicalGroups()}
+        assert sorted(n for d, n in groups if d == 2) == ["sides", "zmax", "zmin"]
+        assert sorted(n for d, n in groups if d == 3) == ["region_0", "region_1", "region_2"]
+        sides = sorted(gmsh.model.getEntitiesForPhysicalGroup(2, groups[(2, "sides")]).tolist())
+        assert sides == sorted(m for m, n in mesh.marker_names.items() if n == "sides")
+        _, etags, enodes = gmsh.model.mesh.getElements(3)
+        etags, enodes = np.concatenate(etags), np.concatenate(enodes).reshape(-1, 4)
+        order = np.argsort(etags)
+        np.testing.assert_array_equal(etags[order], np.arange(1, mesh.n_elements + 1))
+        np.testing.assert_array_equal(enodes[order] - 1, mesh.cells)
+        for r in range(3):
+            (vol,) = gmsh.model.getEntitiesForPhysicalGroup(3, groups[(3, f"region_{r}")])
+            _, tags, _ = gmsh.model.mesh.getElements(3, int(vol))
+            assert sorted(np.concatenate(tags).tolist()) == \
+                (np.flatnonzero(mesh.regions == r) + 1).tolist()
+        view = gmsh.view.getTags()[[gmsh.option.getString(f"View[{i}].Name")
+                                    for i in range(len(gmsh.view.getTags()))].index("quality")]
+        _, tags, data, _, _ = gmsh.view.getModelData(int(view), 0)
+        got = dict(zip(np.asarray(tags).tolist(), np.concatenate(data).tolist()))
+        np.testing.assert_array_equal([got[i + 1] for i in range(mesh.n_elements)],
+                                      mesh.cell_data["quality"])
+    finally:
+        gmsh.finalize()
+
+
+def test_inp_one_surface_and_node_set_per_face_name(tmp_path, regions_and_shared_names):
+    mesh = regions_and_shared_names
+    text = write_mesh(mesh, tmp_path / "cube.inp").read_text()
+    assert re.findall(r"^\*SURFACE, NAME=(\w+)", text, flags=re.M) == ["ZMIN", "ZMAX", "SIDES"]
+    assert re.findall(r"^\*NSET, NSET=(\w+)", text, flags=re.M) == ["ZMIN", "ZMAX", "SIDES"]
+    blocks = _blocks(text)
+    sets = {re.search(r"ELSET=(\w+)", k).group(1): _ids(d) for k, d in blocks
+            if k.startswith("*ELSET")}
+    elements = {v[0]: v[1:] for k, d in blocks if k.startswith("*ELEMENT")
+                for v in (_ids([x]) for x in d)}
+    surface = [d for k, d in blocks if k == "*SURFACE, NAME=SIDES, TYPE=ELEMENT"][0]
+    got = {tuple(sorted(elements[e][j] for j in FACE_NODES[int(s.split(",")[1].strip()[1:]) - 1]))
+           for s in surface for e in sets[s.split(",")[0]]}
+    side = np.isin(mesh.facet_markers, [m for m, n in mesh.marker_names.items() if n == "sides"])
+    assert got == {tuple(sorted(f)) for f in (mesh.facets[side] + 1).tolist()}
+    for r in range(3):
+        assert sets[f"REGION_{r}"] == (np.flatnonzero(mesh.regions == r) + 1).tolist()

@@ -4,12 +4,13 @@ The mesh (:func:`write_inp_mesh3d`): nodes (every real in at most 20 characters,
 :func:`hetmesh.io.abaqus.format_reals`), ``C3D4`` elements (``C3D10`` with ``order=2``,
 the mid-edge nodes at the midpoints of the straight edges, numbered after the mesh's nodes
 in Abaqus' order 1-2, 2-3, 3-1, 1-4, 2-4, 3-4), ``*ELSET, ELSET=REGION_<r>`` per region
-and, per named face, an ``*NSET`` of its nodes and an element-based ``*SURFACE`` on
-internal element sets ``_F<marker>_S<k>``. Faces follow the Abaqus manual's numbering of
-the tetrahedron: S1 = nodes 1-2-3, S2 = 1-4-2, S3 = 2-4-3, S4 = 3-4-1. Element ids are the
-tetrahedron indices + 1, node ids the node indices + 1, as in every other format; an
-element whose corners 1-2-3 turn clockwise seen from node 4 (negative volume in Abaqus'
-convention) is written with nodes 1 and 2 swapped.
+and, per face name (one set for all the markers of a name), an ``*NSET`` of its nodes and
+an element-based ``*SURFACE`` on internal element sets ``_F<marker>_S<k>``. Faces follow
+the Abaqus manual's numbering of the tetrahedron: S1 = nodes 1-2-3, S2 = 1-4-2,
+S3 = 2-4-3, S4 = 3-4-1. Element ids are the tetrahedron indices + 1, node ids the node
+indices + 1, as in every other format; an element whose corners 1-2-3 turn clockwise seen
+from node 4 (negative volume in Abaqus' convention) is written with nodes 1 and 2
+swapped.
 
 The deck (:func:`write_deck3d`): the mesh in SI units, the graded material binned by
 composition (:mod:`hetmesh.io.material`) and, for a model whose ``[fea]`` table has
@@ -122,19 +123,23 @@ def _write_nodes(f: TextIO, points: np.ndarray) -> None:
         f.write("".join(rows[s:s + textio.ROWS_PER_CHUNK]))
 
 
-def face_set_names(mesh: Mesh) -> dict[int, str]:
-    """``{marker: set name}`` of the named faces: valid Abaqus names in capitals, unique,
-    never ``REGION_*``/``MAT_*``/``FIXED_*``/``NALL``/``EALL`` (``FACE_<marker>`` then)."""
+def face_set_names(mesh: Mesh) -> list[tuple[str, tuple[int, ...]]]:
+    """``[(set name, markers)]``, one per face name (:func:`~hetmesh.io.groups.
+    curve_groups`: the markers sharing a name form one set): valid Abaqus names in
+    capitals, unique, never ``REGION_*``/``MAT_*``/``FIXED_*``/``NALL``/``EALL``
+    (``FACE_<tag>`` then)."""
+    from .groups import curve_groups
+
     used: set[str] = set()
-    out = {}
-    for m in np.unique(np.asarray(mesh.facet_markers)).tolist():
-        name = mesh.marker_names.get(int(m))
-        s = abaqus_name(name).upper() if name else f"FACE_{m}"
-        if (s.upper() in used or s.upper() in ("NALL", "EALL")
-                or s.upper().startswith(("REGION_", "MAT_", "FIXED_", "_"))):
-            s = f"FACE_{m}"
-        used.add(s.upper())
-        out[int(m)] = s
+    out = []
+    for g in curve_groups(mesh):
+        named = g.name != f"marker_{g.tag}"
+        s = abaqus_name(g.name).upper() if named else f"FACE_{g.tag}"
+        if (s in used or s in ("NALL", "EALL")
+                or s.startswith(("REGION_", "MAT_", "FIXED_", "_"))):
+            s = f"FACE_{g.tag}"
+        used.add(s)
+        out.append((s, g.markers))
     return out
 
 
@@ -168,15 +173,16 @@ def write_inp_mesh3d(f: TextIO, mesh: Mesh, path: Path, *, order: int = 1, headi
     if np.any(owner < 0):
         log.warning("%s: %d named triangles are no tetrahedron's face; no surface for them",
                     path, int((owner < 0).sum()))
-    for m, name in face_set_names(mesh).items():
-        sel = markers == m
+    for name, group in face_set_names(mesh):
+        sel = np.isin(markers, group)
         parts = []
-        for k in range(1, 5):
-            ids = np.unique(owner[sel & (side == k)])
-            if ids.size:
-                parts.append(f"_F{m}_S{k}")
-                f.write(f"*ELSET, ELSET={parts[-1]}, INTERNAL\n")
-                write_id_list(f, ids + 1)
+        for m in group:
+            for k in range(1, 5):
+                ids = np.unique(owner[(markers == m) & (side == k)])
+                if ids.size:
+                    parts.append(f"_F{m}_S{k}")
+                    f.write(f"*ELSET, ELSET={parts[-1]}, INTERNAL\n")
+                    write_id_list(f, ids + 1)
         if parts:
             f.write(f"*SURFACE, NAME={name}, TYPE=ELEMENT\n"
                     + "".join(f"{s}, S{s[-1]}\n" for s in parts))

@@ -32,6 +32,7 @@ geometric tags (the curve's marker, the region's surface), named points as point
 from __future__ import annotations
 
 import logging
+from contextlib import nullcontext
 from itertools import islice
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
@@ -231,10 +232,12 @@ def write_msh22(mesh: Mesh, path: Path, fmt=None) -> None:
             write_data(f, "NodeData", name, np.arange(1, len(p) + 1), v, path)
 
 
-def msh41_order(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(node tags, triangle element tags)`` of an ASCII MSH 4.1 file, in file order
-    (meshio lists nodes and cells in that order); None for other versions or binary."""
-    with open(path, encoding="utf-8", errors="replace") as f:
+def msh41_order(path, kind: int = 2) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(node tags, element tags of Gmsh type kind)`` (2: triangles, 4: tetrahedra) of an
+    ASCII MSH 4.1 file (a path or an open text stream), in file order (meshio lists nodes
+    and cells in that order); None for other versions or binary."""
+    with (open(path, encoding="utf-8", errors="replace") if isinstance(path, (str, Path))
+          else nullcontext(path)) as f:
         head = [next(f, ""), next(f, "")]
         if not head[0].startswith("$MeshFormat") or not head[1].split()[:2] == ["4.1", "0"]:
             return None
@@ -253,9 +256,9 @@ def msh41_order(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
             elif line.startswith("$Elements"):
                 blocks = int(next(f).split()[0])
                 for _ in range(blocks):
-                    d, _, kind, count = (int(x) for x in next(f).split())
+                    d, _, elem_kind, count = (int(x) for x in next(f).split())
                     rows = list(islice(f, count))
-                    if kind == 2:
+                    if elem_kind == kind:
                         tris.append(np.array([int(r.split(None, 1)[0]) for r in rows], np.int64))
                 break
     cat = lambda a: np.concatenate(a) if a else np.zeros(0, np.int64)  # noqa: E731
