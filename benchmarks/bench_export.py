@@ -13,6 +13,10 @@ Tables
   E1. Per run: elements, bins, largest property change from binning, temperatures'
       largest difference over their range, the von Mises difference at each probe (%).
   E2. Writing the mesh (median of 3): .msh, .inp, .xdmf, .vtu of the finest mesh.
+  E3. 3-D: examples/graded_cylinder.toml meshed at each --cylinder delta_0, the CalculiX
+      deck (C3D10, bins of delta_0 / 4) against hetmesh fea: displacements' largest
+      difference over the largest, von Mises and radial stress (sigma_xx, the probes sit on
+      y = 0) at R1..R3 (%), CalculiX's and hetmesh fea's times.
 """
 
 from __future__ import annotations
@@ -65,11 +69,49 @@ def agreement(model, mesh, workdir: Path, width: float) -> dict:
             "probes": probes, "ccx_s": ccx_s}
 
 
+def agreement3d(model, mesh, workdir: Path, width: float) -> list:
+    import hetmesh.fea
+    from hetmesh.io.deck import frd_nodal, read_frd, write_deck
+
+    report = write_deck(mesh, model, workdir, "calculix", bin_width=width)
+    t0 = time.perf_counter()
+    run = subprocess.run(["ccx", "-i", model.name], cwd=workdir, capture_output=True, text=True)
+    ccx_s = time.perf_counter() - t0
+    if run.returncode != 0:
+        raise RuntimeError(run.stdout[-500:])
+    t0 = time.perf_counter()
+    ours = hetmesh.fea.solve(mesh, model)
+    fea_s = time.perf_counter() - t0
+    frd = read_frd(workdir / f"{model.name}.frd")
+    n = mesh.n_points
+    U = frd_nodal(frd, "DISP", n)[:, :3]
+    s = frd_nodal(frd, "STRESS", n)
+    xx, yy, zz, xy, yz, zx = s.T
+    vm = np.sqrt(0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2)
+                 + 3 * (xy ** 2 + yz ** 2 + zx ** 2))
+    P, T = mesh.points, mesh.cells
+    a = P[T[:, 0]]
+    J = np.stack([P[T[:, k]] - a for k in (1, 2, 3)], axis=2)
+    vms, rads = [], []
+    for name, q in model.fea.probes.items():
+        lam = np.linalg.solve(J, (np.asarray(q) - a)[..., None])[..., 0]
+        bary = np.column_stack([1 - lam.sum(axis=1), lam])
+        e = int(np.argmax(bary.min(axis=1)))
+        mine = ours.probes[name]
+        vms.append(100 * (bary[e] @ vm[T[e]] / mine["von_mises"] - 1))
+        rads.append(100 * (bary[e] @ xx[T[e]] / mine["stress_xx"] - 1))
+    du = 100 * np.abs(U - ours.displacement).max() / np.abs(ours.displacement).max()
+    return [mesh.n_elements, report.bins, f"{du:.2f}", " / ".join(f"{v:+.2f}" for v in vms),
+            " / ".join(f"{v:+.2f}" for v in rads), f"{ccx_s:.2f}", f"{fea_s:.2f}"]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--delta", type=float, nargs="+", default=[0.1, 0.05])
     ap.add_argument("--plane", nargs="+", default=["strain", "stress"],
                     choices=["strain", "stress"])
+    ap.add_argument("--cylinder", type=float, nargs="*", default=[0.25, 0.2, 0.15],
+                    help="delta_0 of the 3-D graded_cylinder runs (none: skip E3)")
     args = ap.parse_args()
     import hetmesh
     from hetmesh.io.export import write_mesh
@@ -109,6 +151,15 @@ def main() -> None:
                 times.append(time.perf_counter() - t0)
             rows.append([ext, finest.n_elements, f"{median(times):.3f}"])
         print_table("E2. Writing the mesh (median of 3)", ["format", "elements", "s"], rows)
+        if args.cylinder:
+            cyl = hetmesh.load_model(ROOT / "examples" / "graded_cylinder.toml")
+            rows = [[f"{d0:g}"] + agreement3d(cyl, hetmesh.generate(cyl, d0).mesh,
+                                              Path(tmp) / f"cyl_{d0}", d0 / 4)
+                    for d0 in args.cylinder]
+            print_table("E3. 3-D: CalculiX (C3D10, bins delta_0 / 4) vs hetmesh fea on "
+                        "graded_cylinder, same mesh",
+                        ["delta_0", "tetrahedra", "bins", "U diff %", "vM R1/R2/R3 %",
+                         "radial R1/R2/R3 %", "ccx s", "fea s"], rows)
 
 
 if __name__ == "__main__":

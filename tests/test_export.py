@@ -504,3 +504,97 @@ def test_cli_export(tmp_path, bar, capsys):
     assert "no such file" in capsys.readouterr().err
     assert main(["export", str(src), "--mesh", str(tmp_path / "bar.vtu"), "--to", "calculix",
                  "--output", str(out / "x"), "--bin-width", "2"]) == 2
+
+
+# ------------------------------------------------------------- Abaqus *DISTRIBUTION
+
+def abaqus_keywords(text: str) -> list[tuple[str, dict, list[list[str]]]]:
+    """An Abaqus input file as ``(KEYWORD, {PARAMETER: value}, data lines split at
+    commas)``, as the Abaqus keyword reference describes the syntax: a keyword line starts
+    with ``*`` (``**`` is a comment), parameters follow after commas as ``NAME=value`` or
+    ``NAME``, case-insensitive; data lines hold comma-separated fields."""
+    out = []
+    for line in text.splitlines():
+        if line.startswith("**") or not line.strip():
+            continue
+        if line.startswith("*"):
+            head, *params = [p.strip() for p in line[1:].split(",")]
+            kv = {}
+            for p in params:
+                k, _, v = p.partition("=")
+                kv[k.strip().upper()] = v.strip()
+            out.append((head.upper(), kv, []))
+        else:
+            out[-1][2].append([x.strip() for x in line.split(",")])
+    return out
+
+
+def check_distribution_deck(text: str, modulus: np.ndarray, ratio: np.ndarray) -> None:
+    """The deck's elasticity against the Abaqus keyword reference: a ``*DISTRIBUTION
+    TABLE`` whose only data line is ``MODULUS, RATIO`` (isotropic elasticity); a
+    ``*DISTRIBUTION`` with the required LOCATION (ELEMENT), NAME and TABLE (that table),
+    a first data line with a blank label (the defaults) then element labels with two
+    values each; every ``*MATERIAL``'s ``*ELASTIC`` data line naming the distribution;
+    the model data before the first ``*STEP``; every field within 20 characters."""
+    kws = abaqus_keywords(text)
+    names = [k for k, _, _ in kws]
+    tables = [(p, d) for k, p, d in kws if k == "DISTRIBUTION TABLE"]
+    dists = [(p, d) for k, p, d in kws if k == "DISTRIBUTION"]
+    assert len(tables) == 1 and len(dists) == 1
+    (tp, td), (dp, dd) = tables[0], dists[0]
+    assert td == [["MODULUS", "RATIO"]]
+    assert set(dp) >= {"NAME", "LOCATION", "TABLE"}
+    assert dp["LOCATION"].upper() == "ELEMENT" and dp["TABLE"] == tp["NAME"]
+    assert dd[0][0] == "" and len(dd[0]) == 3 and float(dd[0][1]) > 0
+    ids = [int(r[0]) for r in dd[1:]]
+    assert ids == list(range(1, len(modulus) + 1))
+    assert all(len(r) == 3 and all(len(x) <= 20 for x in r) for r in dd)
+    np.testing.assert_array_equal([float(r[1]) for r in dd[1:]], modulus)
+    np.testing.assert_array_equal([float(r[2]) for r in dd[1:]], ratio)
+    elastic = [d for k, _, d in kws if k == "ELASTIC"]
+    assert len(elastic) == names.count("MATERIAL") > 1
+    assert all(d == [[dp["NAME"]]] for d in elastic)
+    if "STEP" in names:
+        assert names.index("DISTRIBUTION") < names.index("STEP")
+    assert names.index("DISTRIBUTION TABLE") < names.index("DISTRIBUTION") < names.index("MATERIAL")
+
+
+def test_abaqus_distribution_follows_the_keyword_reference(tmp_path, bar):
+    from hetmesh.errors import OptionError
+    from hetmesh.io.deck import write_deck
+    from hetmesh.io.material import element_material
+
+    model, mesh = bar
+    report = write_deck(mesh, model, tmp_path, "abaqus", bin_width=0.05, distribution=True)
+    assert report.distribution and report.property_errors["youngs_modulus"] == 0.0
+    assert report.property_errors["expansion"] > 0  # still binned
+    mat = element_material(mesh, model)
+    check_distribution_deck((tmp_path / "bar.inp").read_text(),
+                            mat.properties["youngs_modulus"], mat.properties["poisson_ratio"])
+    plain = write_deck(mesh, model, tmp_path / "plain", "abaqus", bin_width=0.05)
+    assert "*DISTRIBUTION" not in (tmp_path / "plain" / "bar.inp").read_text()
+    assert plain.property_errors["youngs_modulus"] > 0
+    with pytest.raises(OptionError, match="--to abaqus"):
+        write_deck(mesh, model, tmp_path / "ccx", "calculix", distribution=True)
+
+
+def test_abaqus_distribution_3d_and_cli(tmp_path, capsys):
+    import hetmesh
+    from hetmesh.cli.main import main
+    from hetmesh.io.material import element_material
+
+    model = hetmesh.load_model(hetmesh.example_path("graded_cylinder"))
+    mesh = hetmesh.generate(model, 0.3).mesh
+    write_mesh(mesh, tmp_path / "cyl.vtu")
+    code = main(["export", str(hetmesh.example_path("graded_cylinder")), "--mesh",
+                 str(tmp_path / "cyl.vtu"), "--to", "abaqus", "--distribution", "--output",
+                 str(tmp_path / "deck")])
+    assert code == 0 and "*DISTRIBUTION" in capsys.readouterr().out
+    text = (tmp_path / "deck" / "graded_cylinder.inp").read_text()
+    mat = element_material(read_mesh(tmp_path / "cyl.vtu"), model)
+    check_distribution_deck(text, mat.properties["youngs_modulus"],
+                            mat.properties["poisson_ratio"])
+    assert "*ELEMENT, TYPE=C3D10, ELSET=EALL" in text  # no thermal problem: a static step
+    assert main(["export", str(hetmesh.example_path("graded_cylinder")), "--mesh",
+                 str(tmp_path / "cyl.vtu"), "--to", "calculix", "--distribution", "--output",
+                 str(tmp_path / "x")]) == 2

@@ -55,6 +55,10 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
     p.add_argument("--bin-width", type=_width, metavar="W",
                    help="composition width of the material bins (calculix, abaqus); default "
                         "the mesh's largest element delta, below the delta_0 it was made for")
+    p.add_argument("--distribution", action="store_true",
+                   help="abaqus: every element's own Young's modulus and Poisson ratio "
+                        "through *DISTRIBUTION (Abaqus/Standard), the bins keeping the "
+                        "expansion and conductivity")
     p.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
     p.set_defaults(run=run)
     return p
@@ -70,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
         raise OutputError(f"--output {args.output} is a file, not a directory")
     model = load_model(args.model)
     mesh = read_mesh(args.mesh)
-    report = write_deck(mesh, model, args.output, args.to, bin_width=args.bin_width)
+    report = write_deck(mesh, model, args.output, args.to, bin_width=args.bin_width,
+                        distribution=args.distribution)
     if not args.quiet:
         console = Console(highlight=False, markup=False)
         what = "analysis deck" if report.analysis else "mesh and material"
@@ -78,6 +83,8 @@ def run(args: argparse.Namespace) -> int:
         if report.bins:
             line += (f"; {report.bins} material bins of width {report.bin_width:.4g}, largest "
                      f"property change from binning {100 * report.max_property_error:.3g} %")
+            if report.distribution:
+                line += "; E and nu element by element (*DISTRIBUTION)"
         console.print(line)
         for path in report.files:
             console.print(f"wrote {path}")

@@ -20,7 +20,11 @@ starting with a letter, at most 80 characters).
 
 Material (optional, :class:`MaterialBins`): element sets ``MAT_<i>`` binned by
 composition, one ``*MATERIAL`` (``*ELASTIC``, ``*EXPANSION``, ``*CONDUCTIVITY``) and one
-``*SOLID SECTION`` per bin (with the thickness), see :mod:`hetmesh.io.material`.
+``*SOLID SECTION`` per bin (with the thickness), see :mod:`hetmesh.io.material`. For
+Abaqus/Standard, the elasticity can instead be given element by element
+(:func:`write_distribution`: ``*DISTRIBUTION TABLE`` / ``*DISTRIBUTION`` with the labels
+``MODULUS, RATIO`` of the Abaqus keyword reference), each bin's ``*ELASTIC`` naming the
+distribution; CalculiX has no ``*DISTRIBUTION``.
 """
 
 from __future__ import annotations
@@ -41,13 +45,16 @@ if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 
 __all__ = ["format_reals", "abaqus_name", "element_type", "quadratic_nodes", "write_inp",
-           "write_inp_mesh", "write_materials", "write_id_list", "edge_sides", "set_names",
-           "MAX_FIELD"]
+           "write_inp_mesh", "write_materials", "write_distribution", "write_id_list",
+           "edge_sides", "set_names", "MAX_FIELD", "DISTRIBUTION"]
 
 log = logging.getLogger(__name__)
 
 #: characters of a field that CalculiX reads
 MAX_FIELD = 20
+
+#: the name of the element-wise elasticity of :func:`write_distribution`
+DISTRIBUTION = "GRADED_ELASTIC"
 
 
 def format_reals(values: np.ndarray) -> list[str]:
@@ -214,11 +221,37 @@ def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", 
     return points
 
 
-def write_materials(f: TextIO, bins, *, thickness: float = 1.0,
-                    reference_temperature: float | None = None, heat: bool = True) -> None:
+def write_distribution(f: TextIO, modulus: np.ndarray, ratio: np.ndarray,
+                       name: str = DISTRIBUTION) -> None:
+    """An element-wise isotropic elasticity for Abaqus/Standard: ``*DISTRIBUTION TABLE``
+    (columns ``MODULUS, RATIO``) and ``*DISTRIBUTION, LOCATION=ELEMENT`` with a first line
+    of defaults (blank element label; the median element's values) and one line per
+    element ``id, E, nu`` (ids 1..M). Materials refer to it by giving ``name`` on their
+    ``*ELASTIC`` data line (:func:`write_materials` with ``distribution``)."""
+    E = np.asarray(modulus, np.float64)
+    nu = np.asarray(ratio, np.float64)
+    if not len(E):
+        raise OutputError("an element distribution needs at least one element")
+    mid = int(np.argsort(E, kind="stable")[len(E) // 2])
+    f.write(f"*DISTRIBUTION TABLE, NAME={name}_TABLE\nMODULUS, RATIO\n"
+            f"*DISTRIBUTION, NAME={name}, LOCATION=ELEMENT, TABLE={name}_TABLE\n")
+    d = format_reals(np.array([E[mid], nu[mid]]))
+    f.write(f", {d[0]}, {d[1]}\n")
+    text = iter(format_reals(np.column_stack([E, nu])))
+    rows = [f"{i}, {a}, {b}\n" for i, a, b in zip(range(1, len(E) + 1), text, text)]
+    for s in range(0, len(rows), textio.ROWS_PER_CHUNK):
+        f.write("".join(rows[s:s + textio.ROWS_PER_CHUNK]))
+
+
+def write_materials(f: TextIO, bins, *, thickness: float | None = 1.0,
+                    reference_temperature: float | None = None, heat: bool = True,
+                    distribution: str | None = None) -> None:
     """Element sets ``MAT_<i>`` (1-based), one ``*MATERIAL`` (``*ELASTIC``, ``*EXPANSION``,
-    ``*CONDUCTIVITY`` with ``heat``) and one ``*SOLID SECTION`` (thickness) per bin of a
-    :class:`~hetmesh.io.material.MaterialBins`."""
+    ``*CONDUCTIVITY`` with ``heat``) and one ``*SOLID SECTION`` (with the ``thickness``
+    of plane elements; none for solids) per bin of a
+    :class:`~hetmesh.io.material.MaterialBins`; with ``distribution`` (the name of a
+    :func:`write_distribution`) every ``*ELASTIC`` names it instead of giving the bin's
+    ``E, nu``."""
     p = bins.properties
     for b in range(bins.count):
         name = f"MAT_{b + 1}"
@@ -228,14 +261,16 @@ def write_materials(f: TextIO, bins, *, thickness: float = 1.0,
                                                  p["expansion"][b], p["conductivity"][b]]))
         comp = ", ".join(f"{c:.6f}" for c in bins.composition[b])
         f.write(f"** {name}: mean composition ({comp})\n")
-        f.write(f"*MATERIAL, NAME={name}\n*ELASTIC\n{E}, {nu}\n")
+        elastic = distribution if distribution else f"{E}, {nu}"
+        f.write(f"*MATERIAL, NAME={name}\n*ELASTIC\n{elastic}\n")
         zero = "" if reference_temperature is None else \
             f", ZERO={format_reals(np.array([reference_temperature]))[0]}"
         f.write(f"*EXPANSION{zero}\n{alpha}\n")
         if heat:
             f.write(f"*CONDUCTIVITY\n{k}\n")
-        f.write(f"*SOLID SECTION, ELSET={name}, MATERIAL={name}\n"
-                f"{format_reals(np.array([thickness]))[0]}\n")
+        f.write(f"*SOLID SECTION, ELSET={name}, MATERIAL={name}\n")
+        if thickness is not None:  # plane elements: the thickness; solids: no data line
+            f.write(f"{format_reals(np.array([thickness]))[0]}\n")
 
 
 def write_inp(mesh: Mesh, path: Path, fmt=None) -> None:

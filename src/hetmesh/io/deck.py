@@ -22,10 +22,15 @@ mid-side nodes of the edges along a curve for six-node elements.
 
 ``fenics``: ``<model>.xdmf`` + ``.h5`` in the dolfinx layout (:mod:`hetmesh.io.xdmf`)
 with the element properties and mean composition as cell attributes (DG0 data).
-``comsol``: ``<model>.nas`` (NASTRAN bulk data: ``GRID``, ``CTRIA3`` with the region as
-property id, which COMSOL imports as domains) and ``<model>_composition.txt``, an
-interpolation table ``x y <constituent fractions...>`` at the nodes (COMSOL: Definitions >
-Functions > Interpolation, data from file, two arguments).
+``comsol``: ``<model>.nas`` (NASTRAN bulk data: ``GRID``, ``CTRIA3`` (``CTETRA`` in 3-D)
+with the region as property id, which COMSOL imports as domains) and
+``<model>_composition.txt``, an interpolation table ``x y [z] <constituent fractions...>``
+at the nodes (COMSOL: Definitions > Functions > Interpolation, data from file, two or three
+arguments).
+
+Tetrahedral meshes of 3-D models: the same targets; the Abaqus/CalculiX deck is written by
+:func:`hetmesh.io.abaqus3d.write_deck3d` (``C3D4``/``C3D10``, named faces as surfaces,
+pressures as ``*DLOAD``).
 """
 
 from __future__ import annotations
@@ -62,12 +67,14 @@ class DeckReport:
     max_property_error: float | None = None
     property_errors: dict = field(default_factory=dict)
     analysis: bool = False
+    distribution: bool = False
 
     def to_dict(self) -> dict:
         return {"target": self.target, "files": [str(p) for p in self.files],
                 "bins": self.bins, "bin_width": self.bin_width,
                 "max_property_error": self.max_property_error,
-                "property_errors": self.property_errors, "analysis": self.analysis}
+                "property_errors": self.property_errors, "analysis": self.analysis,
+                "distribution": self.distribution}
 
 
 def condition_nodes(mesh: Mesh, model, points: np.ndarray, mid: np.ndarray | None):
@@ -112,7 +119,8 @@ def _write_id_set(f, name: str, ids: np.ndarray) -> None:
     abaqus.write_id_list(f, np.asarray(ids, np.int64) + 1)
 
 
-def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: str) -> bool:
+def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: str,
+                    distribution: bool = False) -> bool:
     cfg = model.fea
     order, plane = cfg.order, cfg.plane
     kind = abaqus.element_type(plane, order)
@@ -125,8 +133,14 @@ def _write_inp_deck(path: Path, mesh: Mesh, model, bins: MaterialBins, target: s
             heading=f"hetmesh {target} deck for model {model.name}: {mesh.n_elements} "
                     f"{kind} elements in SI units (m Pa K W)")
         _write_id_set(f, "NALL", np.arange(len(points)))
+        name = None
+        if distribution:
+            name = abaqus.DISTRIBUTION
+            abaqus.write_distribution(f, mesh.cell_data["youngs_modulus"],
+                                      mesh.cell_data["poisson_ratio"], name)
         abaqus.write_materials(f, bins, thickness=section_thickness(model),
-                               reference_temperature=cfg.reference_temperature)
+                               reference_temperature=cfg.reference_temperature,
+                               distribution=name)
         if not cfg.has_problem:
             return False
         mid = abaqus.quadratic_nodes(mesh)[1] if order == 2 else None
@@ -160,15 +174,16 @@ def _write_comsol(directory: Path, stem: str, mesh: Mesh) -> list[Path]:
     from .atomic import atomic_path
 
     nas = directory / f"{stem}.nas"
-    m = meshio.Mesh(np.column_stack([mesh.points, np.zeros(mesh.n_points)]),
-                    [("triangle", mesh.triangles)],
+    p = mesh.points if mesh.dim == 3 else np.column_stack([mesh.points,
+                                                           np.zeros(mesh.n_points)])
+    m = meshio.Mesh(p, [(mesh.cell_type, np.asarray(mesh.cells))],
                     cell_data={"nastran:ref": [mesh.regions.astype(np.int64) + 1]})
     with atomic_path(nas) as tmp:
         meshio.write(tmp, m, file_format="nastran")
     table = directory / f"{stem}_composition.txt"
     cons = [k for k in mesh.point_data if np.asarray(mesh.point_data[k]).ndim == 1]
     with atomic_write(table) as f:
-        f.write("% x y " + " ".join(cons) + "\n")
+        f.write("% " + " ".join("xyz"[:mesh.dim]) + " " + " ".join(cons) + "\n")
         rows = np.column_stack([mesh.points] + [mesh.point_data[k] for k in cons])
         np.savetxt(f, rows, fmt="%.17g")
     return [nas, table]
@@ -209,22 +224,30 @@ def name_from_model(mesh: Mesh, model) -> Mesh:
 
 
 def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
-               bin_width: float | None = None) -> DeckReport:
+               bin_width: float | None = None, distribution: bool = False) -> DeckReport:
     """Write the bundle of ``target`` (:data:`TARGETS`) for ``mesh`` of ``model`` into
     ``directory`` (created if missing); returns a :class:`DeckReport`.
 
     ``bin_width`` (composition) defaults to the mesh's largest element delta (below the
     delta_0 it was meshed for), so the bins add no more variation than the mesh's own.
+    ``distribution`` (``abaqus`` only): every element's own ``E`` and ``nu`` through an
+    Abaqus ``*DISTRIBUTION`` (:func:`hetmesh.io.abaqus.write_distribution`); the bins then
+    carry the expansion and the conductivity, and the report's Young's modulus and Poisson
+    ratio errors are zero.
     """
     from .export import write_mesh
 
     if target not in TARGETS:
         raise OptionError(f"unknown export target {target!r} (known: {', '.join(TARGETS)})")
+    if distribution and target != "abaqus":
+        raise OptionError(f"--distribution is for --to abaqus (Abaqus/Standard's *DISTRIBUTION); "
+                          f"{target} has no element distributions: use the material bins")
     cfg = material_config(model)
     if len(cfg.properties) != len(model.material.constituents):
         raise FEAError(f"the [fea] properties are for {len(cfg.properties)} constituents, the "
                        f"material has {len(model.material.constituents)}")
-    mesh = name_from_model(mesh, model)
+    if mesh.dim == 2:
+        mesh = name_from_model(mesh, model)
     directory = Path(directory)
     try:
         directory.mkdir(parents=True, exist_ok=True)
@@ -234,13 +257,22 @@ def write_deck(mesh: Mesh, model, directory: str | Path, target: str, *,
     material = element_material(mesh, model, cfg)
     width = bin_width if bin_width is not None else float(max(material.delta.max(initial=0), 1e-3))
     bins = bin_material(material, min(width, 1.0), cfg, model.material.constituents)
+    errors = dict(bins.errors)
+    if distribution:
+        errors.update(youngs_modulus=0.0, poisson_ratio=0.0)
     report = DeckReport(target, bins=bins.count, bin_width=bins.width,
-                        max_property_error=bins.max_error, property_errors=dict(bins.errors))
+                        max_property_error=max(errors.values(), default=0.0),
+                        property_errors=errors, distribution=distribution)
     stem = model.name or "model"
     graded = with_material(mesh, material)
     if target in ("calculix", "abaqus"):
         path = directory / f"{stem}.inp"
-        report.analysis = _write_inp_deck(path, graded, model, bins, target)
+        if mesh.dim == 3:
+            from .abaqus3d import write_deck3d
+
+            report.analysis = write_deck3d(path, graded, model, bins, target, distribution)
+        else:
+            report.analysis = _write_inp_deck(path, graded, model, bins, target, distribution)
         report.files.append(path)
     elif target == "fenics":
         report.files.append(write_mesh(graded, directory / f"{stem}.xdmf"))

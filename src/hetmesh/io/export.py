@@ -261,7 +261,8 @@ def _tet_arrays(m: meshio.Mesh) -> dict:
     of 3D meshes store them: the tetrahedra; regions from ``region`` (vtu, vtk) or the
     physical volume tags (msh: tag - 1) or ``medit:ref``; the triangles as facets, their
     markers from ``marker``, ``gmsh:geometrical`` or ``medit:ref``, their names from the
-    physical surface names (msh: tag = 100 + marker, :data:`hetmesh.tet.export.FACE_TAG`)."""
+    physical surface holding each marker's triangles (msh: tag = 100 + the smallest marker
+    of the name, :data:`hetmesh.tet.export.FACE_TAG`)."""
     tet, tri = _blocks(m, "tetra"), _blocks(m, "triangle")
     cells = np.concatenate([m.cells[i].data for i in tet]).astype(np.int64)
     regions = _gather(m, "region", tet)
@@ -277,9 +278,16 @@ def _tet_arrays(m: meshio.Mesh) -> dict:
             markers = _gather(m, key, tri)
             if markers is not None:
                 break
-        for name, (tag, dim) in ((k, tuple(v)[:2]) for k, v in (m.field_data or {}).items()):
-            if int(dim) == 2 and int(tag) > 100:
-                names[int(tag) - 100] = name
+        by_tag = {int(tag): name for name, (tag, dim) in
+                  ((k, tuple(v)[:2]) for k, v in (m.field_data or {}).items())
+                  if int(dim) == 2 and int(tag) > 100}
+        phys = _gather(m, "gmsh:physical", tri)
+        if phys is not None and markers is not None:  # every marker named by its group
+            for mk, ph in np.unique(np.column_stack([markers, phys]), axis=0).tolist():
+                if int(ph) in by_tag:
+                    names[int(mk)] = by_tag[int(ph)]
+        else:
+            names = {t - 100: n for t, n in by_tag.items()}
     cell_data = {k: _gather(m, k, tet) for k in m.cell_data
                  if k not in _RESERVED_CELL and not k.startswith(("gmsh:", "medit:"))}
     point_data = {k: np.asarray(v) for k, v in m.point_data.items() if k not in _RESERVED_POINT}
@@ -400,8 +408,9 @@ def _named_points(m: meshio.Mesh, curve_names: set[str]) -> dict[str, int]:
 
 
 def _tag_order(m: meshio.Mesh, path: Path, tri: list[int]) -> meshio.Mesh:
-    """Put the nodes and triangles of a Gmsh 4.1 file read by meshio (in file order) back
-    in the order of their tags, the mesh's own order."""
+    """Put the nodes, triangles and tetrahedra of a Gmsh 4.1 file read by meshio (in file
+    order) back in the order of their tags, the mesh's own order (``tri``: the triangle
+    blocks)."""
     order = gmsh_msh.msh41_order(path)
     if order is None:
         return m
@@ -413,17 +422,24 @@ def _tag_order(m: meshio.Mesh, path: Path, tri: list[int]) -> meshio.Mesh:
     new_of[perm] = np.arange(len(perm))
     cells = [(c.type, new_of[c.data]) for c in m.cells]
     cell_data = {k: list(v) for k, v in m.cell_data.items()}
-    if tri and len(tri_tags) == sum(len(m.cells[i]) for i in tri):
-        # gather the triangle blocks into one block in element tag order
-        t_perm = np.argsort(tri_tags, kind="stable")
-        first = tri[0]
-        merged = np.concatenate([cells[i][1] for i in tri])[t_perm]
-        keep = [i for i in range(len(cells)) if i not in tri[1:]]
-        cells[first] = ("triangle", merged)
+    tets = [i for i, c in enumerate(cells) if c[0] == "tetra"]
+    for kind, blocks, tags in (("triangle", tri, tri_tags),
+                               ("tetra", tets, gmsh_msh.msh41_order(path, 4)[1] if tets
+                                else np.zeros(0, np.int64))):
+        if not blocks or len(tags) != sum(len(cells[i][1]) for i in blocks):
+            continue
+        # gather the blocks of this kind into one block in element tag order
+        t_perm = np.argsort(tags, kind="stable")
+        first = blocks[0]
+        merged = np.concatenate([cells[i][1] for i in blocks])[t_perm]
+        keep = [i for i in range(len(cells)) if i not in blocks[1:]]
+        cells[first] = (kind, merged)
         for k, v in cell_data.items():
-            v[first] = np.concatenate([np.asarray(v[i]) for i in tri])[t_perm]
+            v[first] = np.concatenate([np.asarray(v[i]) for i in blocks])[t_perm]
             cell_data[k] = [v[i] for i in keep]
         cells = [cells[i] for i in keep]
+        if kind == "triangle":  # the tetra block indices after the merge
+            tets = [i for i, c in enumerate(cells) if c[0] == "tetra"]
     point_data = {k: np.asarray(v)[perm] for k, v in m.point_data.items()}
     return meshio.Mesh(m.points[perm], cells, point_data=point_data, cell_data=cell_data,
                        field_data=m.field_data)

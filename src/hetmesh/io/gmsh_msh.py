@@ -32,6 +32,7 @@ geometric tags (the curve's marker, the region's surface), named points as point
 from __future__ import annotations
 
 import logging
+from contextlib import nullcontext
 from itertools import islice
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
@@ -46,7 +47,8 @@ from .textio import check_ids, float_pad, region_tag_offset
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 
-__all__ = ["write_msh41", "write_msh22", "point_tag_offset", "msh41_order", "physical_names"]
+__all__ = ["write_data", "write_msh41", "write_msh22", "point_tag_offset", "msh41_order",
+           "physical_names"]
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +79,7 @@ def _write_header(f: TextIO, version: str, names: list[tuple[int, int, str]]) ->
         f.write("$EndPhysicalNames\n")
 
 
-def _write_data(f: TextIO, section: str, name: str, tags: np.ndarray, values: np.ndarray,
+def write_data(f: TextIO, section: str, name: str, tags: np.ndarray, values: np.ndarray,
                 path: Path) -> None:
     """A ``$NodeData`` / ``$ElementData`` section, rows in the given (file) order."""
     v = np.asarray(values, np.float64).reshape(len(values), -1)
@@ -188,14 +190,14 @@ def write_msh41(mesh: Mesh, path: Path, fmt=None) -> None:
                               np.column_stack([ids + 1, mesh.triangles[ids] + 1]))
         f.write("$EndElements\n")
         for name, v in mesh.point_data.items():
-            _write_data(f, "NodeData", name, node_order + 1, np.asarray(v)[node_order], path)
+            write_data(f, "NodeData", name, node_order + 1, np.asarray(v)[node_order], path)
         # meshio wants a value on every element, in file order: NaN on points and lines
         elem_tags = np.concatenate([m + k + 1 + np.arange(npe), m + 1 + edge_order, tri_order + 1])
         for name, v in mesh.cell_data.items():
             if name == "region":
                 continue
             v = np.asarray(v, np.float64)
-            _write_data(f, "ElementData", name, elem_tags,
+            write_data(f, "ElementData", name, elem_tags,
                         np.concatenate([float_pad(v, npe + k), v[tri_order]]), path)
 
 
@@ -227,13 +229,15 @@ def write_msh22(mesh: Mesh, path: Path, fmt=None) -> None:
         f.write("$EndElements\n")
         # no $ElementData: meshio 5.3.5 cannot read it in MSH 2.2 with lines (meshio#1257)
         for name, v in mesh.point_data.items():
-            _write_data(f, "NodeData", name, np.arange(1, len(p) + 1), v, path)
+            write_data(f, "NodeData", name, np.arange(1, len(p) + 1), v, path)
 
 
-def msh41_order(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(node tags, triangle element tags)`` of an ASCII MSH 4.1 file, in file order
-    (meshio lists nodes and cells in that order); None for other versions or binary."""
-    with open(path, encoding="utf-8", errors="replace") as f:
+def msh41_order(path, kind: int = 2) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(node tags, element tags of Gmsh type kind)`` (2: triangles, 4: tetrahedra) of an
+    ASCII MSH 4.1 file (a path or an open text stream), in file order (meshio lists nodes
+    and cells in that order); None for other versions or binary."""
+    with (open(path, encoding="utf-8", errors="replace") if isinstance(path, (str, Path))
+          else nullcontext(path)) as f:
         head = [next(f, ""), next(f, "")]
         if not head[0].startswith("$MeshFormat") or not head[1].split()[:2] == ["4.1", "0"]:
             return None
@@ -252,9 +256,9 @@ def msh41_order(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
             elif line.startswith("$Elements"):
                 blocks = int(next(f).split()[0])
                 for _ in range(blocks):
-                    d, _, kind, count = (int(x) for x in next(f).split())
+                    d, _, elem_kind, count = (int(x) for x in next(f).split())
                     rows = list(islice(f, count))
-                    if kind == 2:
+                    if elem_kind == kind:
                         tris.append(np.array([int(r.split(None, 1)[0]) for r in rows], np.int64))
                 break
     cat = lambda a: np.concatenate(a) if a else np.zeros(0, np.int64)  # noqa: E731

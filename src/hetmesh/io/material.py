@@ -5,8 +5,9 @@ boundary conditions not needed) and its mixing rule (``linear`` or ``mori-tanaka
 :mod:`hetmesh.fea.mixing`) give every element its properties:
 
 1. **Mean composition** of each element: the material field at the 3-point (degree 2)
-   quadrature rule of the triangle, averaged, each element evaluated in its own
-   feature-tree subregion (so an element beside a discontinuity never sees the other side).
+   quadrature rule of the triangle (the 4-point degree-2 rule of the tetrahedron),
+   averaged, each element evaluated in its own feature-tree subregion (so an element
+   beside a discontinuity never sees the other side).
 2. **Element properties**: the mixing rule applied to the mean composition:
    ``conductivity`` (k), ``youngs_modulus`` (E), ``poisson_ratio`` (nu), ``expansion``
    (alpha). :func:`with_material` adds them and ``mean_<constituent>`` as cell data, which
@@ -43,6 +44,11 @@ log = logging.getLogger(__name__)
 PROPERTY_NAMES = ("conductivity", "youngs_modulus", "poisson_ratio", "expansion")
 
 _RULE = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+_A, _B = 0.5854101966249685, 0.1381966011250105  # (5 + 3 sqrt 5) / 20, (5 - sqrt 5) / 20
+_RULE_TET = np.full((4, 4), _B) + np.eye(4) * (_A - _B)
+
+#: barycentric points (equal weights) of the rule averaged for each element, by dimension
+RULES = {2: _RULE, 3: _RULE_TET}
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,23 +108,23 @@ def material_config(model):
 
 def element_material(mesh: Mesh, model, config=None) -> ElementMaterial:
     """Mean compositions, vertex ranges and mixed properties of every element of ``mesh``
-    (a mesh of ``model``, in its coordinates)."""
+    (a triangle or tetrahedral mesh of ``model``, in its coordinates)."""
     from ..fea.mixing import mix_config
     from ..material.field import element_subregions, has_subregions
 
     cfg = config if config is not None else material_config(model)
     field = model.material
-    P, t = mesh.points, mesh.triangles
-    M = len(t)
+    P, t = np.asarray(mesh.points), np.asarray(mesh.cells)
+    M, rule = len(t), RULES[P.shape[1]]
     sub = element_subregions(field, P, t) if has_subregions(field) else None
 
-    def comp(x: np.ndarray) -> np.ndarray:  # (M, 2) -> (M, m), each in its subregion
+    def comp(x: np.ndarray) -> np.ndarray:  # (M, d) -> (M, m), each in its subregion
         c = field.composition(x) if sub is None else field.composition(x, region=sub)
         return np.asarray(c, np.float64)
 
-    corners = P[t]  # (M, 3, 2)
-    mean = sum(comp(np.einsum("k,mkd->md", w, corners)) for w in _RULE) / 3.0
-    at = np.stack([comp(corners[:, k]) for k in range(3)], axis=1)  # (M, 3, m)
+    corners = P[t]  # (M, d + 1, d)
+    mean = sum(comp(np.einsum("k,mkd->md", w, corners)) for w in rule) / len(rule)
+    at = np.stack([comp(corners[:, k]) for k in range(t.shape[1])], axis=1)  # (M, d + 1, m)
     delta = (at.max(axis=1) - at.min(axis=1)).max(axis=1) if M else np.zeros(0)
     if not np.isfinite(mean).all():
         raise FEAError("the material field gave a non-finite composition inside an element")
