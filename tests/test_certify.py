@@ -380,3 +380,108 @@ def test_a_feature_without_an_enclosure_falls_back_with_a_warning_naming_it():
     with pytest.warns(CertificationUnavailable, match="feature Wavy 'W' has no interval"):
         bound = certified_delta(f, P, T)
     assert (bound >= _lattice_delta(f, P, T, f.region(P[T].mean(axis=1)))).all()
+
+
+# ----------------------------------------------------------------------------- tetrahedra
+FORMULAS3 = [
+    "x**2 - y*z", "exp(-((x - 0.3)**2 + (y - 0.5)**2 + (z - 0.2)**2)/0.002)",
+    "sin(5*x)*cos(3*y)*z", "sqrt(x**2 + y**2) - z", "where(z < 0.4, x, 1 - y)",
+    "abs(x - z)", "clip(3*z - 1, 0, 1)", "tanh(8*(x + y - z - 0.2))",
+]
+
+
+def _random_tets(rng, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """``k`` separate random tetrahedra in [0, 1]^3 (positive volume)."""
+    P = rng.uniform(0.0, 1.0, (k, 4, 3))
+    e = P[:, 1:] - P[:, :1]
+    vol = np.einsum("ki,ki->k", e[:, 0], np.cross(e[:, 1], e[:, 2]))
+    P[vol < 0, 1], P[vol < 0, 2] = P[vol < 0, 2].copy(), P[vol < 0, 1].copy()
+    return P.reshape(-1, 3), np.arange(4 * k).reshape(k, 4)
+
+
+def test_tetrahedron_children_tile_their_parent():
+    from hetmesh.certify import _split
+    rng = np.random.default_rng(3)
+    P, T = _random_tets(rng, 20)
+    kids = _split(P[T])
+    assert kids.shape == (160, 4, 3)
+
+    def vol(c):
+        e = c[:, 1:] - c[:, :1]
+        return np.abs(np.einsum("ki,ki->k", e[:, 0], np.cross(e[:, 1], e[:, 2]))) / 6
+
+    np.testing.assert_allclose(vol(kids).reshape(20, 8).sum(axis=1), vol(P[T]), rtol=1e-12)
+    assert (vol(kids) > 0).all()
+    # every point of the parent is in a child: barycentric coordinates of random points
+    lam = rng.dirichlet(np.ones(4), 500)
+    x = np.einsum("nv,vd->nd", lam, P[T][0])
+    inside = np.zeros(len(x), bool)
+    for c in kids[:8]:
+        M = np.column_stack([c[1] - c[0], c[2] - c[0], c[3] - c[0]])
+        b = np.linalg.solve(M, (x - c[0]).T).T
+        inside |= (b >= -1e-12).all(axis=1) & (b.sum(axis=1) <= 1 + 1e-12)
+    assert inside.all()
+
+
+@pytest.mark.parametrize("text", FORMULAS3)
+def test_certified_bound_on_tetrahedra_is_above_a_fine_lattice_and_close_to_it(text):
+    f = AnalyticField({"b": text}, ["a", "b"], dim=3)
+    P, T = _random_tets(np.random.default_rng(11), 24)
+    with np.errstate(all="ignore"):
+        fine = delta_dense(f, P, T, order=40)
+    bound = certified_delta(f, P, T)
+    assert (bound >= fine - 1e-12).all()
+    # tight: the lattice itself is below the true maximum near narrow peaks and jumps
+    assert (bound <= 1.1 * fine + 0.005).all()
+
+
+def test_certified_bound_on_a_tetrahedron_sees_a_peak_inside_it():
+    f = AnalyticField({"b": "exp(-((x - 0.3)**2 + (y - 0.3)**2 + (z - 0.2)**2)/1e-4)"},
+                      ["a", "b"], dim=3)
+    P = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    T = np.array([[0, 1, 2, 3]])
+    assert delta_dense(f, P, T)[0] < 0.01  # the 35-point lattice misses the peak
+    assert 1.0 <= certified_delta(f, P, T)[0] < 1.02
+
+
+def _prism_and_revolution():
+    from hetmesh.tet.revolve import Revolution
+    from hetmesh.tet.solid import box
+    prism = box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    return prism, Revolution(box((0.5, -0.5, 0.0), (1.5, 0.5, 1.0)).section)
+
+
+def test_section_and_revolved_fields_are_bounded_through_their_2d_field():
+    from hetmesh.certify import certifiable
+    from hetmesh.tet.extrude import SectionField
+    from hetmesh.tet.revolve import RevolvedField
+    prism, rev = _prism_and_revolution()
+    f2 = AnalyticField({"b": "exp(-((x - 0.9)**2 + (y - 0.1)**2)/0.003)"}, ["a", "b"])
+    rng = np.random.default_rng(5)
+    for field in (SectionField(f2, prism), RevolvedField(f2, rev)):
+        assert certifiable(field) is None
+        P, T = _random_tets(rng, 60)
+        P = 2.0 * P - 1.0 if isinstance(field, RevolvedField) else P
+        fine = delta_dense(field, P, T, order=14)
+        bound = certified_delta(field, P, T)
+        assert (bound >= fine - 1e-12).all(), type(field).__name__
+        assert np.median(bound - fine) < 0.01
+
+
+def test_revolved_box_radius_range_holds_every_point_of_the_box():
+    from hetmesh.certify import _RevolvedEnclosure
+
+    class Record:
+        def enclose_box(self, lo, hi, region):
+            return lo, hi
+
+    rng = np.random.default_rng(8)
+    a, b = rng.uniform(-2, 2, (200, 3)), rng.uniform(-2, 2, (200, 3))
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    corners = np.stack([lo, hi, lo, hi], axis=1)  # the box's own corners: _box gives lo, hi
+    rlo, rhi = _RevolvedEnclosure(Record()).enclose(corners, None)
+    u = rng.uniform(size=(200, 400, 3))
+    pts = lo[:, None] + u * (hi - lo)[:, None]
+    r = np.hypot(pts[..., 0], pts[..., 1])
+    assert (r >= rlo[:, :1]).all() and (r <= rhi[:, :1]).all()
+    assert (pts[..., 2] >= rlo[:, 1:]).all() and (pts[..., 2] <= rhi[:, 1:]).all()

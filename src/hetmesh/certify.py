@@ -31,10 +31,17 @@ samples. :func:`certified_delta` bounds it from above instead:
   and edge midpoints (``R`` its circumradius), ``L_j`` the gradient norm at seven samples
   times :data:`LIPSCHITZ_SAFETY` (an estimate, not a proof; :data:`TREE_BOUND` selects it
   for every tree, for comparisons).
+* **Tetrahedra**: the same, on 3D boxes. A formula in ``x, y, z`` is enclosed as above. A
+  2D field seen through a prism's section (an extruded model,
+  :class:`~hetmesh.tet.extrude.SectionField`) is enclosed by its 2D enclosure on the box's
+  section coordinates; through a revolution (:class:`~hetmesh.tet.revolve.RevolvedField`),
+  on the 2D box ``(r, z)`` whose ``r`` runs from the distance of the box's ``(x, y)``
+  rectangle to the axis to that of its farthest corner.
 * Anything else (a Python callable, :class:`~hetmesh.material.CallableField`) has no tree
   to enclose: :func:`certified_delta` warns and returns the dense-sampled delta.
 
-Each element is subdivided (four children per piece, at the edge midpoints) where its
+Each element is subdivided (at the edge midpoints: four children per triangle, eight per
+tetrahedron, four at its corners and four around a diagonal of the inner octahedron) where its
 enclosure is not yet within ``atol + rtol * L`` of ``L``, the variation witnessed by the
 samples (corners, edge midpoints and centroids of the pieces), or, given delta_0, until it
 is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels;
@@ -80,6 +87,12 @@ LIPSCHITZ_SAFETY = 2.0
 TREE_BOUND = "interval"
 
 _CHILDREN = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])  # of (a, b, c, ab, bc, ca)
+#: a tetrahedron's edges, in the order of its midpoints among the samples (after the corners)
+_TET_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+#: the eight children of a tetrahedron (corners 0-3, midpoints 4-9 as in _TET_EDGES): four
+#: at the corners, four around the diagonal 02-13 (samples 5 and 8) of the inner octahedron
+_TET_CHILDREN = np.array([[0, 4, 5, 6], [4, 1, 7, 8], [5, 7, 2, 9], [6, 8, 9, 3],
+                          [5, 8, 4, 6], [5, 8, 6, 9], [5, 8, 9, 7], [5, 8, 7, 4]])
 
 
 class CertificationUnavailable(UserWarning):
@@ -89,7 +102,7 @@ class CertificationUnavailable(UserWarning):
 def _unwrap(field):
     """``(base field, scale, offset)`` with the field's values at local points ``p`` those of
     ``base`` at ``p * scale + offset`` (the mesher's local frame undone)."""
-    scale, offset = 1.0, np.zeros(2)
+    scale, offset = 1.0, np.zeros(getattr(field, "dim", 2))
     while hasattr(field, "base") and hasattr(field, "frame"):
         frame = field.frame
         offset = offset * frame.scale + frame.offset  # p -> (p s1 + o1) s2 + o2
@@ -103,21 +116,23 @@ def certifiable(field) -> str | None:
     from .material.analytic import AnalyticField
     from .material.hft import HFTField
     base = _unwrap(field)[0]
-    if isinstance(base, (AnalyticField, HFTField)):
+    if isinstance(base, (AnalyticField, HFTField)) or _box_enclosure_2d(base) is not None:
         return None
     return (f"certified sampling needs a formula or feature-tree material; "
             f"{type(base).__name__} has no expression to enclose")
 
 
 # --------------------------------------------------------------------------- enclosures
-def _box(corners: np.ndarray, off: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Bounding boxes ``(xlo, xhi, ylo, yhi)`` of pieces ``(K, 3, 2)`` shifted by ``off``,
-    widened by 8 units in the last place of the coordinates."""
-    lo = corners.min(axis=1) + off
-    hi = corners.max(axis=1) + off
+def _box(corners: np.ndarray, off: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding boxes ``(lo (K, d), hi (K, d))`` of pieces ``(K, d + 1, d)`` shifted by
+    ``off``, widened by 8 units in the last place of the coordinates."""
+    return _padded(corners.min(axis=1) + off, corners.max(axis=1) + off)
+
+
+def _padded(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The boxes ``[lo, hi]`` widened by 8 units in the last place of the coordinates."""
     pad = 8.0 * np.spacing(np.maximum(np.abs(lo), np.abs(hi)))
-    lo, hi = lo - pad, hi + pad
-    return lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]
+    return lo - pad, hi + pad
 
 
 def _imul(a, b):
@@ -137,7 +152,8 @@ def _widen(lo, hi):
 
 
 class _FormulaEnclosure:
-    """Interval enclosures of an :class:`AnalyticField`'s fractions over boxes."""
+    """Interval enclosures of an :class:`AnalyticField`'s fractions over boxes (2D or 3D:
+    its variables ``x, y`` or ``x, y, z``)."""
 
     def __init__(self, field, offset: np.ndarray):
         self.field = field
@@ -145,36 +161,46 @@ class _FormulaEnclosure:
         self.m = len(field.constituents)
 
     def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        return self._enclose(*_box(corners, self.off), region)
+
+    def enclose_box(self, lo: np.ndarray, hi: np.ndarray, region: np.ndarray | None):
+        """Intervals ``(lo (K, m), hi (K, m))`` holding the fractions at every point of each
+        box ``[lo, hi]`` (``(K, d)`` each, in the field's coordinates before its shift)."""
+        return self._enclose(*_padded(lo + self.off, hi + self.off), region)
+
+    def _enclose(self, lo: np.ndarray, hi: np.ndarray, region: np.ndarray | None):
         f = self.field
-        xlo, xhi, ylo, yhi = _box(corners, self.off)
-        cx, cy = 0.5 * (xlo + xhi), 0.5 * (ylo + yhi)
+        names = f._vars
+        box = {v: (lo[:, i], hi[:, i]) for i, v in enumerate(names)}
+        mid = {v: 0.5 * (lo[:, i] + hi[:, i]) for i, v in enumerate(names)}
         piecewise = bool(f._conds)
         env: dict = {}
         if piecewise and region is not None:
-            bits = f._region_bits(region, len(corners)).astype(np.float64)
+            bits = f._region_bits(region, len(lo)).astype(np.float64)
             env = {name: bits[:, i] for i, name in enumerate(f._cond_names)}
             exprs, grads, smooth = f._fixed, f._fixed_grads, True
         else:
             exprs, grads, smooth = f._exprs, f._grads, not piecewise
-        k = len(corners)
-        lo = np.empty((k, self.m))
-        hi = np.empty((k, self.m))
-        for j, e, (dx, dy) in zip(f._given, exprs, grads):
-            a, b = e.interval(x=(xlo, xhi), y=(ylo, yhi), **env)
-            if smooth:
-                c0, c1 = e.interval(x=cx, y=cy, **env)
-                gx = dx.interval(x=(xlo, xhi), y=(ylo, yhi), **env)
-                gy = dy.interval(x=(xlo, xhi), y=(ylo, yhi), **env)
-                tx = _imul(gx, _widen(xlo - cx, xhi - cx))
-                ty = _imul(gy, _widen(ylo - cy, yhi - cy))
-                mlo, mhi = _widen(c0 + tx[0] + ty[0], c1 + tx[1] + ty[1])
+        k = len(lo)
+        out_lo = np.empty((k, self.m))
+        out_hi = np.empty((k, self.m))
+        for j, e, grad in zip(f._given, exprs, grads):
+            a, b = e.interval(**box, **env)
+            if smooth:  # the mean-value form f(c) + grad f(box) . (box - c)
+                mlo, mhi = e.interval(**mid, **env)
+                for i, (v, dv) in enumerate(zip(names, grad)):
+                    t = _imul(dv.interval(**box, **env),
+                              _widen(lo[:, i] - mid[v], hi[:, i] - mid[v]))
+                    mlo, mhi = mlo + t[0], mhi + t[1]
+                mlo, mhi = _widen(mlo, mhi)
                 a, b = np.maximum(a, mlo), np.minimum(b, mhi)
-            lo[:, j], hi[:, j] = a, b
+            out_lo[:, j], out_hi[:, j] = a, b
         if f._derived_col is not None:
             d = f._derived_col
             g = f._given
-            lo[:, d], hi[:, d] = _widen(1.0 - hi[:, g].sum(axis=1), 1.0 - lo[:, g].sum(axis=1))
-        return lo, hi
+            out_lo[:, d], out_hi[:, d] = _widen(1.0 - out_hi[:, g].sum(axis=1),
+                                                1.0 - out_lo[:, g].sum(axis=1))
+        return out_lo, out_hi
 
 
 class _TreeEnclosure:
@@ -185,7 +211,43 @@ class _TreeEnclosure:
         self.field = field
 
     def enclose(self, corners: np.ndarray, region: np.ndarray | None):
-        return self.field.enclose(_box(corners, np.zeros(2)), region)
+        return self.enclose_box(*_box(corners, np.zeros(2)), region)
+
+    def enclose_box(self, lo: np.ndarray, hi: np.ndarray, region: np.ndarray | None):
+        return self.field.enclose((lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]), region)
+
+
+class _SectionEnclosure:
+    """Enclosures of a 3D field that is a 2D field of a prism's section coordinates
+    ``(u, v)`` (an extruded model): the 3D box's ``(u, v)`` faces are a 2D box, enclosed
+    by the 2D field's own enclosure."""
+
+    def __init__(self, inner, uv: tuple[int, int]):
+        self.inner = inner
+        self.uv = list(uv)
+
+    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        lo, hi = _box(corners, np.zeros(3))
+        return self.inner.enclose_box(lo[:, self.uv], hi[:, self.uv], region)
+
+
+class _RevolvedEnclosure:
+    """Enclosures of a 3D field that is a 2D field of ``(r, z)``, ``r`` the distance to the
+    z axis (a revolved model): over a box, ``r`` lies between the distance from the axis to
+    the box's ``(x, y)`` rectangle and that of its farthest corner, ``z`` in the box's own
+    range; that 2D box is enclosed by the 2D field's enclosure."""
+
+    def __init__(self, inner):
+        self.inner = inner
+
+    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
+        lo, hi = _box(corners, np.zeros(3))
+        near = np.where(lo[:, :2] > 0, lo[:, :2], np.where(hi[:, :2] < 0, -hi[:, :2], 0.0))
+        far = np.maximum(np.abs(lo[:, :2]), np.abs(hi[:, :2]))
+        rlo, rhi = _widen(np.hypot(near[:, 0], near[:, 1]), np.hypot(far[:, 0], far[:, 1]))
+        lo2 = np.column_stack([np.maximum(rlo, 0.0), lo[:, 2]])
+        hi2 = np.column_stack([rhi, hi[:, 2]])
+        return self.inner.enclose_box(lo2, hi2, region)
 
 
 class _LipschitzEnclosure:
@@ -244,7 +306,42 @@ def _enclosure(field):
                           f"using a sampled Lipschitz bound instead (an estimate, not a "
                           f"certificate)", CertificationUnavailable, stacklevel=3)
         return base, scale, offset, _LipschitzEnclosure(base, offset)
+    inner = _box_enclosure_2d(base)
+    if inner is not None:
+        solid = base.solid
+        enc = _SectionEnclosure(inner, solid.uv) if hasattr(solid, "uv") else \
+            _RevolvedEnclosure(inner)
+        return base, scale, offset, enc
     return base, scale, offset, None
+
+
+def _box_enclosure_2d(field):
+    """The box enclosure of the 2D field behind a 3D section or revolved field (formula,
+    or feature tree whose every node has an interval enclosure), else None."""
+    from .material.analytic import AnalyticField
+    from .material.hft import HFTField
+    inner2d = getattr(field, "field2d", None)
+    if inner2d is None or getattr(field, "dim", 2) != 3:
+        return None
+    inner, scale, offset = _unwrap(inner2d)
+    if isinstance(inner, AnalyticField):
+        enc = _FormulaEnclosure(inner, offset)
+    elif isinstance(inner, HFTField) and inner.unenclosable() is None:
+        enc = _TreeEnclosure(inner, offset)
+    else:
+        return None
+    return enc if scale == 1.0 and not np.any(offset) else _Mapped2D(enc, scale, offset)
+
+
+class _Mapped2D:
+    """A 2D box enclosure seen through the affine map ``p -> p * scale + offset``."""
+
+    def __init__(self, inner, scale: float, offset: np.ndarray):
+        self.inner, self.scale, self.offset = inner, scale, np.asarray(offset, float)
+
+    def enclose_box(self, lo: np.ndarray, hi: np.ndarray, region: np.ndarray | None):
+        return self.inner.enclose_box(*_padded(lo * self.scale + self.offset,
+                                               hi * self.scale + self.offset), region)
 
 
 # --------------------------------------------------------------------------- the bound
@@ -308,11 +405,13 @@ def certified_delta(field, points: np.ndarray, triangles: np.ndarray, *,
 
 def _samples(base, corners: np.ndarray, region: np.ndarray | None,
              first: int = 0) -> np.ndarray:
-    """Compositions ``(K, 7 - first, m)`` at the corners, edge midpoints and centroid of
-    pieces, from the ``first`` of them (3: the corners of a child were sampled with its
-    parent)."""
-    pts = _seven(corners)[:, first:].reshape(-1, 2)
-    n = 7 - first
+    """Compositions ``(K, S - first, m)`` at the ``S`` samples of pieces
+    (:func:`_sample_points`: corners, edge midpoints and centroid), from the ``first`` of
+    them (the corners of a child were sampled with its parent)."""
+    d = corners.shape[2]
+    pts = _sample_points(corners)[:, first:]
+    n = pts.shape[1]
+    pts = pts.reshape(-1, d)
     with np.errstate(all="ignore"):
         if region is not None:
             comp = base.composition(pts, region=np.repeat(region, n))
@@ -320,6 +419,16 @@ def _samples(base, corners: np.ndarray, region: np.ndarray | None,
             comp = base.composition(pts)
     comp = np.asarray(comp, dtype=float).reshape(len(corners), n, -1)
     return comp if np.isfinite(comp).all() else np.where(np.isfinite(comp), comp, np.nan)
+
+
+def _sample_points(corners: np.ndarray) -> np.ndarray:
+    """The corners, edge midpoints and centroid of pieces ``(K, d + 1, d)``: ``(K, 7, 2)``
+    for triangles (:func:`_seven`), ``(K, 11, 3)`` for tetrahedra."""
+    if corners.shape[1] == 3:
+        return _seven(corners)
+    c = [corners[:, i] for i in range(4)]
+    mids = [0.5 * (c[i] + c[j]) for i, j in _TET_EDGES]
+    return np.stack(c + mids + [(c[0] + c[1] + c[2] + c[3]) / 4.0], axis=1)
 
 
 def _seven(corners: np.ndarray) -> np.ndarray:
@@ -330,10 +439,15 @@ def _seven(corners: np.ndarray) -> np.ndarray:
 
 
 def _split(corners: np.ndarray) -> np.ndarray:
-    """The four children ``(4K, 3, 2)`` of pieces ``(K, 3, 2)`` (edge midpoints)."""
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    six = np.stack([a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)], axis=1)
-    return six[:, _CHILDREN].reshape(-1, 3, 2)
+    """The children of pieces at their edge midpoints: four ``(4K, 3, 2)`` per triangle,
+    eight ``(8K, 4, 3)`` per tetrahedron (four at its corners, four around the inner
+    octahedron's diagonal)."""
+    if corners.shape[1] == 3:
+        a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+        six = np.stack([a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)], axis=1)
+        return six[:, _CHILDREN].reshape(-1, 3, 2)
+    ten = _sample_points(corners)[:, :10]
+    return ten[:, _TET_CHILDREN].reshape(-1, 4, 3)
 
 
 def _group(values: np.ndarray, starts: np.ndarray, ufunc) -> np.ndarray:
@@ -343,6 +457,8 @@ def _group(values: np.ndarray, starts: np.ndarray, ufunc) -> np.ndarray:
 
 def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndarray:
     m_el = len(corners)
+    dim = corners.shape[2]
+    nchild = 2 ** dim  # children per split piece
     owner = np.arange(m_el)
     pieces = corners
     s = _samples(base, pieces, own)
@@ -379,7 +495,7 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         done = np.zeros(m_el, bool)
         done[live[settled]] = True
         keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
-        if 4 * int((~keep).sum()) > MAX_PIECES:
+        if nchild * int((~keep).sum()) > MAX_PIECES:
             log.debug("certify: piece budget reached at depth %d", depth)
             break
         fk = ~done[owner] & keep  # pieces of open elements that need no further split
@@ -391,8 +507,8 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         if keep.all():  # nothing left to split: the open elements keep their bounds
             break
         pieces = _split(pieces[~keep])
-        owner = np.repeat(owner[~keep], 4)
-        s = _samples(base, pieces, None if own is None else own[owner], first=3)
+        owner = np.repeat(owner[~keep], nchild)
+        s = _samples(base, pieces, None if own is None else own[owner], first=dim + 1)
         lv, st = np.unique(owner, return_index=True)
         smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
         smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))
