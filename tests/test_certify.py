@@ -400,10 +400,10 @@ def _random_tets(rng, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_tetrahedron_children_tile_their_parent():
-    from hetmesh.certify import _split
+    from hetmesh.certify import split_simplices
     rng = np.random.default_rng(3)
     P, T = _random_tets(rng, 20)
-    kids = _split(P[T])
+    kids = split_simplices(P[T])
     assert kids.shape == (160, 4, 3)
 
     def vol(c):
@@ -469,19 +469,16 @@ def test_section_and_revolved_fields_are_bounded_through_their_2d_field():
 
 
 def test_revolved_box_radius_range_holds_every_point_of_the_box():
-    from hetmesh.certify import _RevolvedEnclosure
-
-    class Record:
-        def enclose_box(self, lo, hi, region):
-            return lo, hi
-
+    from hetmesh.certify import radial_range
     rng = np.random.default_rng(8)
     a, b = rng.uniform(-2, 2, (200, 3)), rng.uniform(-2, 2, (200, 3))
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    corners = np.stack([lo, hi, lo, hi], axis=1)  # the box's own corners: _box gives lo, hi
-    rlo, rhi = _RevolvedEnclosure(Record()).enclose(corners, None)
+    rlo, rhi = radial_range(lo, hi)
     u = rng.uniform(size=(200, 400, 3))
     pts = lo[:, None] + u * (hi - lo)[:, None]
     r = np.hypot(pts[..., 0], pts[..., 1])
-    assert (r >= rlo[:, :1]).all() and (r <= rhi[:, :1]).all()
-    assert (pts[..., 2] >= rlo[:, 1:]).all() and (pts[..., 2] <= rhi[:, 1:]).all()
+    assert (r >= rlo[:, None]).all() and (r <= rhi[:, None]).all()
+    # tight: the corners reach the top, the nearest point of the rectangle the bottom
+    corners = np.hypot(np.where(np.abs(lo[:, :2]) > np.abs(hi[:, :2]), lo[:, :2], hi[:, :2])[:, 0],
+                       np.where(np.abs(lo[:, :2]) > np.abs(hi[:, :2]), lo[:, :2], hi[:, :2])[:, 1])
+    np.testing.assert_allclose(rhi, corners, rtol=1e-12)

@@ -63,8 +63,9 @@ import warnings
 
 import numpy as np
 
-__all__ = ["certified_delta", "certifiable", "CertificationUnavailable", "LIPSCHITZ_SAFETY",
-           "TREE_BOUND", "RTOL", "ATOL", "MAX_DEPTH"]
+__all__ = ["certified_delta", "certifiable", "split_simplices", "radial_range",
+           "CertificationUnavailable", "LIPSCHITZ_SAFETY", "TREE_BOUND", "RTOL", "ATOL",
+           "MAX_DEPTH"]
 
 log = logging.getLogger(__name__)
 
@@ -242,12 +243,24 @@ class _RevolvedEnclosure:
 
     def enclose(self, corners: np.ndarray, region: np.ndarray | None):
         lo, hi = _box(corners, np.zeros(3))
-        near = np.where(lo[:, :2] > 0, lo[:, :2], np.where(hi[:, :2] < 0, -hi[:, :2], 0.0))
-        far = np.maximum(np.abs(lo[:, :2]), np.abs(hi[:, :2]))
-        rlo, rhi = _widen(np.hypot(near[:, 0], near[:, 1]), np.hypot(far[:, 0], far[:, 1]))
-        lo2 = np.column_stack([np.maximum(rlo, 0.0), lo[:, 2]])
+        rlo, rhi = radial_range(lo, hi)
+        lo2 = np.column_stack([rlo, lo[:, 2]])
         hi2 = np.column_stack([rhi, hi[:, 2]])
         return self.inner.enclose_box(lo2, hi2, region)
+
+
+def radial_range(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The range of ``r = hypot(x, y)`` over boxes ``[lo, hi]`` (``(K, >= 2)``): from the
+    distance of the box's ``(x, y)`` rectangle to the z axis to that of its farthest corner,
+    widened outwards by a few units in the last place.
+
+    >>> radial_range(np.array([[1.0, -1.0, 0.0]]), np.array([[2.0, 1.0, 1.0]]))[0].round(9)
+    array([1.])
+    """
+    near = np.where(lo[:, :2] > 0, lo[:, :2], np.where(hi[:, :2] < 0, -hi[:, :2], 0.0))
+    far = np.maximum(np.abs(lo[:, :2]), np.abs(hi[:, :2]))
+    rlo, rhi = _widen(np.hypot(near[:, 0], near[:, 1]), np.hypot(far[:, 0], far[:, 1]))
+    return np.maximum(rlo, 0.0), rhi
 
 
 class _LipschitzEnclosure:
@@ -438,7 +451,7 @@ def _seven(corners: np.ndarray) -> np.ndarray:
                      (a + b + c) / 3.0], axis=1)
 
 
-def _split(corners: np.ndarray) -> np.ndarray:
+def split_simplices(corners: np.ndarray) -> np.ndarray:
     """The children of pieces at their edge midpoints: four ``(4K, 3, 2)`` per triangle,
     eight ``(8K, 4, 3)`` per tetrahedron (four at its corners, four around the inner
     octahedron's diagonal)."""
@@ -506,7 +519,7 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
             frozen_lo[lv] = np.minimum(frozen_lo[lv], _group(lo[fk], st, np.minimum))
         if keep.all():  # nothing left to split: the open elements keep their bounds
             break
-        pieces = _split(pieces[~keep])
+        pieces = split_simplices(pieces[~keep])
         owner = np.repeat(owner[~keep], nchild)
         s = _samples(base, pieces, None if own is None else own[owner], first=dim + 1)
         lv, st = np.unique(owner, return_index=True)
