@@ -103,3 +103,33 @@ def test_columns_are_deterministic_and_axis_columns_stay_single():
 def test_column_counts():
     c = column_counts(10.0, np.array([1.0, 4.0, 100.0]), ratio=1.25, cap=2.0)
     assert c.tolist() == [8, 5, 5]
+
+
+def test_smoothing_keeps_delta_boundary_and_connectivity():
+    from hetmesh.material import AnalyticField
+    from hetmesh.metrics import delta_vertices, tet_quality
+    from hetmesh.tet.faces import boundary_faces
+    from hetmesh.tet.quality import min_dihedral
+    from hetmesh.tet.refine import repair
+    from hetmesh.tet.smooth import smooth
+
+    field = AnalyticField({"metal": "(x + z) / 2"}, ["ceramic", "metal"], dim=3)
+    g = np.linspace(0, 1, 7)
+    p2 = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
+    p2[7:-7] += np.random.default_rng(1).uniform(-0.03, 0.03, (len(p2) - 14, 2))
+    t2 = Delaunay(p2).simplices.astype(np.int64)
+    pts, tets, _ = column_tets(p2, t2, column_counts(1.0, vertex_size(p2, t2), ratio=1.25),
+                               0.0, 1.0)
+    pts, tets, comp, delta, _ = repair(pts, tets, field, 0.1)
+    assert delta.max() < 0.1
+    p, c, moves = smooth(pts, tets, field, 0.1, comp=comp)
+    assert moves > 0
+    again = smooth(pts, tets, field, 0.1, comp=comp)
+    assert np.array_equal(again[0], p) and again[2] == moves
+    bnd = np.unique(boundary_faces(tets)[0])
+    assert np.array_equal(p[bnd], pts[bnd])
+    assert (_volumes(p, tets) > 0).all()
+    assert np.allclose(c, field.composition(p))
+    assert delta_vertices(field.composition(p), tets).max() < 0.1
+    assert min_dihedral(p, tets).min() >= min(min_dihedral(pts, tets).min(), 25.0) - 1e-9
+    assert tet_quality(p, tets).mean() > tet_quality(pts, tets).mean()

@@ -41,6 +41,7 @@ from .columns import column_counts, column_tets, vertex_size
 from .faces import boundary_faces
 from .mesher import BETA, TetResult
 from .refine import repair
+from .smooth import smooth
 from .verify import tet_problems
 
 __all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]
@@ -192,6 +193,8 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     else:
         points, tets, comp, delta, _ = repair(points, tets, field3d, threshold,
                                               max_elements=max_elements)
+        points, comp, _ = smooth(points, tets, field3d, threshold, comp=comp)
+        delta = delta_vertices(comp, tets)
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1

@@ -40,6 +40,7 @@ from .extrude import COLUMN_RATIO, SectionField
 from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import repair
+from .smooth import smooth
 from .verify import validity_problems
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
@@ -261,6 +262,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     else:
         points, tets, comp, delta, passes = repair(points, tets, field, threshold,
                                                    max_elements=max_elements)
+        points, comp, _ = smooth(points, tets, field, threshold, comp=comp)
+        delta = delta_vertices(comp, tets)
         regions = None
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
