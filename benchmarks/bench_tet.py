@@ -20,6 +20,13 @@ For each threshold delta_0, on unit_cube (the cube [0, 1]^3, metal fraction (1 -
 
 Targets (PASS/FAIL columns): Ne <= 2.0 x N_iso3, min dihedral >= 10, 1st percentile >= 20,
 mean radius ratio >= 0.75. Every ratio is taken against peers measured in the same run.
+
+    PYTHONPATH=src python benchmarks/bench_tet.py --examples   # only the table below
+
+Then every 3D example (``hetmesh.tet.api.mesh_model``, verified) at the tests' threshold 0.3
+and at 0.1: the placement, Ne, Ne / N_iso3, delta_max, the quality figures, wall time (median
+of the repeats), the quality targets' PASS/FAIL and the sha1 of the mesh's points and
+tetrahedra (a change of mesh shows as a change of fingerprint).
 """
 
 from __future__ import annotations
@@ -63,6 +70,48 @@ def figures(points, tets, field, d0, niso, wall):
             "n_bad": int((delta >= d0).sum()),
             "vol_min": float(simplex_measures(points, tets).min()),
             **q, "time": wall}
+
+
+#: the thresholds of the examples' table
+EXAMPLE_THRESHOLDS = (0.3, 0.1)
+
+
+def fingerprint(points, tets) -> str:
+    import hashlib
+    h = hashlib.sha1(np.ascontiguousarray(points, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(tets, dtype=np.int64).tobytes())
+    return h.hexdigest()[:12]
+
+
+def examples_table(repeats: int) -> None:
+    """Every 3D example at :data:`EXAMPLE_THRESHOLDS`: figures, targets, fingerprint."""
+    from hetmesh.tet.api import mesh_model
+
+    paths = sorted(p for p in (ROOT / "examples").glob("*.toml")
+                   if getattr(hetmesh.load_model(p), "dim", 2) == 3)
+    print("\n3D examples (mesh_model, verified); targets: dihedral min >= 10, p1 >= 20, "
+          "mean radius ratio >= 0.75")
+    print(f"  {'example':<16} {'d0':>4} {'placement':<13} {'Ne':>9} {'Ne/Niso3':>8} "
+          f"{'dmax':>8} {'dih_min':>7} {'dih_p1':>7} {'rr_mean':>7} {'time_s':>7}   "
+          f"min/p1/rr  sha1")
+    for path in paths:
+        model = hetmesh.load_model(path)
+        for d0 in EXAMPLE_THRESHOLDS:
+            times = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                res = mesh_model(model, d0)
+                times.append(time.perf_counter() - t0)
+            q = quality_summary(res.points, res.tets)
+            niso = n_iso3(model.solid, model.material, d0)
+            ok = lambda b: "PASS" if b else "FAIL"  # noqa: E731
+            print(f"  {path.stem:<16} {d0:>4} {res.info['placement']:<13} {len(res.tets):>9,} "
+                  f"{len(res.tets) / niso:>8.2f} {float(res.delta.max()):>8.5f} "
+                  f"{q['dihedral_min']:>7.2f} {q['dihedral_p1']:>7.2f} "
+                  f"{q['radius_ratio_mean']:>7.3f} {statistics.median(times):>7.2f}   "
+                  f"{ok(q['dihedral_min'] >= 10)} {ok(q['dihedral_p1'] >= 20)} "
+                  f"{ok(q['radius_ratio_mean'] >= 0.75)}  {fingerprint(res.points, res.tets)}",
+                  flush=True)
 
 
 def run_hetmesh(solid, field, d0, niso, repeats):
@@ -179,7 +228,17 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--big", action="store_true", help="also a ~1M-tetrahedron hetmesh run")
     ap.add_argument("--no-peers", action="store_true")
+    ap.add_argument("--examples", action="store_true",
+                    help="only the table of the 3D examples")
+    ap.add_argument("--no-examples", action="store_true",
+                    help="without the table of the 3D examples")
     a = ap.parse_args(argv)
+    if a.examples:
+        print(f"hetmesh from {Path(hetmesh.__file__).parent}; load average "
+              f"{os.getloadavg()[0]:.2f}")
+        examples_table(1 if a.quick else a.repeats)
+        print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
+        return 0
     thresholds = [0.1] if a.quick else [0.1, 0.05]
     repeats = 1 if a.quick else a.repeats
     solid, field = unit_cube()
@@ -218,6 +277,8 @@ def main(argv=None) -> int:
         import resource
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6  # kB -> GB
         print(f"  peak memory (max RSS) {rss:.2f} GB")
+    if not a.no_examples:
+        examples_table(repeats)
     print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
     return 0
 

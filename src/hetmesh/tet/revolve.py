@@ -6,12 +6,14 @@ a half-disc turned a full turn) but not cross it. The faces are the surfaces swe
 profile's curves (those lying on the axis sweep nothing) and, for a partial turn, the two
 planar ends ``start`` (angle 0) and ``end``.
 
-The mesh is the verified 2D mesh of the profile swept through equal angular steps (as
-:mod:`hetmesh.tet.extrude` sweeps along a straight axis), the copies of a vertex on the axis
-merged into one: a prism with a vertex on the axis becomes two tetrahedra (a pyramid), one
-with an edge on it a single tetrahedron. When the composition does not depend on the angle
-(an axisymmetric field), every tetrahedron's vertices are copies of one triangle's: its
-delta is at most the triangle's, exactly; otherwise the violators are repaired by edge
+The mesh is the verified 2D mesh of the profile swept about the axis through columns of
+points, one per profile vertex (:func:`hetmesh.tet.columns.column_tets`, as
+:mod:`hetmesh.tet.extrude` sweeps along a straight axis): every column has its own angular
+step (:func:`angular_counts`: arcs of about the local edge length, within the chord
+tolerance), and a vertex on the axis is a column of one point, so the cells at the axis are
+filled by the moves of their other corners. When the composition does not depend on the
+angle (an axisymmetric field), every tetrahedron's vertices are copies of one triangle's:
+its delta is at most the triangle's, exactly; otherwise the violators are repaired by edge
 bisection.
 
 >>> from hetmesh.tri.geometry import Loop, make_domain
@@ -33,10 +35,12 @@ import numpy as np
 from ..errors import GeometryError, VerificationError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
-from .extrude import SectionField, prism_tets
+from .columns import column_tets, vertex_size
+from .extrude import COLUMN_RATIO, SectionField
 from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import repair
+from .smooth import smooth
 from .verify import validity_problems
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
@@ -46,6 +50,8 @@ log = logging.getLogger(__name__)
 
 #: default chord tolerance of curved faces, x the solid's diameter
 CHORD = 2e-3
+#: widest angular step of a column (radians): the fronts of a cell stay nearly planar
+MAX_STEP = math.pi / 6
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,33 +224,22 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     r2 = generate(profile_model, threshold, seed=seed, **kw)
     m2 = r2.mesh
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
-    e = np.concatenate([t2[:, [0, 1]], t2[:, [1, 2]], t2[:, [2, 0]]])
-    h = float(np.median(np.linalg.norm(p2[e[:, 0]] - p2[e[:, 1]], axis=1)))
-    r_max = float(p2[:, 0].max())
-    r_mid = float(np.median(p2[:, 0]))
-    # steps: the chord tolerance at the largest radius, the median edge at the median radius
-    step_chord = 2.0 * math.acos(max(-1.0, 1.0 - 0.5 * chord / max(r_max, 1e-300)))
-    step = min(step_chord, h / max(r_mid, 1e-300))
-    if max_size is not None:
-        step = min(step, float(max_size) / max(r_max, 1e-300))
-    n = max(3 if solid.full else 1, int(math.ceil(solid.sweep / step - 1e-9)))
-    if max_elements is not None and 3 * len(t2) * n > max_elements:
-        from ..errors import BudgetError
-        raise BudgetError(f"about {3 * len(t2) * n} tetrahedra are needed for delta_0 = "
-                          f"{threshold} ({len(t2)} triangles in the profile x 3 x {n} "
-                          f"angular steps) but the budget is {max_elements}")
-    theta = solid.sweep * np.arange(n + 1) / n
-    pl, tets, _ = prism_tets(p2, t2, theta)
     n2 = len(p2)
+    on_axis = np.abs(p2[:, 0]) <= 1e-12 * prof.diameter
+    counts = angular_counts(solid, p2, t2, chord, on_axis, max_size)
+    ntet = int(counts[t2].sum())
+    if max_elements is not None and ntet > max_elements:
+        from ..errors import BudgetError
+        raise BudgetError(f"about {ntet} tetrahedra are needed for delta_0 = {threshold} "
+                          f"({len(t2)} triangles in the profile, {int(counts.max())} angular "
+                          f"steps at most) but the budget is {max_elements}")
+    pl, tets, tri_of = column_tets(p2, t2, counts, 0.0, solid.sweep)
+    start = np.concatenate([[0], np.cumsum(counts + 1)])
     ids = np.arange(len(pl))
-    if solid.full:
-        ids[n * n2:] = ids[:n2]  # the last angle is the first
-    on_axis = np.flatnonzero(np.abs(p2[:, 0]) <= 1e-12 * prof.diameter)
-    for j in range(n + 1):
-        ids[j * n2 + on_axis] = ids[on_axis]  # every copy of an axis vertex is the first
+    if solid.full:  # the last angle of a column is its first
+        top = start[1:] - 1
+        ids[top[counts > 0]] = start[:-1][counts > 0]
     tets = ids[tets]
-    keep = (np.diff(np.sort(tets, axis=1), axis=1) > 0).all(axis=1)
-    tets = tets[keep]  # prisms collapsed at the axis lose their flat tetrahedra
     used, inv = np.unique(tets, return_inverse=True)
     q = pl[used]
     points = solid.to3d(q[:, :2], q[:, 2])
@@ -253,10 +248,9 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     tets = inv.reshape(-1, 4)
     v = simplex_measures(points, tets)
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
-    tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), n)[keep]
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
     regions = None if sub2 is None else np.asarray(sub2)[tri_of]
-    prof_ids = used % n2  # the 2D vertex of every point
+    prof_ids = np.repeat(np.arange(n2), counts + 1)[used]  # the 2D vertex of every point
     if axisym:
         if regions is None:
             delta = delta_vertices(f2.composition(p2)[prof_ids], tets)
@@ -268,6 +262,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     else:
         points, tets, comp, delta, passes = repair(points, tets, field, threshold,
                                                    max_elements=max_elements)
+        points, comp, _ = smooth(points, tets, field, threshold, comp=comp)
+        delta = delta_vertices(comp, tets)
         regions = None
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
@@ -275,7 +271,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold),
                     {"placement": "revolved" if axisym else "revolved+repair",
-                     "angular_steps": n, "section_triangles": len(t2),
+                     "angular_steps": (int(counts[~on_axis].min()), int(counts.max())),
+                     "section_triangles": len(t2),
                      "repair_passes": passes})
     if regions is not None:
         res.info["regions"] = regions.astype(np.int32)
@@ -287,6 +284,29 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
     res.info["time_total"] = time.perf_counter() - t0
     return res
+
+
+def angular_counts(solid: Revolution, p2: np.ndarray, t2: np.ndarray, chord: float,
+                   on_axis: np.ndarray, max_size: float | None = None) -> np.ndarray:
+    """Angular steps of every profile vertex's column ``(N,)``: arcs of :data:`COLUMN_RATIO`
+    x the mean edge at the vertex, at most :data:`MAX_STEP`, and within half the chord
+    tolerance ``chord`` at the largest radius among the vertex and its neighbours (an edge
+    between two columns spans at most the larger of their steps); 0 on the axis."""
+    r = p2[:, 0]
+    e = np.concatenate([t2[:, [0, 1]], t2[:, [1, 2]], t2[:, [2, 0]]])
+    r_nb = r.copy()
+    np.maximum.at(r_nb, e[:, 0], r[e[:, 1]])
+    np.maximum.at(r_nb, e[:, 1], r[e[:, 0]])
+    rs = np.maximum(r, 1e-300)
+    step = np.minimum(COLUMN_RATIO * vertex_size(p2, t2) / rs, MAX_STEP)
+    step = np.minimum(step, 2.0 * np.arccos(np.clip(1.0 - 0.5 * chord / np.maximum(r_nb, 1e-300),
+                                                    -1.0, 1.0)))
+    if max_size is not None:
+        step = np.minimum(step, float(max_size) / rs)
+    n = np.ceil(solid.sweep / step - 1e-9).astype(np.int64)
+    n = np.maximum(n, 3 if solid.full else 1)
+    n[on_axis] = 0
+    return n
 
 
 def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
