@@ -105,12 +105,18 @@ def bisect_edges(points: np.ndarray, tets: np.ndarray, split: np.ndarray,
 
 
 def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
-           comp: np.ndarray | None = None, max_elements: int | None = None):
+           comp: np.ndarray | None = None, max_elements: int | None = None,
+           delta_of=None):
     """Bisect largest-jump edges of the tetrahedra with delta >= ``threshold`` until there
     are none: ``(points, tets, comp, delta, passes)``. :class:`BudgetError` past
-    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes."""
+    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes.
+    ``delta_of(points, tets, comp)``: delta(T) by another sampling (default: the vertices;
+    :func:`hetmesh.tet.sampling.sampled_delta`)."""
     comp = field.composition(points) if comp is None else comp
-    delta = delta_vertices(comp, tets)
+    if delta_of is None:
+        def delta_of(p, t, c):
+            return delta_vertices(c, t)
+    delta = delta_of(points, tets, comp)
     passes = 0
     while (delta >= threshold).any():
         if passes >= MAX_PASSES:
@@ -123,6 +129,6 @@ def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
         points, tets = bisect_edges(points, tets, split)
         check_progress(n0, len(points), passes, int((delta >= threshold).sum()), 0, threshold)
         comp = np.concatenate([comp, field.composition(points[n0:])])
-        delta = delta_vertices(comp, tets)
+        delta = delta_of(points, tets, comp)
         passes += 1
     return points, tets, comp, delta, passes

@@ -1,0 +1,108 @@
+"""delta(T) of tetrahedra by another sampling than the vertices, and the repair that meets
+delta_0 under it.
+
+``sampling = "pixels"`` (a material from a 3D volume): delta(T) over every voxel centre a
+tetrahedron covers and its four vertices (:meth:`hetmesh.material.image.ImageField.
+pixel_delta`). The mesher places and repairs by the vertices first; :func:`resample` then
+bisects, with the same edge selection (:func:`hetmesh.tet.refine.repair`), every tetrahedron
+whose sampled delta still reaches delta_0, and verifies the result with that delta.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..delta import element_delta
+from ..options import check_sampling
+from .faces import boundary_faces
+from .refine import repair
+
+__all__ = ["sampled_delta", "resample", "TET_SAMPLINGS"]
+
+log = logging.getLogger(__name__)
+
+#: the samplings of the tetrahedral mesher
+TET_SAMPLINGS = ("vertices", "pixels")
+
+
+class sampled_delta:
+    """``delta_of(points, tets, comp)`` for :func:`~hetmesh.tet.refine.repair`: delta(T) by
+    ``sampling`` (:func:`hetmesh.delta.element_delta`), incremental: a tetrahedron met in the
+    previous call (same four vertex ids, none of them new) keeps its value, so a repair pass
+    samples only the tetrahedra its bisections made."""
+
+    def __init__(self, field, sampling: str):
+        check_sampling(field, sampling)
+        self.field = field
+        self.sampling = sampling
+        self._tets: np.ndarray | None = None
+        self._delta: np.ndarray | None = None
+        self._n = 0
+
+    def _compute(self, points, tets, comp) -> np.ndarray:
+        if not len(tets):
+            return np.zeros(0)
+        return element_delta(self.field, points, tets, self.sampling, composition=comp)
+
+    def __call__(self, points: np.ndarray, tets: np.ndarray, comp: np.ndarray) -> np.ndarray:
+        tets = np.asarray(tets, np.int64)
+        if self._tets is None:
+            delta = self._compute(points, tets, comp)
+        else:
+            delta = np.empty(len(tets))
+            todo = (tets >= self._n).any(axis=1)  # a new vertex: a new tetrahedron
+            old = np.flatnonzero(~todo)
+            if len(old):
+                both = np.concatenate([np.sort(self._tets, axis=1), np.sort(tets[old], axis=1)])
+                _, inv = np.unique(both, axis=0, return_inverse=True)
+                inv = inv.ravel()
+                row = np.full(int(inv.max()) + 1, -1, np.int64)
+                row[inv[:len(self._tets)]] = np.arange(len(self._tets))
+                src = row[inv[len(self._tets):]]
+                delta[old[src >= 0]] = self._delta[src[src >= 0]]
+                todo[old[src < 0]] = True
+            rows = np.flatnonzero(todo)
+            delta[rows] = self._compute(points, tets[rows], comp)
+        self._tets, self._delta, self._n = tets, delta, len(points)
+        return delta
+
+
+def resample(res, solid, field, sampling: str, *, max_elements: int | None = None,
+             chord_tol: float | None = None, check: bool = True):
+    """``res`` (a :class:`~hetmesh.tet.mesher.TetResult` meeting delta_0 at its vertices)
+    refined until delta(T) by ``sampling`` is below delta_0 everywhere, its ``delta`` that
+    sampled one (``info["sampling"]``, ``info["sampling_passes"]``), verified
+    (:func:`hetmesh.tet.verify.tet_problems`, with ``chord_tol`` absolute, default 2e-3 x
+    the solid's diameter: edge bisection never moves a face away from the solid)."""
+    from .mesher import CHORD, TetResult
+    from .verify import tet_problems
+
+    if sampling == "vertices":
+        return res
+    delta_of = sampled_delta(field, sampling)
+    comp = res.info.get("composition")
+    points, tets, comp, delta, passes = repair(res.points, res.tets.astype(np.int64), field,
+                                               res.threshold, comp=comp,
+                                               max_elements=max_elements, delta_of=delta_of)
+    info = dict(res.info, composition=comp, sampling=sampling, sampling_passes=passes)
+    if passes:
+        tets = tets.astype(np.int32)
+        faces, _ = boundary_faces(tets)
+        markers = (solid.classify_faces(points[faces]) + 1).astype(np.int32)
+        res = TetResult(points, tets, faces.astype(np.int32), markers, res.face_names, delta,
+                        res.threshold, info)
+    else:
+        res = TetResult(res.points, res.tets, res.faces, res.face_markers, res.face_names,
+                        delta, res.threshold, info)
+    if check:
+        chord = CHORD * solid.diameter if chord_tol is None else chord_tol
+        probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
+                             res.delta, res.threshold, chord)
+        if probs:
+            from ..errors import VerificationError
+            raise VerificationError(f"tetrahedral mesh verification failed ({sampling} "
+                                    f"sampling): {probs[0]}")
+    log.info("%s sampling: %d repair passes, %d tetrahedra", sampling, passes, len(res.tets))
+    return res
