@@ -105,18 +105,12 @@ def bisect_edges(points: np.ndarray, tets: np.ndarray, split: np.ndarray,
 
 
 def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
-           comp: np.ndarray | None = None, max_elements: int | None = None,
-           delta_of=None):
+           comp: np.ndarray | None = None, max_elements: int | None = None):
     """Bisect largest-jump edges of the tetrahedra with delta >= ``threshold`` until there
     are none: ``(points, tets, comp, delta, passes)``. :class:`BudgetError` past
-    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes.
-    ``delta_of(points, tets, comp)``: delta(T) by another sampling (default: the vertices;
-    :func:`hetmesh.tet.sampling.sampled_delta`)."""
+    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes."""
     comp = field.composition(points) if comp is None else comp
-    if delta_of is None:
-        def delta_of(p, t, c):
-            return delta_vertices(c, t)
-    delta = delta_of(points, tets, comp)
+    delta = delta_vertices(comp, tets)
     passes = 0
     while (delta >= threshold).any():
         if passes >= MAX_PASSES:
@@ -129,6 +123,6 @@ def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
         points, tets = bisect_edges(points, tets, split)
         check_progress(n0, len(points), passes, int((delta >= threshold).sum()), 0, threshold)
         comp = np.concatenate([comp, field.composition(points[n0:])])
-        delta = delta_of(points, tets, comp)
+        delta = delta_vertices(comp, tets)
         passes += 1
     return points, tets, comp, delta, passes

@@ -4,8 +4,11 @@ delta_0 under it.
 ``sampling = "pixels"`` (a material from a 3D volume): delta(T) over every voxel centre a
 tetrahedron covers and its four vertices (:meth:`hetmesh.material.image.ImageField.
 pixel_delta`). The mesher places and repairs by the vertices first; :func:`resample` then
-bisects, with the same edge selection (:func:`hetmesh.tet.refine.repair`), every tetrahedron
-whose sampled delta still reaches delta_0, and verifies the result with that delta.
+bisects every tetrahedron whose sampled delta still reaches delta_0 and verifies the result
+with that delta. Such a tetrahedron's vertices may agree (a voxel peak inside it), so the
+edge with the largest composition jump is no guide: its longest edge is split instead
+(many at a time, :func:`hetmesh.tet.refine.select_edges` ranking edges by length), which
+shrinks tetrahedra without flattening them.
 """
 
 from __future__ import annotations
@@ -15,11 +18,13 @@ import logging
 import numpy as np
 
 from ..delta import element_delta
+from ..errors import MeshingError
 from ..options import check_sampling
+from ..refinement import check_budget, check_progress
 from .faces import boundary_faces
-from .refine import repair
+from .refine import MAX_PASSES, bisect_edges, select_edges
 
-__all__ = ["sampled_delta", "resample", "TET_SAMPLINGS"]
+__all__ = ["sampled_delta", "repair_sampled", "resample", "TET_SAMPLINGS"]
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +33,7 @@ TET_SAMPLINGS = ("vertices", "pixels")
 
 
 class sampled_delta:
-    """``delta_of(points, tets, comp)`` for :func:`~hetmesh.tet.refine.repair`: delta(T) by
+    """``delta_of(points, tets, comp)``: delta(T) by
     ``sampling`` (:func:`hetmesh.delta.element_delta`), incremental: a tetrahedron met in the
     previous call (same four vertex ids, none of them new) keeps its value, so a repair pass
     samples only the tetrahedra its bisections made."""
@@ -69,6 +74,30 @@ class sampled_delta:
         return delta
 
 
+def repair_sampled(points: np.ndarray, tets: np.ndarray, comp: np.ndarray, field,
+                   threshold: float, delta_of, *, max_elements: int | None = None):
+    """Bisect the longest edges (max norm) of the tetrahedra with ``delta_of(points, tets,
+    comp) >= threshold`` until there are none: ``(points, tets, comp, delta, passes)``.
+    :class:`BudgetError` past ``max_elements``, :class:`MeshingError` after
+    :data:`~hetmesh.tet.refine.MAX_PASSES` passes."""
+    delta = delta_of(points, tets, comp)
+    passes = 0
+    while (bad := delta >= threshold).any():
+        if passes >= MAX_PASSES:
+            raise MeshingError(f"sampled delta repair did not converge in {MAX_PASSES} "
+                               f"passes ({int(bad.sum())} tetrahedra left)")
+        if max_elements is not None:
+            check_budget(len(tets), max_elements)
+        split = select_edges(tets, points, bad)  # coordinates as values: the longest edge
+        n0 = len(points)
+        points, tets = bisect_edges(points, tets, split)
+        check_progress(n0, len(points), passes, int(bad.sum()), 0, threshold)
+        comp = np.concatenate([comp, field.composition(points[n0:])])
+        delta = delta_of(points, tets, comp)
+        passes += 1
+    return points, tets, comp, delta, passes
+
+
 def resample(res, solid, field, sampling: str, *, max_elements: int | None = None,
              chord_tol: float | None = None, check: bool = True):
     """``res`` (a :class:`~hetmesh.tet.mesher.TetResult` meeting delta_0 at its vertices)
@@ -83,9 +112,11 @@ def resample(res, solid, field, sampling: str, *, max_elements: int | None = Non
         return res
     delta_of = sampled_delta(field, sampling)
     comp = res.info.get("composition")
-    points, tets, comp, delta, passes = repair(res.points, res.tets.astype(np.int64), field,
-                                               res.threshold, comp=comp,
-                                               max_elements=max_elements, delta_of=delta_of)
+    if comp is None:
+        comp = field.composition(res.points)
+    points, tets, comp, delta, passes = repair_sampled(
+        res.points, res.tets.astype(np.int64), comp, field, res.threshold, delta_of,
+        max_elements=max_elements)
     info = dict(res.info, composition=comp, sampling=sampling, sampling_passes=passes)
     if passes:
         tets = tets.astype(np.int32)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...errors import MaterialError, ModelFileError
 from ...io.schema import describe
-from .parse import _constituents, _scalar, _value_map
+from .parse import parse_constituents, parse_value_map, scalar_values
 
 __all__ = ["read_volume", "parse_volume", "volume_solid", "VOLUME_KEYS"]
 
@@ -155,7 +155,7 @@ def parse_volume(ctx, table, solid, src: dict):
     from . import covers, image_field
 
     t = ctx.table(table, "material", required=("type", "constituents"), optional=VOLUME_KEYS)
-    cons = _constituents(ctx, t)
+    cons = parse_constituents(ctx, t)
     interp = ctx.string(t, "material", "interpolation", default="linear")
     if interp not in ("linear", "cubic"):
         raise ctx.fail("material.interpolation", f"expected \"linear\" or \"cubic\", got "
@@ -169,10 +169,10 @@ def parse_volume(ctx, table, solid, src: dict):
     geo = src["geometry"]
     lo, hi = solid.bounds
     covers(geo, np.concatenate([lo, hi]), geo.source)
-    vmap = _value_map(ctx, "material.map", t["map"], cons, src)
+    vmap = parse_value_map(ctx, "material.map", t["map"], cons, src)
     opts = dict(interpolation=interp, smoothing=sigma)
     if "files" in src:
-        stacked = np.stack([_scalar(ctx, "material.file", im).astype(float)
+        stacked = np.stack([scalar_values(ctx, "material.file", im).astype(float)
                             for im in src["files"].values()], axis=-1)
         img = replace(geo, values=stacked, channels=True,
                       source=", ".join(im.source for im in src["files"].values()))
