@@ -102,9 +102,10 @@ def resample(res, solid, field, sampling: str, *, max_elements: int | None = Non
              chord_tol: float | None = None, check: bool = True):
     """``res`` (a :class:`~hetmesh.tet.mesher.TetResult` meeting delta_0 at its vertices)
     refined until delta(T) by ``sampling`` is below delta_0 everywhere, its ``delta`` that
-    sampled one (``info["sampling"]``, ``info["sampling_passes"]``), verified
-    (:func:`hetmesh.tet.verify.tet_problems`, with ``chord_tol`` absolute, default 2e-3 x
-    the solid's diameter: edge bisection never moves a face away from the solid)."""
+    sampled one (``info["sampling"]``, ``info["sampling_passes"]``), verified: the whole
+    mesh again if it was refined (:func:`hetmesh.tet.verify.tet_problems`, with
+    ``chord_tol`` absolute, default 2e-3 x the solid's diameter: edge bisection never moves
+    a face away from the solid), else the sampled delta (the mesher verified the rest)."""
     from .mesher import CHORD, TetResult
     from .verify import tet_problems
 
@@ -127,7 +128,11 @@ def resample(res, solid, field, sampling: str, *, max_elements: int | None = Non
     else:
         res = TetResult(res.points, res.tets, res.faces, res.face_markers, res.face_names,
                         delta, res.threshold, info)
-    if check:
+    if check and not passes:  # the mesher's verified mesh, now with the sampled delta
+        dmax = float(res.delta.max())
+        probs = [] if dmax < res.threshold else [
+            f"delta_max = {dmax:.6g} is not below delta_0 = {res.threshold:g}"]
+    elif check:
         chord = CHORD * solid.diameter if chord_tol is None else chord_tol
         probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
                              res.delta, res.threshold, chord)
