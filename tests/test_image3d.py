@@ -4,6 +4,7 @@ the trilinear/cubic field, voxel sampling, model files, the example and bad inpu
 from __future__ import annotations
 
 import base64
+import json
 import struct
 from pathlib import Path
 
@@ -246,6 +247,14 @@ def test_volume_model_meshes_with_tetrahedra(ball, capsys):
     c = m.material.composition(mesh.points)
     dv = (c[mesh.cells].max(axis=1) - c[mesh.cells].min(axis=1)).max(axis=1)
     assert dv.max() < 0.25
+    capsys.readouterr()
+    for sampling in ("vertices", "pixels"):  # hetmesh stats recomputes either delta
+        assert main(["stats", str(out), "-m", str(path), "--sampling", sampling,
+                     "--json"]) == 0
+        got = json.loads(capsys.readouterr().out)["delta_max"]
+        want = dv.max() if sampling == "vertices" else \
+            element_pixel_delta(m.material, mesh.points, mesh.cells).max()
+        assert got == pytest.approx(want, abs=1e-12)
 
 
 def test_volume_in_a_given_cylinder(ball):

@@ -218,7 +218,16 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
     v = simplex_measures(points, tets)
     tets = tets.copy()
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
-    delta = delta_vertices(model.material.composition(points), tets)
+    sampling = getattr(args, "sampling", "vertices") or "vertices"
+    if sampling not in ("vertices", "pixels"):
+        raise OptionError(f"--sampling {sampling} is not available for 3D models (vertices "
+                          f"or pixels)")
+    comp = model.material.composition(points)
+    delta = delta_vertices(comp, tets)
+    if sampling == "pixels":  # every voxel centre of every tetrahedron, and its vertices
+        from ..options import check_sampling
+        check_sampling(model.material, sampling, names={"sampling": "--sampling"})
+        delta = np.maximum(delta, model.material.pixel_delta(points, tets, composition=comp))
     stats = {"n_points": int(len(points)), "n_elements": int(len(tets)),
              "delta_max": float(delta.max()), "delta_avg": float(delta.mean()),
              "volume": float(np.abs(v).sum()), "solid_volume": float(model.solid.volume),
@@ -234,7 +243,7 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
         from rich.console import Console
 
         console = Console(highlight=False, markup=False)
-        console.print(f"{path}: model {model.name}, delta from the vertices")
+        console.print(f"{path}: model {model.name}, delta from the {sampling}")
         for k, val in stats.items():
             console.print(f"  {k:<20} {val:.6g}" if isinstance(val, float)
                           else f"  {k:<20} {val}")
