@@ -28,8 +28,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
     )
     p.add_argument("--out", type=Path, default=Path("hetmesh-demo"), metavar="DIR",
                    help="directory for the files, created if missing (default: ./hetmesh-demo)")
-    p.add_argument("--threshold", "-d", type=float, default=0.05, metavar="D",
-                   help="delta_0, 0 < D < 1 (default: 0.05)")
+    p.add_argument("--threshold", "-d", type=float, default=None, metavar="D",
+                   help="delta_0, 0 < D < 1 (default: 0.05; 0.1 with --volume)")
     p.add_argument("--image", action="store_true",
                    help="mesh a synthetic 16-bit TIFF with 2%% noise instead (written into DIR "
                         "with its model file; docs/model-format.md, images)")
@@ -43,6 +43,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.threshold is None:
+        args.threshold = 0.1 if args.volume else 0.05
     check_threshold(args.threshold)
     out: Path = output_dir(args.out)
     check_writable_dir(out, f"--out {out}")
