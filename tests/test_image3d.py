@@ -215,21 +215,23 @@ def test_pixel_sampling_meshes_meet_delta_over_every_voxel(tmp_path):
     assert g.stats.delta_max_vertices <= g.stats.delta_max
 
 
-def test_incremental_sampled_delta_equals_a_fresh_one(ball):
-    from hetmesh.tet.refine import bisect_edges, select_edges
-    from hetmesh.tet.sampling import sampled_delta
+def test_local_sampled_repair_keeps_a_valid_mesh_and_exact_deltas(ball):
+    from hetmesh.mesh import Mesh, simplex_measures
+    from hetmesh.tet.sampling import repair_sampled, sampled_delta
 
     m = load_model(model_file(ball, extra="spacing = 0.5"))
     r = mesh_model(m, 0.3)
     f = m.material
-    inc = sampled_delta(f, "pixels")
     P, T = r.points, r.tets.astype(np.int64)
-    comp = f.composition(P)
-    d = inc(P, T, comp)
-    split = select_edges(T, comp, d >= 0.2)
-    P2, T2 = bisect_edges(P, T, split)
-    comp2 = f.composition(P2)
-    np.testing.assert_array_equal(inc(P2, T2, comp2), element_pixel_delta(f, P2, T2, comp2))
+    d0 = element_pixel_delta(f, P, T)
+    assert (d0 >= 0.15).sum() > 10  # a lower threshold: work for the repair
+    P2, T2, comp, d, passes = repair_sampled(P, T, f.composition(P), f, 0.15,
+                                             sampled_delta(f, "pixels"))
+    assert passes >= 1 and d.max() < 0.15 and len(T2) > len(T)
+    np.testing.assert_array_equal(d, element_pixel_delta(f, P2, T2))  # kept deltas exact
+    np.testing.assert_allclose(comp, f.composition(P2))
+    assert Mesh(P2, T2).problems() == [] and (simplex_measures(P2, T2) > 0).all()
+    assert simplex_measures(P2, T2).sum() == pytest.approx(simplex_measures(P, T).sum())
 
 
 # ---------------------------------------------------------------------- model files

@@ -32,46 +32,16 @@ log = logging.getLogger(__name__)
 TET_SAMPLINGS = ("vertices", "pixels")
 
 
-class sampled_delta:
-    """``delta_of(points, tets, comp)``: delta(T) by
-    ``sampling`` (:func:`hetmesh.delta.element_delta`), incremental: a tetrahedron met in the
-    previous call (same four vertex ids, none of them new) keeps its value, so a repair pass
-    samples only the tetrahedra its bisections made."""
+def sampled_delta(field, sampling: str):
+    """``delta_of(points, tets, comp)``: delta(T) of ``tets`` by ``sampling``
+    (:func:`hetmesh.delta.element_delta`; ``comp`` the compositions at ``points``)."""
+    check_sampling(field, sampling)
 
-    def __init__(self, field, sampling: str):
-        check_sampling(field, sampling)
-        self.field = field
-        self.sampling = sampling
-        self._tets: np.ndarray | None = None
-        self._delta: np.ndarray | None = None
-        self._n = 0
-
-    def _compute(self, points, tets, comp) -> np.ndarray:
+    def delta_of(points: np.ndarray, tets: np.ndarray, comp: np.ndarray) -> np.ndarray:
         if not len(tets):
             return np.zeros(0)
-        return element_delta(self.field, points, tets, self.sampling, composition=comp)
-
-    def __call__(self, points: np.ndarray, tets: np.ndarray, comp: np.ndarray) -> np.ndarray:
-        tets = np.asarray(tets, np.int64)
-        if self._tets is None:
-            delta = self._compute(points, tets, comp)
-        else:
-            delta = np.empty(len(tets))
-            todo = (tets >= self._n).any(axis=1)  # a new vertex: a new tetrahedron
-            old = np.flatnonzero(~todo)
-            if len(old):
-                both = np.concatenate([np.sort(self._tets, axis=1), np.sort(tets[old], axis=1)])
-                _, inv = np.unique(both, axis=0, return_inverse=True)
-                inv = inv.ravel()
-                row = np.full(int(inv.max()) + 1, -1, np.int64)
-                row[inv[:len(self._tets)]] = np.arange(len(self._tets))
-                src = row[inv[len(self._tets):]]
-                delta[old[src >= 0]] = self._delta[src[src >= 0]]
-                todo[old[src < 0]] = True
-            rows = np.flatnonzero(todo)
-            delta[rows] = self._compute(points, tets[rows], comp)
-        self._tets, self._delta, self._n = tets, delta, len(points)
-        return delta
+        return element_delta(field, points, tets, sampling, composition=comp)
+    return delta_of
 
 
 def repair_sampled(points: np.ndarray, tets: np.ndarray, comp: np.ndarray, field,
@@ -79,7 +49,14 @@ def repair_sampled(points: np.ndarray, tets: np.ndarray, comp: np.ndarray, field
     """Bisect the longest edges (max norm) of the tetrahedra with ``delta_of(points, tets,
     comp) >= threshold`` until there are none: ``(points, tets, comp, delta, passes)``.
     :class:`BudgetError` past ``max_elements``, :class:`MeshingError` after
-    :data:`~hetmesh.tet.refine.MAX_PASSES` passes."""
+    :data:`~hetmesh.tet.refine.MAX_PASSES` passes.
+
+    Local: a pass works on the patch of tetrahedra that share a vertex with a violator
+    (every tetrahedron holding one of their edges is in it, so the selection is that of the
+    whole mesh, :func:`~hetmesh.tet.refine.select_edges`), and only the tetrahedra it makes
+    are sampled again; the others keep their place and delta (new ones come last).
+    """
+    tets = np.asarray(tets, np.int64)
     delta = delta_of(points, tets, comp)
     passes = 0
     while (bad := delta >= threshold).any():
@@ -88,12 +65,18 @@ def repair_sampled(points: np.ndarray, tets: np.ndarray, comp: np.ndarray, field
                                f"passes ({int(bad.sum())} tetrahedra left)")
         if max_elements is not None:
             check_budget(len(tets), max_elements)
-        split = select_edges(tets, points, bad)  # coordinates as values: the longest edge
+        mark = np.zeros(len(points), dtype=bool)
+        mark[tets[bad]] = True
+        patch = mark[tets].any(axis=1)
+        sub = tets[patch]
+        # coordinates as the values whose jumps rank the edges: the longest edge
+        split = select_edges(sub, points, bad[patch])
         n0 = len(points)
-        points, tets = bisect_edges(points, tets, split)
+        points, made = bisect_edges(points, sub, split)
         check_progress(n0, len(points), passes, int(bad.sum()), 0, threshold)
         comp = np.concatenate([comp, field.composition(points[n0:])])
-        delta = delta_of(points, tets, comp)
+        tets = np.concatenate([tets[~patch], made])
+        delta = np.concatenate([delta[~patch], delta_of(points, made, comp)])
         passes += 1
     return points, tets, comp, delta, passes
 
