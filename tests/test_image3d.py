@@ -116,6 +116,33 @@ def test_volume_model_geometry_keys(tmp_path):
     assert m.material.composition(p)[0, 1] == pytest.approx(a[1, 5 - 3, 2], abs=1e-4)
 
 
+def test_volume_per_constituent_files_and_table_map(tmp_path):
+    a = ramp3().astype(np.float64)
+    np.save(tmp_path / "metal.npy", a)
+    np.save(tmp_path / "ceramic.npy", 1 - a)
+    text = """
+[solid]
+image = "extent"
+[material]
+type = "image"
+constituents = ["ceramic", "metal"]
+file = { metal = "metal.npy", ceramic = "ceramic.npy" }
+map = { range = [0, 1] }
+"""
+    (tmp_path / "f.toml").write_text(text)
+    m = load_model(tmp_path / "f.toml")
+    p = np.array([[2.5, 3.5, 1.5]])  # the centre of voxel (2, 3, 1)
+    np.testing.assert_allclose(m.material.composition(p), [[1 - a[1, 3, 2], a[1, 3, 2]]])
+    (tmp_path / "t.toml").write_text(text.replace(
+        'file = { metal = "metal.npy", ceramic = "ceramic.npy" }\nmap = { range = [0, 1] }',
+        'file = "metal.npy"\n[material.map]\nlevels = [0, 0.5, 1]\n'
+        'fractions = { metal = [0, 0.8, 1] }'))
+    m = load_model(tmp_path / "t.toml")
+    v = a[1, 3, 2]
+    want = np.interp(v, [0, 0.5, 1], [0, 0.8, 1])
+    assert m.material.composition(p)[0, 1] == pytest.approx(want)
+
+
 # ---------------------------------------------------------------------- the field
 @pytest.mark.parametrize("interpolation,order", [("linear", 1), ("cubic", 3)])
 def test_trilinear_and_cubic_match_scipy_with_consistent_gradient(interpolation, order):
