@@ -227,12 +227,27 @@ def _formula_names(formulas: Mapping[str, str], parameters) -> set[str]:
     return names
 
 
+def _volume(ctx, value):
+    """The volumes of an image material (already read for ``[solid] image``, else read
+    now), or None: not an image material, or a 2-D image (extruded or revolved)."""
+    if not isinstance(value, Mapping) or value.get("type") != "image":
+        return None
+    src = getattr(ctx, "volume", None)
+    if src is None:
+        from ..material.image.parse3d import read_volume
+        src = read_volume(ctx, value)
+    return src
+
+
 def _material(ctx, value, solid: Prism, parameters, top):
     """``(field3d, field2d or None)``."""
     material2d = ctx.parse_material
     if not isinstance(value, Mapping):
         raise ctx.fail("material", "expected a table")
     kind = value.get("type", "analytic")
+    if (volume := _volume(ctx, value)) is not None:  # a 3-D image: voxels, not a section
+        from ..material.image.parse3d import parse_volume
+        return parse_volume(ctx, value, solid, volume), None
     prism = isinstance(solid, Prism)
     if kind != "analytic":
         if not prism:  # a revolution: the 2D field of the profile, turned about the axis
@@ -298,7 +313,11 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
             if isinstance(top["solid"], Mapping) else False:
         raise ctx.fail("domain", "a [domain] table goes with solid.type = \"extrusion\" or "
                                  "\"revolution\" only")
-    solid = _solid(ctx, top["solid"], top)
+    if isinstance(top["solid"], Mapping) and "image" in top["solid"]:  # a volume's extent
+        from ..material.image.parse3d import volume_solid
+        solid, ctx.volume = volume_solid(ctx, top["solid"], top["material"])
+    else:
+        solid = _solid(ctx, top["solid"], top)
     material, material2d = _material(ctx, top["material"], solid, parameters, top)
     if check:
         samples = solid.sample(20)

@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import OptionError
 from ..kernel import Result
 from ..mesh import Mesh
-from ..metrics import dihedral_angles, statistics, tet_quality
+from ..metrics import delta_vertices, dihedral_angles, statistics, tet_quality
 from ..options import DEFAULT_ROW_SPACING
 from .extrude import generate_extruded
 from .mesher import TetResult, generate_tets
@@ -40,7 +40,8 @@ DEFAULT_MAX_ELEMENTS = 20_000_000
 
 def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | None = None,
                max_elements: int | None = DEFAULT_MAX_ELEMENTS,
-               max_size: float | None = None, check: bool = True) -> TetResult:
+               max_size: float | None = None, check: bool = True,
+               sampling: str = "vertices") -> TetResult:
     """Tetrahedral mesh of a 3D model (:class:`hetmesh.io.model3d.Model3D`) with every
     element's delta below ``threshold``, verified.
 
@@ -49,6 +50,8 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     evens out the section's sizes, which shapes the tetrahedra better at a higher count.
     The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``, its
     ``mesh`` the :class:`~hetmesh.mesh.Mesh` (:func:`to_mesh`), which ``write`` saves.
+    ``sampling = "pixels"`` (a material from a 3D volume) also meets delta_0 over every
+    voxel centre of every tetrahedron (:func:`hetmesh.tet.sampling.resample`).
     """
     if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) \
             or not 0 < threshold < 1:
@@ -59,6 +62,10 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         raise OptionError(f"max_size must be a positive number, got {max_size!r}")
     if max_elements is not None and max_elements < 1:
         raise OptionError(f"max_elements must be positive, got {max_elements!r}")
+    from .sampling import TET_SAMPLINGS, resample
+    if sampling not in TET_SAMPLINGS:
+        raise OptionError(f"sampling {sampling!r} is not available for 3D models (one of "
+                          f"{', '.join(TET_SAMPLINGS)})")
     solid = model.solid
     chord = None if chord_tol is None else chord_tol * solid.diameter
     from ..io.model import Model
@@ -89,6 +96,8 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     if "composition" not in res.info:  # the swept meshes' delta came from the 2D field
         res.info["composition"] = np.asarray(model.material.composition(res.points),
                                              dtype=np.float64)
+    res = resample(res, solid, model.material, sampling, max_elements=max_elements,
+                   chord_tol=chord, check=check)
     res.mesh = to_mesh(res, model.constituents)
     return res
 
@@ -143,6 +152,7 @@ def generate(model, threshold: float, *, seed: int = 0, chord_tol: float | None 
 
     Options of the 2D kernel other than their defaults raise :class:`OptionError`.
     """
+    sampling = options.pop("sampling", None) or "vertices"
     for key, value in options.items():
         if key not in OPTIONS_2D:
             raise TypeError(f"generate() got an unexpected keyword argument {key!r}")
@@ -150,14 +160,16 @@ def generate(model, threshold: float, *, seed: int = 0, chord_tol: float | None 
             raise OptionError(f"{key}={value!r} is not available for 3D models")
     t0 = time.perf_counter()
     res = mesh_model(model, threshold, seed=seed, chord_tol=chord_tol,
-                     max_elements=max_elements, max_size=max_size)
+                     max_elements=max_elements, max_size=max_size, sampling=sampling)
     seconds = time.perf_counter() - t0
     q = res.mesh.cell_data["quality"]
     ang = dihedral_angles(res.points, res.tets).min(axis=1)
     stats = statistics(res.points, res.tets, res.delta, quality=q, angle=ang)
-    stats = replace(stats, delta_max_vertices=stats.delta_max)
+    dv = delta_vertices(res.info["composition"], res.tets) if sampling != "vertices" \
+        else res.delta
+    stats = replace(stats, delta_max_vertices=float(dv.max()))
     opts = dict(threshold=threshold, seed=seed, chord_tol=chord_tol,
-                max_elements=max_elements, max_size=max_size,
+                max_elements=max_elements, max_size=max_size, sampling=sampling,
                 placement=res.info.get("placement"))
     return Result(mesh=res.mesh, stats=stats, threshold=threshold,
                   history=[{"round": 0, "stage": "tet", "elements": int(len(res.tets)),

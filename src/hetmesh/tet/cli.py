@@ -29,9 +29,9 @@ def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
     for key, flag in _2D_ONLY.items():
         if kwargs.get(key) is not None:
             raise OptionError(f"{flag} is not available for 3D models")
-    if kwargs.get("sampling", "vertices") != "vertices":
+    if kwargs.get("sampling", "vertices") not in ("vertices", "pixels"):
         raise OptionError(f"--sampling {kwargs['sampling']} is not available for 3D models "
-                          f"(vertices only)")
+                          f"(vertices or pixels)")
     from ..io.export import FILE_FORMATS, FORMATS
     name = getattr(args, "format", None)
     # the names and extensions were checked with the other outputs (check_outputs)
@@ -39,8 +39,8 @@ def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
     if 3 not in fmt.dims:
         raise OutputError(f"--output {args.output}: {fmt.name} does not take tetrahedral "
                           f"meshes")
-    return {k: kwargs[k] for k in ("seed", "chord_tol", "max_elements", "max_size")
-            if k in kwargs}
+    return {k: kwargs[k] for k in ("seed", "chord_tol", "max_elements", "max_size",
+                                   "sampling") if k in kwargs}
 
 
 def tet_statistics(model, res) -> dict:
@@ -138,6 +138,9 @@ def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
         raise OptionError(f"hetmesh {args.command} is not available for 3D models yet "
                           f"(hetmesh mesh is)")
     kw = check_tet_options(args, kwargs)
+    from ..options import check_sampling
+    check_sampling(model.material, kw.get("sampling", "vertices"),
+                   names={"sampling": "--sampling"})
     t0 = time.perf_counter()
     res = mesh_model(model, args.threshold, **kw)
     seconds = time.perf_counter() - t0
@@ -215,7 +218,16 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
     v = simplex_measures(points, tets)
     tets = tets.copy()
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
-    delta = delta_vertices(model.material.composition(points), tets)
+    sampling = getattr(args, "sampling", "vertices") or "vertices"
+    if sampling not in ("vertices", "pixels"):
+        raise OptionError(f"--sampling {sampling} is not available for 3D models (vertices "
+                          f"or pixels)")
+    comp = model.material.composition(points)
+    delta = delta_vertices(comp, tets)
+    if sampling == "pixels":  # every voxel centre of every tetrahedron, and its vertices
+        from ..options import check_sampling
+        check_sampling(model.material, sampling, names={"sampling": "--sampling"})
+        delta = np.maximum(delta, model.material.pixel_delta(points, tets, composition=comp))
     stats = {"n_points": int(len(points)), "n_elements": int(len(tets)),
              "delta_max": float(delta.max()), "delta_avg": float(delta.mean()),
              "volume": float(np.abs(v).sum()), "solid_volume": float(model.solid.volume),
@@ -231,7 +243,7 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
         from rich.console import Console
 
         console = Console(highlight=False, markup=False)
-        console.print(f"{path}: model {model.name}, delta from the vertices")
+        console.print(f"{path}: model {model.name}, delta from the {sampling}")
         for k, val in stats.items():
             console.print(f"  {k:<20} {val:.6g}" if isinstance(val, float)
                           else f"  {k:<20} {val}")

@@ -11,11 +11,19 @@ Nothing is downloaded; every image is computed (``hetmesh.material.image.synthet
 * ``graded_part.tif`` -- the same with 2 % grey-level noise (Gaussian, standard deviation
   0.02 x 65535, seed 0), as a measured map would have;
 * ``two_phase_labels.png`` / ``two_phase_grey.png`` -- a label image (1 matrix, 2 a graded
-  round inclusion, 3 a metal particle, 0 a hole) and the grey image grading the inclusion.
+  round inclusion, 3 a metal particle, 0 a hole) and the grey image grading the inclusion;
+* ``graded_volume.tif`` -- a 3D volume, a TIFF stack of 96 pages of 96 x 96 voxels, 16-bit,
+  covering a 20 mm cube (ImageJ calibration in the file: unit mm, pixel size and slice
+  spacing 20/96 mm): the metal fraction is 0 in a ceramic core and 1 in a metal shell,
+  0.5 (1 + tanh((r - 6 - 1.5 sin(2 pi z / 20)) / 3)) with r the distance to the cube's
+  centre (10, 10, 10), plus 2 % grey-level noise (seed 0). Mesh it with tetrahedra:
 
-The model files (``graded_part.toml``, ``graded_part_noisy.toml``, ``two_phase.toml``) are
-also in this folder; this script rewrites them from the same text (hetmesh.material.image.
-synthetic.MODELS). Options: ``--out DIR``, ``--size NX NY``, ``--noise F``, ``--seed S``.
+      hetmesh mesh examples/images/graded_volume.toml -d 0.1 -o cube.vtu --plot cube.png
+
+The model files (``graded_part.toml``, ``graded_part_noisy.toml``, ``two_phase.toml``,
+``graded_volume.toml``) are also in this folder; this script rewrites them from the same
+text (hetmesh.material.image.synthetic.MODELS). Options: ``--out DIR``, ``--size NX NY``,
+``--volume N`` (voxels per edge of the cube), ``--noise F``, ``--seed S``.
 """
 
 from __future__ import annotations
@@ -34,9 +42,12 @@ def main(argv=None) -> int:
                    help="pixels of the graded part (default: 512 256)")
     p.add_argument("--noise", type=float, default=0.02,
                    help="grey-level noise, fraction of the range (default: 0.02)")
+    p.add_argument("--volume", type=int, default=96, metavar="N",
+                   help="voxels per edge of the graded cube (default: 96)")
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
-    models = write_examples(a.out, shape=(a.size[1], a.size[0]), noise=a.noise, seed=a.seed)
+    models = write_examples(a.out, shape=(a.size[1], a.size[0]), noise=a.noise, seed=a.seed,
+                            volume=a.volume)
     for path in models.values():
         print(f"wrote {path} (and the images it reads)")
     return 0

@@ -64,7 +64,7 @@ class ImageField:
     steps and size fields see the same field as the delta checks.
     """
 
-    #: the dimension of the points the field takes (a 2D image)
+    #: the dimension of the points the field takes: the image's (2, or 3 for a volume)
     dim = 2
 
     def __init__(self, fractions: np.ndarray, image: Image, constituents: Sequence[str], *,
@@ -128,7 +128,8 @@ class ImageField:
 
     def pixel_delta(self, points, triangles, regions=None, composition=None) -> np.ndarray:
         """delta(T) over every pixel centre each element covers and its vertices
-        (:func:`~hetmesh.material.image.element_pixel_delta`); ``composition`` ``(N, m)``:
+        (:func:`~hetmesh.material.image.element_pixel_delta`; ``triangles`` are tetrahedra
+        ``(M, 4)`` on a volume, and the centres voxel centres); ``composition`` ``(N, m)``:
         the fractions at ``points`` if known; ``regions`` is ignored."""
         vc = composition
         if vc is not None and (np.ndim(vc) != 2 or len(vc) != len(points)):
@@ -146,10 +147,7 @@ class ImageField:
         return out
 
     def _points(self, points) -> np.ndarray:
-        if self.dim == 2:
-            p = as_points(points, repr(self))
-        else:
-            p = np.asarray(points, float).reshape(-1, self.dim)
+        p = as_points(points, repr(self), self.dim)
         return p + self._offset if self._offset.any() else p
 
     def _evaluate(self, p: np.ndarray, block: int = 1 << 17):

@@ -14,7 +14,8 @@ import numpy as np
 from ...errors import GeometryError, MaterialError, ModelFileError
 from ...io.schema import describe
 
-__all__ = ["parse_image", "parse_image_model"]
+__all__ = ["parse_image", "parse_image_model", "parse_constituents", "parse_value_map",
+           "scalar_values"]
 
 
 #: keys of ``[material] type = "image"``
@@ -50,7 +51,7 @@ def parse_image_model(ctx, dtable, mtable):
         mask = np.ones(labels.shape, bool)
     elif "mask" in t:
         mimg = _read(ctx, "domain.mask", t["mask"], mtable, shape)
-        mask = _scalar(ctx, "domain.mask", mimg) != 0
+        mask = scalar_values(ctx, "domain.mask", mimg) != 0
     elif labels is not None:
         mask = labels != 0
     else:
@@ -147,7 +148,7 @@ def _geometry(ctx, t: Mapping, img):
                     spacing=tuple(float(s) for s in sp))
 
 
-def _scalar(ctx, key: str, img) -> np.ndarray:
+def scalar_values(ctx, key: str, img) -> np.ndarray:
     if img.channels:
         raise MaterialError(f"{img.source}: {img.values.shape[-1]} channels; {key} needs a "
                             f"single-channel image")
@@ -165,7 +166,7 @@ def _image_sources(ctx, t) -> dict:
     shape = None
     if "labels" in t:
         lab = _read(ctx, "material.labels", t["labels"], t)
-        v = _scalar(ctx, "material.labels", lab)
+        v = scalar_values(ctx, "material.labels", lab)
         if v.dtype.kind not in "ui":
             raise MaterialError(f"{lab.source}: a label image needs integer pixels, got "
                                 f"{v.dtype}")
@@ -191,7 +192,7 @@ def _image_sources(ctx, t) -> dict:
     return out
 
 
-def _constituents(ctx, t) -> tuple[str, ...]:
+def parse_constituents(ctx, t) -> tuple[str, ...]:
     from ..analytic import check_constituents
 
     cons = t["constituents"]
@@ -204,7 +205,7 @@ def _constituents(ctx, t) -> tuple[str, ...]:
         raise ctx.fail("material.constituents", str(exc).split(": ", 1)[-1]) from None
 
 
-def _value_map(ctx, key: str, value, cons, src):
+def parse_value_map(ctx, key: str, value, cons, src):
     """A ``map = {...}`` table -> :class:`~hetmesh.material.image.ValueMap`."""
     from . import channel_map, linear_map, table_map
 
@@ -307,7 +308,7 @@ def parse_image(ctx, table, domain, parameters=None, src=None, traced=None):
     from . import covers, image_field
 
     t = ctx.table(table, "material", required=("type", "constituents"), optional=_IMAGE_KEYS)
-    cons = _constituents(ctx, t)
+    cons = parse_constituents(ctx, t)
     src = src if src is not None else _image_sources(ctx, t)
     interp = ctx.string(t, "material", "interpolation", default="linear")
     if interp not in ("linear", "cubic"):
@@ -325,9 +326,9 @@ def parse_image(ctx, table, domain, parameters=None, src=None, traced=None):
         if "map" not in t:
             raise ModelFileError(f"{ctx.pre}missing key 'material.map' (how pixel values "
                                  f"become volume fractions)")
-        vmap = _value_map(ctx, "material.map", t["map"], cons, src)
+        vmap = parse_value_map(ctx, "material.map", t["map"], cons, src)
         if "files" in src:
-            stacked = np.stack([_scalar(ctx, "material.file", im).astype(float)
+            stacked = np.stack([scalar_values(ctx, "material.file", im).astype(float)
                                 for im in src["files"].values()], axis=-1)
             from dataclasses import replace as _replace
 
@@ -388,7 +389,7 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
             if "image" not in src and "files" not in src:
                 raise ctx.fail(f"{key}.map", "a graded phase needs a grey image "
                                              "(material.file)")
-            spec[lab] = (name, _value_map(ctx, f"{key}.map", p["map"], cons, src))
+            spec[lab] = (name, parse_value_map(ctx, f"{key}.map", p["map"], cons, src))
     for lab in present.tolist():
         if lab not in spec:
             count = int((labels == lab).sum())

@@ -1,5 +1,6 @@
 """Pixel sampling: delta(T) over every pixel centre an element covers, complemented by its
-vertices (an element may cover no pixel centre at all)."""
+vertices (an element may cover no pixel centre at all). Triangles over a 2D image, and
+tetrahedra over a 3D volume (voxel centres, :func:`voxel_centres_in_tets`)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ from typing import Protocol
 
 import numpy as np
 
-__all__ = ["pixel_centres_in_triangles", "pixel_blocks", "element_pixel_delta"]
+__all__ = ["pixel_centres_in_triangles", "pixel_blocks", "voxel_centres_in_tets",
+           "voxel_blocks", "element_pixel_delta"]
 
 
 class PixelImage(Protocol):
@@ -15,7 +17,7 @@ class PixelImage(Protocol):
     (:class:`~hetmesh.material.image.ImageField` is one)."""
 
     constituents: tuple[str, ...]
-    samples: np.ndarray  #: ``(m, ny, nx)`` the field at the pixel centres
+    samples: np.ndarray  #: ``(m, ny, nx)`` / ``(m, nz, ny, nx)`` the field at the centres
     spacing: np.ndarray
     shape: tuple[int, ...]
 
@@ -122,9 +124,118 @@ def _row_span(u: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return xl, xr
 
 
+# ---------------------------------------------------------------------- voxel sampling
+def voxel_centres_in_tets(points: np.ndarray, tets: np.ndarray, origin, spacing, shape, *,
+                          block: int = 1 << 19):
+    """The voxel centres each tetrahedron covers.
+
+    Parameters
+    ----------
+    points : ``(N, 3)``; tets : ``(M, 4)``
+    origin, spacing : ``(3,)`` centre of the first voxel and voxel size, x first
+    shape : ``(nz, ny, nx)``
+    block : int
+        About how many candidate centres (bounding-box voxels) to test at once.
+
+    Returns
+    -------
+    element : ``(K,)`` int64
+        The tetrahedron of each (tetrahedron, voxel) pair, ascending.
+    voxel : ``(K,)`` int64
+        The flat index ``(k * ny + j) * nx + i`` of the voxel centre (closed tetrahedra: a
+        centre on a shared face counts for each).
+
+    Examples
+    --------
+    >>> p = np.array([[0., 0, 0], [3, 0, 0], [0, 3, 0], [0, 0, 3]])
+    >>> e, v = voxel_centres_in_tets(p, np.array([[0, 1, 2, 3]]), (0.5, 0.5, 0.5),
+    ...                              (1, 1, 1), (3, 3, 3))
+    >>> v.tolist()  # the centres with x + y + z <= 3: (0.5, 0.5, 0.5), (1.5, ...), ...
+    [0, 1, 3, 9]
+    """
+    parts = list(voxel_blocks(points, tets, origin, spacing, shape, block=block))
+    if not parts:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate([e for e, _ in parts]), np.concatenate([v for _, v in parts])
+
+
+def _barycentric_maps(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For tetrahedra ``u (B, 4, 3)``: ``(inv (B, 3, 3), shift (B, 3), ok (B,))`` with the
+    barycentric coordinates 1..3 of a point ``q`` equal to ``inv @ q - shift`` (coordinate 0
+    is 1 minus their sum); ``ok`` False for flat tetrahedra."""
+    a = np.stack([u[:, 1] - u[:, 0], u[:, 2] - u[:, 0], u[:, 3] - u[:, 0]], axis=2)
+    c0 = np.cross(a[:, :, 1], a[:, :, 2])
+    c1 = np.cross(a[:, :, 2], a[:, :, 0])
+    c2 = np.cross(a[:, :, 0], a[:, :, 1])
+    det = np.einsum("ij,ij->i", a[:, :, 0], c0)
+    scale = np.abs(a).max(axis=(1, 2)) ** 3
+    ok = np.abs(det) > 1e-14 * scale
+    d = np.where(ok, det, 1.0)
+    inv = np.stack([c0, c1, c2], axis=1) / d[:, None, None]  # rows: the adjugate / det
+    shift = np.einsum("bij,bj->bi", inv, u[:, 0])
+    return inv, shift, ok
+
+
+def voxel_blocks(points, tets, origin, spacing, shape, *, block: int = 1 << 19):
+    """:func:`voxel_centres_in_tets` by blocks of tetrahedra: yields ``(element, voxel)``
+    pairs, each block testing about ``block`` candidate centres, elements ascending overall.
+
+    Scanlines: for every voxel row ``(j, k)`` that crosses a tetrahedron's bounding box, the
+    barycentric coordinates are affine in ``i``, so the row's centres inside the (closed)
+    tetrahedron form one interval, found from its four coordinates at once.
+    """
+    P = np.asarray(points, float)
+    T = np.asarray(tets, np.int64)
+    o, s = np.asarray(origin, float), np.asarray(spacing, float)
+    nz, ny, nx = (int(v) for v in shape)
+    top = np.array([nx - 1, ny - 1, nz - 1])
+    u_all = (P - o) / s  # index units
+    lo = np.zeros((len(T), 3), np.int64)
+    hi = np.full((len(T), 3), -1, np.int64)
+    for b in range(0, len(T), 1 << 16):
+        u = u_all[T[b:b + (1 << 16)]]
+        lo[b:b + (1 << 16)] = np.maximum(np.ceil(u.min(axis=1) - _EPS), 0)
+        hi[b:b + (1 << 16)] = np.minimum(np.floor(u.max(axis=1) + _EPS), top)
+    cnt = np.maximum(hi - lo + 1, 0)
+    tot = cnt[:, 0] * cnt[:, 1] * cnt[:, 2]
+    ends = np.searchsorted(np.cumsum(tot), np.arange(1, 1 + tot.sum() // block + 1) * block,
+                           side="right")
+    bounds = np.unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
+    for b0, b1 in zip(bounds[:-1], bounds[1:]):
+        if not tot[b0:b1].sum():
+            continue
+        inv, shift, ok = _barycentric_maps(u_all[T[b0:b1]])
+        rows = np.where(ok, cnt[b0:b1, 1] * cnt[b0:b1, 2], 0)
+        loc = np.repeat(np.arange(b1 - b0), rows)
+        er = loc + b0
+        r = np.arange(len(er)) - np.repeat(np.cumsum(rows) - rows, rows)
+        jr = lo[er, 1] + r % cnt[er, 1]
+        kr = lo[er, 2] + r // cnt[er, 1]
+        # barycentric coordinates along the row: lam = a + b i (coordinate 0: 1 - the rest)
+        m = inv[loc]
+        a = m[:, :, 1] * jr[:, None] + m[:, :, 2] * kr[:, None] - shift[loc]
+        b = m[:, :, 0]
+        a = np.column_stack([1.0 - a.sum(axis=1), a])
+        b = np.column_stack([-b.sum(axis=1), b])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = (-_EPS - a) / b
+        xl = np.where(b > 0, bound, -np.inf).max(axis=1)
+        xr = np.where(b < 0, bound, np.inf).min(axis=1)
+        missed = ((b == 0) & (a < -_EPS)).any(axis=1)
+        xl = np.maximum(xl, lo[er, 0])
+        xr = np.minimum(xr, hi[er, 0])
+        i0 = np.ceil(xl).astype(np.int64)
+        n = np.where(missed, 0, np.maximum(np.floor(xr).astype(np.int64) - i0 + 1, 0))
+        e = np.repeat(er, n)
+        i = np.repeat(i0, n) + np.arange(len(e)) - np.repeat(np.cumsum(n) - n, n)
+        yield e, (np.repeat(kr, n) * ny + np.repeat(jr, n)) * nx + i
+
+
 def element_pixel_delta(field: PixelImage, points: np.ndarray, triangles: np.ndarray,
                         vertex_composition: np.ndarray | None = None) -> np.ndarray:
-    """delta(T) ``(M,)`` over every pixel centre each element covers *and* its vertices.
+    """delta(T) ``(M,)`` over every pixel centre each element covers *and* its vertices:
+    triangles ``(M, 3)`` over a 2D image, or tetrahedra ``(M, 4)`` over the voxel centres
+    of a 3D volume.
 
     The values at the pixel centres are the field's samples there (``field.samples``, the
     mapped and smoothed pixels); an element that covers no pixel centre is judged by its
@@ -138,7 +249,8 @@ def element_pixel_delta(field: PixelImage, points: np.ndarray, triangles: np.nda
     corners = vc[T]  # (M, 3, m)
     hi, lo = corners.max(axis=1), corners.min(axis=1)
     flat = field.samples.reshape(len(field.constituents), -1)
-    for e, pix in pixel_blocks(P, T, field.local_origin, field.spacing, field.shape):
+    blocks = voxel_blocks if T.shape[1] == 4 else pixel_blocks
+    for e, pix in blocks(P, T, field.local_origin, field.spacing, field.shape):
         if not len(e):
             continue
         vals = flat[:, pix].T  # (K, m)

@@ -6,7 +6,10 @@
   of the grey range: 0.02 is "2 % noise", the scatter of a good EDS map or CT slice);
 * :func:`two_phase`: a label image of a matrix (label 1) with a round inclusion (label 2,
   graded: its metal fraction follows a grey image), a small fully-metal particle (label 3)
-  and a hole (label 0: outside the domain when the domain is the mask).
+  and a hole (label 0: outside the domain when the domain is the mask);
+* :func:`graded_volume`: a 20 mm cube whose ceramic core grades into a metal shell across a
+  3 mm wide front around a sphere whose radius waves along z, as a 16-bit volume
+  ``(nz, ny, nx)`` with optional grey-level noise, written as a calibrated TIFF stack.
 
 :func:`write_examples` writes them as TIFF/PNG files with the model files that use them
 (``examples/images/make_images.py`` calls it).
@@ -18,10 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["graded_part", "two_phase", "write_examples", "MODELS", "PART_SIZE"]
+__all__ = ["graded_part", "two_phase", "graded_volume", "volume_metal", "write_examples",
+           "write_volume", "MODELS", "PART_SIZE", "VOLUME_SIZE"]
 
 #: the physical size of the synthetic part (width, height), mm
 PART_SIZE = (40.0, 20.0)
+#: the edge of the synthetic cube, mm
+VOLUME_SIZE = 20.0
 
 
 def _centres(shape: tuple[int, int], size=PART_SIZE) -> tuple[np.ndarray, np.ndarray]:
@@ -68,6 +74,52 @@ def two_phase(shape: tuple[int, int] = (200, 400)) -> tuple[np.ndarray, np.ndarr
     lab[(x - 33) ** 2 + (y - 6) ** 2 < 3 ** 2] = 0
     grey = np.round(np.clip(x / PART_SIZE[0], 0, 1) * 255).astype(np.uint8)
     return lab, grey
+
+
+def volume_metal(x, y, z) -> np.ndarray:
+    """The noise-free metal fraction of the graded cube: 0 in the core, 1 in the shell,
+    across a smooth (tanh) front 3 mm wide around the sphere of radius
+    6 + 1.5 sin(2 pi z / 20) mm about the cube's centre (10, 10, 10)."""
+    r = np.sqrt((x - 10.0) ** 2 + (y - 10.0) ** 2 + (z - 10.0) ** 2)
+    front = 6.0 + 1.5 * np.sin(2.0 * np.pi * z / VOLUME_SIZE)
+    return 0.5 * (1.0 + np.tanh((r - front) / 3.0))
+
+
+def graded_volume(n: int = 96, noise: float = 0.02, seed: int = 0) -> np.ndarray:
+    """The graded cube as a 16-bit volume ``(n, n, n)`` (axes z, y, x; each slice stored
+    top row first, as a TIFF page), with Gaussian grey-level noise of standard deviation
+    ``noise`` x 65535 (clipped; ``seed`` fixes it). Slice by slice, so memory stays at the
+    volume's 2 bytes per voxel.
+
+    >>> v = graded_volume(16, noise=0.0)
+    >>> v.dtype.name, v.shape, int(v[8, 8, 8]) < int(v[0, 0, 0])
+    ('uint16', (16, 16, 16), True)
+    """
+    h = VOLUME_SIZE / n
+    c = (np.arange(n) + 0.5) * h
+    x, y = np.meshgrid(c, c[::-1])  # rows top first
+    rng = np.random.default_rng(seed)
+    out = np.empty((n, n, n), np.uint16)
+    for k in range(n):
+        f = volume_metal(x, y, c[k])
+        if noise > 0:
+            f = f + noise * rng.standard_normal(f.shape)
+        out[k] = np.round(np.clip(f, 0.0, 1.0) * 65535)
+    return out
+
+
+def write_volume(path: str | Path, volume: np.ndarray, spacing: float) -> Path:
+    """Write ``volume`` ``(nz, ny, nx)`` as a TIFF stack with ImageJ calibration (unit mm,
+    pixel size and slice spacing ``spacing``), atomically."""
+    import tifffile
+
+    from ...io.atomic import atomic_path
+
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, volume, imagej=True, resolution=(1.0 / spacing, 1.0 / spacing),
+                         metadata={"unit": "mm", "spacing": spacing, "axes": "ZYX"})
+    return path
 
 
 #: the example model files, by name (the images they read are written next to them)
@@ -143,13 +195,34 @@ label = 3
 name = "particle"
 composition = { metal = 1.0 }
 ''',
+    "graded_volume": '''\
+# A graded cube scanned as a 16-bit TIFF stack (examples/images/make_images.py): a ceramic
+# core grading into a metal shell across a 3 mm wide front, with 2 % grey-level noise. The
+# stack carries its calibration (ImageJ: unit mm, pixel size, slice spacing), so the voxels
+# are placed in mm without a spacing key: 96^3 voxels cover the cube 0 <= x, y, z <= 20.
+# The Gaussian of 0.6 mm (2.9 voxels) leaves 0.02 / (2 sqrt(pi) 2.9)^(3/2) = 0.0006 of noise.
+[model]
+name = "graded_volume"
+units = "mm"
+
+[solid]
+image = "extent"            # the box the voxels cover
+
+[material]
+type = "image"
+constituents = ["ceramic", "metal"]
+file = "graded_volume.tif"
+map = { linear = [0, 65535], constituent = "metal" }
+smoothing = 0.6             # mm
+''',
 }
 
 
 def write_examples(folder: str | Path, *, shape: tuple[int, int] = (256, 512),
-                   noise: float = 0.02, seed: int = 0) -> dict[str, Path]:
-    """Write the example images and :data:`MODELS` into ``folder`` (created if missing);
-    returns the model files by name. Files are written atomically."""
+                   noise: float = 0.02, seed: int = 0, volume: int = 96) -> dict[str, Path]:
+    """Write the example images (the graded cube: ``volume``^3 voxels) and :data:`MODELS`
+    into ``folder`` (created if missing); returns the model files by name. Files are
+    written atomically."""
     import imageio.v3 as iio
     import tifffile
 
@@ -167,6 +240,8 @@ def write_examples(folder: str | Path, *, shape: tuple[int, int] = (256, 512),
                 tifffile.imwrite(tmp, arr)
             else:
                 iio.imwrite(tmp, arr, extension=".png")
+    write_volume(out / "graded_volume.tif", graded_volume(volume, noise, seed),
+                 VOLUME_SIZE / volume)
     models = {}
     for name, text in MODELS.items():
         models[name] = out / f"{name}.toml"

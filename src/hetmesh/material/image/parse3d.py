@@ -1,0 +1,180 @@
+"""``[material] type = "image"`` in a 3D model (a ``[solid]`` table): a volume (TIFF stack,
+3-D ``.npy``, ``.vti``, NRRD) as an :class:`~hetmesh.material.image.ImageField` on
+``(N, 3)`` points, and ``[solid] image = "extent"``, the box the voxels cover (schema in
+docs/model-format.md, "Volumes").
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import MaterialError, ModelFileError
+from ...io.schema import describe
+from .parse import parse_constituents, parse_value_map, scalar_values
+
+__all__ = ["read_volume", "parse_volume", "volume_solid", "VOLUME_KEYS"]
+
+#: keys of ``[material] type = "image"`` in a 3D model
+VOLUME_KEYS = ("type", "constituents", "file", "map", "spacing", "origin", "bounds",
+               "first_row", "array", "interpolation", "smoothing")
+
+
+def _read(ctx, key: str, value, t: Mapping, shape=None):
+    from . import read_image
+
+    if not isinstance(value, str) or not value.strip():
+        raise ctx.fail(key, f"expected a file name, got {describe(value)}")
+    path = Path(value) if os.path.isabs(value) else ctx.base / value
+    img = read_image(path, array=ctx.string(t, "material", "array"))
+    if img.dim != 3:
+        return img
+    img = _geometry3d(ctx, t, img)
+    if shape is not None and img.shape != shape:
+        raise MaterialError(f"{img.source}: {' x '.join(map(str, img.shape[::-1]))} voxels, "
+                            f"but the other volumes have {' x '.join(map(str, shape[::-1]))}")
+    return img
+
+
+def _triple(ctx, v, key: str) -> tuple[float, float, float]:
+    ok = isinstance(v, list) and len(v) == 3 and all(
+        isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in v)
+    if not ok:
+        raise ctx.fail(key, f"expected [x, y, z], 3 finite numbers, got {describe(v)}")
+    return tuple(float(c) for c in v)
+
+
+def _geometry3d(ctx, t: Mapping, img):
+    """``img`` with the row order, origin, spacing and bounds the model file gives."""
+    if "first_row" in t:
+        row = ctx.string(t, "material", "first_row")
+        if row not in ("top", "bottom"):
+            raise ctx.fail("material.first_row", f"expected \"top\" or \"bottom\", got "
+                                                 f"{row!r}")
+        from . import RASTER_SUFFIXES
+
+        raster = Path(img.source).suffix.lower() in RASTER_SUFFIXES
+        if (row == "bottom") == raster:  # undo the reader's flip, or flip
+            img = replace(img, values=np.ascontiguousarray(np.flip(img.values, axis=1)))
+    n = np.array(img.shape[::-1], float)
+    if "bounds" in t:
+        if "origin" in t or "spacing" in t:
+            raise ctx.fail("material.bounds", "give either bounds or origin/spacing, not both")
+        b = t["bounds"]
+        ok = isinstance(b, list) and len(b) == 6 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in b)
+        if not ok:
+            raise ctx.fail("material.bounds", f"expected [x0, y0, z0, x1, y1, z1], got "
+                                              f"{describe(b)}")
+        lo, hi = np.array(b[:3], float), np.array(b[3:], float)
+        if (hi <= lo).any():
+            raise ctx.fail("material.bounds", f"spacing <= 0: x1 > x0, y1 > y0 and z1 > z0 "
+                                              f"needed, got {describe(b)}")
+        sp = (hi - lo) / n
+        return replace(img, origin=tuple(lo + 0.5 * sp), spacing=tuple(sp))
+    sp, org = img.spacing, img.origin
+    if "spacing" in t:
+        v = t["spacing"]
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            v = [v, v, v]
+        s = _triple(ctx, v, "material.spacing")
+        if min(s) <= 0:
+            raise ctx.fail("material.spacing", f"spacing must be positive, got {list(s)}")
+        sp = s
+        if "origin" not in t and not img.origin_from_file:
+            org = tuple(0.5 * np.asarray(s))
+    if "origin" in t:
+        org = _triple(ctx, t["origin"], "material.origin")
+    return replace(img, origin=tuple(float(o) for o in org),
+                   spacing=tuple(float(s) for s in sp))
+
+
+def read_volume(ctx, table) -> dict | None:
+    """The volumes of ``[material] type = "image"`` in a 3D model: ``{"image" or "files",
+    "geometry"}``, or None if ``file`` is a 2-D image (the model is then an extruded or
+    revolved 2D image model) or a ``slice`` is asked for."""
+    if not isinstance(table, Mapping) or "slice" in table:
+        return None
+    if "labels" in table:
+        if _read(ctx, "material.labels", table["labels"], table).dim == 3:
+            raise ctx.fail("material.labels", "label volumes are not available for 3D "
+                                              "models yet (a 2-D label image can be extruded)",
+                           MaterialError)
+        return None
+    f = table.get("file")
+    if f is None:
+        return None
+    if isinstance(f, Mapping):
+        files, shape = {}, None
+        for name, fname in f.items():
+            img = _read(ctx, f"material.file.{name}", fname, table, shape)
+            if img.dim != 3:
+                if files:
+                    raise MaterialError(f"{img.source}: a 2-D image, but the other files are "
+                                        f"volumes")
+                return None
+            files[name] = img
+            shape = img.shape
+        return {"files": files, "geometry": next(iter(files.values()))}
+    img = _read(ctx, "material.file", f, table)
+    if img.dim != 3:
+        return None
+    return {"image": img, "geometry": img}
+
+
+def volume_solid(ctx, value: Mapping, mtable):
+    """``[solid] image = "extent"``: the box the voxels of the material's volume cover, and
+    the volumes read (for :func:`parse_volume`)."""
+    from ...tet.solid import box
+
+    t = ctx.table(value, "solid", required=("image",))
+    how = t["image"]
+    if how != "extent":
+        raise ctx.fail("solid.image", f"expected \"extent\" (the box the voxels cover), got "
+                                      f"{describe(how)}")
+    if not isinstance(mtable, Mapping) or mtable.get("type") != "image":
+        raise ctx.fail("solid.image", "a solid taken from a volume needs [material] type = "
+                                      "\"image\"")
+    src = read_volume(ctx, mtable)
+    if src is None:
+        raise ctx.fail("solid.image", "the material's file is not a volume (a TIFF stack, "
+                                      "3-D .npy, .vti or .nrrd)", MaterialError)
+    lo, hi = src["geometry"].extent()
+    return box(lo, hi, where=ctx.where), src
+
+
+def parse_volume(ctx, table, solid, src: dict):
+    """``[material] type = "image"`` with a volume: an
+    :class:`~hetmesh.material.image.ImageField` of ``dim`` 3 that covers ``solid``."""
+    from . import covers, image_field
+
+    t = ctx.table(table, "material", required=("type", "constituents"), optional=VOLUME_KEYS)
+    cons = parse_constituents(ctx, t)
+    interp = ctx.string(t, "material", "interpolation", default="linear")
+    if interp not in ("linear", "cubic"):
+        raise ctx.fail("material.interpolation", f"expected \"linear\" or \"cubic\", got "
+                                                 f"{interp!r}")
+    sigma = ctx.number(t.get("smoothing", 0.0), "material.smoothing")
+    if sigma < 0:
+        raise ctx.fail("material.smoothing", f"expected a number >= 0, got {sigma:g}")
+    if "map" not in t:
+        raise ModelFileError(f"{ctx.pre}missing key 'material.map' (how voxel values become "
+                             f"volume fractions)")
+    geo = src["geometry"]
+    lo, hi = solid.bounds
+    covers(geo, np.concatenate([lo, hi]), geo.source)
+    vmap = parse_value_map(ctx, "material.map", t["map"], cons, src)
+    opts = dict(interpolation=interp, smoothing=sigma)
+    if "files" in src:
+        stacked = np.stack([scalar_values(ctx, "material.file", im).astype(float)
+                            for im in src["files"].values()], axis=-1)
+        img = replace(geo, values=stacked, channels=True,
+                      source=", ".join(im.source for im in src["files"].values()))
+        return image_field(img, vmap, cons, **opts)
+    return image_field(src["image"], vmap, cons, **opts)
