@@ -252,7 +252,7 @@ def test_local_sampled_repair_keeps_a_valid_mesh_and_exact_deltas(ball):
     P, T = r.points, r.tets.astype(np.int64)
     d0 = element_pixel_delta(f, P, T)
     assert (d0 >= 0.15).sum() > 10  # a lower threshold: work for the repair
-    P2, T2, comp, d, passes = repair_sampled(P, T, f.composition(P), f, 0.15,
+    P2, T2, comp, d, passes, *_ = repair_sampled(P, T, f.composition(P), f, 0.15,
                                              sampled_delta(f, "pixels"))
     assert passes >= 1 and d.max() < 0.15 and len(T2) > len(T)
     np.testing.assert_array_equal(d, element_pixel_delta(f, P2, T2))  # kept deltas exact

@@ -29,9 +29,10 @@ def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:
     for key, flag in _2D_ONLY.items():
         if kwargs.get(key) is not None:
             raise OptionError(f"{flag} is not available for 3D models")
-    if kwargs.get("sampling", "vertices") not in ("vertices", "pixels"):
+    from .sampling import TET_SAMPLINGS
+    if kwargs.get("sampling", "vertices") not in TET_SAMPLINGS:
         raise OptionError(f"--sampling {kwargs['sampling']} is not available for 3D models "
-                          f"(vertices or pixels)")
+                          f"({', '.join(TET_SAMPLINGS)})")
     from ..io.export import FILE_FORMATS, FORMATS
     name = getattr(args, "format", None)
     # the names and extensions were checked with the other outputs (check_outputs)
@@ -219,15 +220,17 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
     tets = tets.copy()
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
     sampling = getattr(args, "sampling", "vertices") or "vertices"
-    if sampling not in ("vertices", "pixels"):
-        raise OptionError(f"--sampling {sampling} is not available for 3D models (vertices "
-                          f"or pixels)")
+    from .sampling import TET_SAMPLINGS
+    if sampling not in TET_SAMPLINGS:
+        raise OptionError(f"--sampling {sampling} is not available for 3D models "
+                          f"({', '.join(TET_SAMPLINGS)})")
     comp = model.material.composition(points)
     delta = delta_vertices(comp, tets)
-    if sampling == "pixels":  # every voxel centre of every tetrahedron, and its vertices
+    if sampling != "vertices":  # dense lattice, certified bound, or every voxel centre
+        from ..delta import element_delta
         from ..options import check_sampling
         check_sampling(model.material, sampling, names={"sampling": "--sampling"})
-        delta = np.maximum(delta, model.material.pixel_delta(points, tets, composition=comp))
+        delta = element_delta(model.material, points, tets, sampling, composition=comp)
     stats = {"n_points": int(len(points)), "n_elements": int(len(tets)),
              "delta_max": float(delta.max()), "delta_avg": float(delta.mean()),
              "volume": float(np.abs(v).sum()), "solid_volume": float(model.solid.volume),

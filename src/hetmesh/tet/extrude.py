@@ -71,6 +71,11 @@ class SectionField:
             return self.field2d.composition(q)
         return self.field2d.composition(q, region=region)
 
+    def region(self, points) -> np.ndarray:
+        """The subregion of every point (a piecewise 2D field's, at its section point)."""
+        q, _ = self.solid.to2d(points)
+        return self.field2d.region(q)
+
     def gradient(self, points) -> np.ndarray:
         q, _ = self.solid.to2d(points)
         g2 = self.field2d.gradient(q)

@@ -70,11 +70,13 @@ def select_edges(tets: np.ndarray, comp: np.ndarray, bad: np.ndarray
 
 
 def bisect_edges(points: np.ndarray, tets: np.ndarray, split: np.ndarray,
-                 new_points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 new_points: np.ndarray | None = None, *, with_parents: bool = False):
     """Split the edges ``split (K, 2)`` (no two in one tetrahedron) at their midpoints (or at
-    ``new_points (K, 3)``), and every tetrahedron around them in two."""
+    ``new_points (K, 3)``), and every tetrahedron around them in two: ``(points, tets)``,
+    with ``with_parents`` also the index in ``tets`` of every new tetrahedron's parent (to
+    carry per-element data such as subregions)."""
     if not len(split):
-        return points, tets
+        return (points, tets, np.arange(len(tets))) if with_parents else (points, tets)
     n = len(points)
     s = np.sort(split, axis=1).astype(np.int64)
     mid = 0.5 * (points[s[:, 0]] + points[s[:, 1]]) if new_points is None else new_points
@@ -101,6 +103,8 @@ def bisect_edges(points: np.ndarray, tets: np.ndarray, split: np.ndarray,
     keep = np.ones(len(tets), dtype=bool)
     keep[rows] = False
     out = np.concatenate([tets[keep].astype(np.int64), a, b])
+    if with_parents:
+        return pts, out, np.concatenate([np.flatnonzero(keep), rows, rows])
     return pts, out
 
 
