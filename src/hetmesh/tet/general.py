@@ -56,10 +56,8 @@ log = logging.getLogger(__name__)
 
 #: the size factor: h = S delta_0 / |grad f|
 S = 1.0
-#: the size at the vertices of a violating tetrahedron is multiplied by delta_0 / delta,
-#: at most SHRINK and at least SHRINK_MIN, each round
+#: the size at the vertices of violating tetrahedra is multiplied by this each round
 SHRINK = 0.85
-SHRINK_MIN = 0.6
 #: size rounds before the bisection repair
 SIZE_ROUNDS = 6
 #: cells of the background grid across the solid's smallest curved radius
@@ -418,11 +416,8 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
         # the size MMG interpolated at the new vertices (which keeps the earlier rounds'
         # shrinking), at most the field's, shrunk at the vertices of the violators
         size = np.minimum(h_mmg, size_field(field, p, threshold, h_max, h_min))
-        # each violator's vertices by how far it is over: delta_0 / delta, within
-        # [SHRINK_MIN, SHRINK]
         shrink = np.ones(len(p))
-        f = np.clip(threshold / delta[bad], SHRINK_MIN, SHRINK)
-        np.minimum.at(shrink, t[bad].ravel(), np.repeat(f, 4))
+        shrink[t[bad].ravel()] = SHRINK
         size = cap_curved(solid, np.maximum(size * shrink, h_min), faces, markers, chord)
     t_place = time.perf_counter() - t0
     passes = 0
