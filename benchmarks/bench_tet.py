@@ -18,6 +18,12 @@ For each threshold delta_0, on unit_cube (the cube [0, 1]^3, metal fraction (1 -
 * MMG 3D through mmgpy (peer): remeshing a coarse cube to the size s delta_0 / |grad f| (two
   passes, the size re-evaluated at the new vertices), s lowered likewise.
 
+With ``--sphere`` (or ``--sphere-only``), also examples/graded_sphere.toml (an eighth of the
+hollow sphere 10 <= r <= 20, metal fraction ((r - 10)/10)^2) at delta_0 = 0.2 and 0.1,
+meshed by the general-solid mesher (hetmesh.tet.general), and Gmsh's OpenCASCADE model of
+the same octant with the size field s delta_0 / |grad f| (capped at 5, the sphere's
+curvature on: Mesh.MeshSizeFromCurvature = 12 elements per 2 pi) at delta_0 = 0.2 only.
+
 Targets (PASS/FAIL columns): Ne <= 2.0 x N_iso3, min dihedral >= 10, 1st percentile >= 20,
 mean radius ratio >= 0.75. Every ratio is taken against peers measured in the same run.
 
@@ -162,6 +168,81 @@ def gmsh_cube(field, s, d0, cap=1.0, threads=1):
     return pts, tets, wall
 
 
+def sphere_model():
+    from hetmesh.io.model import load_model
+    m = load_model(hetmesh.example_path("graded_sphere"))
+    return m
+
+
+def run_sphere(m, d0, niso, repeats):
+    from hetmesh.tet.api import mesh_model
+    times, res = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = mesh_model(m, d0)
+        times.append(time.perf_counter() - t0)
+    out = figures(res.points, res.tets, m.material, d0, niso, statistics.median(times))
+    out["rounds"] = res.info.get("size_rounds")
+    return out
+
+
+def gmsh_sphere(field, s, d0, cap=5.0, threads=1):
+    import gmsh
+    h = _size(field, s, d0, cap)
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", threads)
+        gmsh.model.add("sphere")
+        occ = gmsh.model.occ
+        outer, inner = occ.addSphere(0, 0, 0, 20), occ.addSphere(0, 0, 0, 10)
+        shell, _ = occ.cut([(3, outer)], [(3, inner)])
+        octant = occ.addBox(0, 0, 0, 20, 20, 20)
+        occ.intersect(shell, [(3, octant)])
+        occ.synchronize()
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 12)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", cap)
+        gmsh.model.mesh.setSizeCallback(
+            lambda dim, tag, x, y, z, lc: min(lc, float(h(np.array([[x, y, z]]))[0])))
+        t0 = time.perf_counter()
+        gmsh.model.mesh.generate(3)
+        wall = time.perf_counter() - t0
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, en = gmsh.model.mesh.getElementsByType(4)
+        pts = xyz.reshape(-1, 3)
+        index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        tets = index[en.astype(np.int64)].reshape(-1, 4)
+    finally:
+        gmsh.finalize()
+    v = simplex_measures(pts, tets)
+    tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
+    return pts, tets, wall
+
+
+def sphere_section(a, head):
+    m = sphere_model()
+    print("\ngraded_sphere (octant of the hollow sphere a = 10, b = 20), general-solid mesher")
+    for d0 in (0.2, 0.1):
+        niso = n_iso3(m.solid, m.material, d0, n=96)
+        print(f"\ndelta_0 = {d0}: N_iso3 = {niso:,.0f}")
+        print(head)
+        ours = run_sphere(m, d0, niso, 1 if a.quick else a.repeats)
+        print(row("hetmesh", ours) + f"   size rounds {ours['rounds']}")
+        if a.no_peers or d0 < 0.2:
+            continue
+        fig, trace = search(gmsh_sphere, m.material, d0, niso)
+        print(row("gmsh", fig))
+        print(f"  {'':<10} s-search (s, Ne, violators): "
+              + ", ".join(str(tuple(round(x, 3) if isinstance(x, float) else x
+                                    for x in tr)) for tr in trace))
+        if fig is not None:
+            print(f"  {'':<10} hetmesh / gmsh: elements {ours['Ne'] / fig['Ne']:.3f}, "
+                  f"time {ours['time'] / fig['time']:.3f}")
+
+
 def _kuhn_cube(n=4):
     g = np.linspace(0, 1, n + 1)
     p = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -232,6 +313,8 @@ def main(argv=None) -> int:
                     help="only the table of the 3D examples")
     ap.add_argument("--no-examples", action="store_true",
                     help="without the table of the 3D examples")
+    ap.add_argument("--sphere", action="store_true", help="also examples/graded_sphere.toml")
+    ap.add_argument("--sphere-only", action="store_true", help="graded_sphere.toml only")
     a = ap.parse_args(argv)
     if a.examples:
         print(f"hetmesh from {Path(hetmesh.__file__).parent}; load average "
@@ -244,10 +327,13 @@ def main(argv=None) -> int:
     solid, field = unit_cube()
     print(f"hetmesh {getattr(hetmesh, '__version__', '?')} from {Path(hetmesh.__file__).parent}; "
           f"load average {os.getloadavg()[0]:.2f}")
-    print("unit_cube, f = (1 - z)^2; targets: Ne/N_iso3 <= 2.0, dihedral min >= 10, "
-          "p1 >= 20, mean radius ratio >= 0.75")
+    print(("" if a.sphere_only else "unit_cube, f = (1 - z)^2; ")
+          + "targets: Ne/N_iso3 <= 2.0, dihedral min >= 10, p1 >= 20, mean radius ratio "
+          ">= 0.75")
     head = (f"  {'mesher':<10} {'Ne':>9} {'Ne/Niso3':>7} {'dmax':>9} {'dih_min':>7} "
             f"{'dih_p1':>7} {'rr_mean':>7} {'time_s':>8}   economy/min/p1/rr")
+    if a.sphere_only:
+        thresholds = []
     for d0 in thresholds:
         niso = n_iso3(solid, field, d0, n=96)
         print(f"\ndelta_0 = {d0}: N_iso3 = {niso:,.0f}")
@@ -265,6 +351,8 @@ def main(argv=None) -> int:
             if fig is not None:
                 print(f"  {'':<10} hetmesh / {name}: elements {ours['Ne'] / fig['Ne']:.3f}, "
                       f"time {ours['time'] / fig['time']:.3f}")
+    if a.sphere or a.sphere_only:
+        sphere_section(a, head)
     if a.big:
         d0 = 0.021  # about 1,000,000 tetrahedra
         niso = n_iso3(solid, field, d0, n=96)
@@ -277,7 +365,7 @@ def main(argv=None) -> int:
         import resource
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6  # kB -> GB
         print(f"  peak memory (max RSS) {rss:.2f} GB")
-    if not a.no_examples:
+    if not (a.no_examples or a.sphere_only):
         examples_table(repeats)
     print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
     return 0

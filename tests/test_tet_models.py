@@ -60,7 +60,7 @@ def run(argv, capsys):
 def test_the_3d_examples_exist():
     names = {p.stem for p in EXAMPLES_3D}
     assert {"unit_cube", "graded_rod", "graded_cylinder", "fgm_plate_3d", "blade_3d",
-            "graded_ring"} <= names
+            "graded_ring", "graded_sphere"} <= names
 
 
 #: the examples meshed in the default run; the others (larger at any threshold) run with -m slow
@@ -111,6 +111,8 @@ def check_model_mesh(m, d0):
     assert (res.face_markers >= 1).all()
     if isinstance(m.solid, Revolution):
         check_revolution(m.solid, res.points, res.tets, faces)
+        return res
+    if not hasattr(m.solid, "section"):  # a solid of primitives: tests/test_tet_solids.py
         return res
     area = 0.5 * np.linalg.norm(np.cross(*(res.points[res.faces[:, k]]
                                            - res.points[res.faces[:, 0]] for k in (1, 2))),
@@ -205,7 +207,7 @@ def test_deterministic_swept():
     ('[solid]\ntype = "extrusion"\nlength = 0\n[domain.outer]\nstart = [0, 0]\n'
      'path = [{ to = [1, 0] }, { to = [1, 1] }, { to = [0, 0] }]\n', GeometryError,
      "extrusion length must be positive"),
-    ('[solid]\ntype = "sphere"\n', ModelFileError, "solid.type"),
+    ('[solid]\ntype = "torus"\n', ModelFileError, "solid.type"),
     ('[solid]\ntype = "box"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n'
      '[[solid.subtract]]\ntype = "box"\nmin = [-1, -1, -1]\nmax = [2, 2, 2]\n',
      GeometryError, "solid.subtract"),

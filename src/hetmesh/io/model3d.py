@@ -34,7 +34,7 @@ __all__ = ["Model3D", "parse_model3d", "SOLID_TYPES"]
 
 log = logging.getLogger(__name__)
 
-SOLID_TYPES = ("box", "cylinder", "extrusion", "revolution")
+SOLID_TYPES = ("box", "cylinder", "sphere", "extrusion", "revolution")
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,12 +145,168 @@ def _with_holes(ctx, solid: Prism, subtract, key: str) -> Prism:
     return Prism(dom, solid.axis, solid.s0, solid.s1, solid.cap_names, where=ctx.where)
 
 
-def _solid(ctx, value, top) -> Prism:
+def _positive(ctx, value, key: str, what: str = "a primitive's size") -> float:
+    v = ctx.number(value, key)
+    if not v > 0:
+        raise GeometryError(f"{ctx.pre}{key}: {what} must be positive, got {v:g}")
+    return v
+
+
+def _primitive(ctx, t, key: str, *, base: bool, bounds=None):
+    """A box, cylinder or sphere table -> a :mod:`hetmesh.tet.implicit` primitive with its
+    face names: the base's (``xmin`` ... ``zmax``; ``side``, ``bottom``, ``top``;
+    ``outer``), or, subtracted, ``name`` for a sphere or a cylinder's side and
+    ``name.<face>`` for the others (``name`` defaults to the key, dots as underscores).
+    A subtracted cylinder without ``from``/``to`` goes through ``bounds``."""
+    from ..tet.implicit import BOX_FACES, Box, Cylinder, Sphere
+    kind = t.get("type")
+    named = () if base else ("name",)
+    if kind == "box":
+        t = ctx.table(t, key, required=("type", "min", "max"), optional=named)
+        lo, hi = _point3(ctx, t["min"], f"{key}.min"), _point3(ctx, t["max"], f"{key}.max")
+        size = hi - lo
+        if (size <= 0).any():
+            k = int(np.argmax(size <= 0))
+            raise GeometryError(f"{ctx.pre}{key}: a primitive's size must be positive, got "
+                                f"{size[k]:g} along {'xyz'[k]} (max - min)")
+        name = None if base else ctx.string(t, key, "name", default=key.replace(".", "_"))
+        names = BOX_FACES if base else tuple(f"{name}.{n}" for n in BOX_FACES)
+        return Box(tuple(lo), tuple(hi), names)
+    if kind == "cylinder":
+        req = ("type", "center", "radius") + (("from", "to") if base else ())
+        opt = ("axis",) + (() if base else ("from", "to", "name"))
+        t = ctx.table(t, key, required=req, optional=opt)
+        axis = _axis(ctx, t, key)
+        c = ctx.point(t["center"], f"{key}.center")
+        r = _positive(ctx, t["radius"], f"{key}.radius")
+        if "from" in t or "to" in t:
+            if not ("from" in t and "to" in t):
+                raise ctx.fail(key, "give both 'from' and 'to' (or neither: a through-hole)")
+            s0, s1 = ctx.number(t["from"], f"{key}.from"), ctx.number(t["to"], f"{key}.to")
+        else:  # through the solid along its axis
+            lo, hi = bounds
+            pad = float(np.linalg.norm(hi - lo))
+            s0, s1 = float(lo[axis]) - pad, float(hi[axis]) + pad
+        if s1 <= s0:
+            raise GeometryError(f"{ctx.pre}{key}: a primitive's size must be positive, got "
+                                f"length {s1 - s0:g} (to - from)")
+        if base:
+            names = ("side", "bottom", "top")
+        else:
+            name = ctx.string(t, key, "name", default=key.replace(".", "_"))
+            names = (name, f"{name}.bottom", f"{name}.top")
+        return Cylinder(tuple(c), r, axis, s0, s1, names)
+    if kind == "sphere":
+        opt = ("inner_radius", "clip", "subtract") if base else ("name",)
+        t = ctx.table(t, key, required=("type", "center", "radius"), optional=opt)
+        c = _point3(ctx, t["center"], f"{key}.center")
+        r = _positive(ctx, t["radius"], f"{key}.radius")
+        name = "outer" if base else ctx.string(t, key, "name", default=key.replace(".", "_"))
+        return Sphere(tuple(c), r, (name,))
+    raise ctx.fail(f"{key}.type", f"expected \"box\", \"cylinder\" or \"sphere\", got "
+                                  f"{kind!r}")
+
+
+def _is_through(t, axis: int, s0: float, s1: float) -> bool:
+    """Whether a subtract table is a through-hole of a prism along ``axis`` (the swept
+    section's hole): a cylinder along the axis without ``from``/``to``, or a box reaching
+    past both ends."""
+    if not isinstance(t, Mapping):
+        return True  # reported by _with_holes
+    kind = t.get("type")
+    if kind == "cylinder":
+        return AXES.get(t.get("axis", "z"), -1) == axis and "from" not in t and "to" not in t
+    if kind == "box":
+        lo, hi = t.get("min"), t.get("max")
+        try:
+            return float(lo[axis]) <= s0 and float(hi[axis]) >= s1
+        except (TypeError, ValueError, IndexError, KeyError):
+            return True  # reported by _with_holes
+    return False
+
+
+def _csg(ctx, value, base, key: str = "solid"):
+    """``base`` (a primitive) clipped by ``clip`` and minus the ``subtract`` primitives:
+    a :class:`~hetmesh.tet.implicit.CSGSolid`."""
+    from ..tet.implicit import CSGSolid, Sphere
+    clip = None
+    if "clip" in value:
+        c = value["clip"]
+        if not isinstance(c, Mapping):
+            raise ctx.fail(f"{key}.clip", "expected a table { min = [...], max = [...] }")
+        clip = _primitive(ctx, {"type": "box", **c}, f"{key}.clip", base=True)
+        lo, hi = np.maximum(base.bounds[0], clip.bounds[0]), \
+            np.minimum(base.bounds[1], clip.bounds[1])
+        if (hi <= lo).any():
+            raise GeometryError(f"{ctx.pre}{key}.clip: the clip box leaves nothing")
+    subs = []
+    if "inner_radius" in value:
+        ri = _positive(ctx, value["inner_radius"], f"{key}.inner_radius")
+        if ri >= base.radius:
+            raise GeometryError(f"{ctx.pre}{key}.inner_radius: must be below the radius "
+                                f"({ri:g} >= {base.radius:g}), or the subtraction leaves "
+                                f"nothing")
+        subs.append(Sphere(base.center, ri, ("inner",)))
+    tables = value.get("subtract", [])
+    if not isinstance(tables, list):
+        raise ctx.fail(f"{key}.subtract", "expected an array of tables [[solid.subtract]]")
+    lo, hi = base.bounds
+    for i, t in enumerate(tables):
+        k = f"{key}.subtract[{i}]"
+        if not isinstance(t, Mapping):
+            raise ctx.fail(k, "expected a table")
+        subs.append(_primitive(ctx, t, k, base=False, bounds=(np.asarray(lo), np.asarray(hi))))
+    solid = CSGSolid(base, clip, tuple(subs), where=ctx.where)
+    names = solid.face_names
+    if not names or not solid.sample(24).size:
+        raise GeometryError(f"{ctx.pre}{key}.subtract: the subtraction leaves nothing")
+    seen = set()
+    for n in names:
+        if n in seen:
+            raise ctx.fail(f"{key}.subtract", f"two faces are named {n!r}: give the "
+                                              f"subtracted primitives distinct names")
+        seen.add(n)
+    if solid.volume <= 1e-9 * float(np.prod(hi - lo)):
+        raise GeometryError(f"{ctx.pre}{key}.subtract: the subtraction leaves nothing")
+    return solid
+
+
+def _general(value) -> bool:
+    """Whether a box or cylinder solid needs the general mesher: a ``clip``, or a
+    subtracted primitive that is not a through-hole along its axis."""
+    if "clip" in value:
+        return True
+    subs = value.get("subtract")
+    if not isinstance(subs, list) or not subs:
+        return False
+    if value.get("type") == "box":
+        try:
+            s0, s1 = float(value["min"][2]), float(value["max"][2])
+        except (TypeError, ValueError, IndexError, KeyError):
+            return False  # reported by the box's own checks
+        axis = 2
+    else:
+        axis = AXES.get(value.get("axis", "z"), 2)
+        try:
+            s0, s1 = float(value["from"]), float(value["to"])
+        except (TypeError, ValueError, KeyError):
+            return False
+    return not all(_is_through(t, axis, s0, s1) for t in subs)
+
+
+def _solid(ctx, value, top):
     if not isinstance(value, Mapping):
         raise ctx.fail("solid", "expected a table")
     kind = value.get("type")
     key = "solid"
     try:
+        if kind == "sphere" or (kind in ("box", "cylinder") and _general(value)):
+            base = _primitive(ctx, {k: v for k, v in value.items()
+                                    if k not in ("subtract", "clip", "inner_radius")},
+                              key, base=True)
+            if kind != "sphere" and "inner_radius" in value:
+                raise ctx.fail(key, "unknown key 'solid.inner_radius' (a sphere's)")
+            return _csg(ctx, value, base, key)
         if kind == "box":
             t = ctx.table(value, key, required=("type", "min", "max"), optional=("subtract",))
             lo, hi = _point3(ctx, t["min"], "solid.min"), _point3(ctx, t["max"], "solid.max")
@@ -318,6 +474,11 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
         solid, ctx.volume = volume_solid(ctx, top["solid"], top["material"])
     else:
         solid = _solid(ctx, top["solid"], top)
+        if not isinstance(solid, Prism) and not hasattr(solid, "profile") and \
+                isinstance(top["material"], Mapping) and \
+                top["material"].get("type", "analytic") != "analytic":
+            raise ctx.fail("material.type", "a solid of primitives takes an analytic "
+                                            "material (formulas in x, y, z)")
     material, material2d = _material(ctx, top["material"], solid, parameters, top)
     if check:
         samples = solid.sample(20)

@@ -10,7 +10,10 @@
   variation), in layers thin enough for the variation along the axis, repaired by edge
   bisection where needed;
 * a solid of revolution: the profile's 2D mesh swept about the axis
-  (:func:`hetmesh.tet.revolve.generate_revolved`).
+  (:func:`hetmesh.tet.revolve.generate_revolved`);
+* a solid of primitives (a sphere, a clipped primitive, subtractions that are not
+  through-holes): level-set cuts of a background grid, MMG remeshing to the material's size
+  (:func:`hetmesh.tet.general.generate_solid`).
 
 >>> import hetmesh
 >>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
@@ -70,8 +73,13 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     chord = None if chord_tol is None else chord_tol * solid.diameter
     from ..io.model import Model
     from .extrude import mid_section_field
+    from .implicit import CSGSolid
     from .revolve import Revolution, generate_revolved, is_axisymmetric, profile_field
-    if isinstance(solid, Revolution):
+    if isinstance(solid, CSGSolid):
+        from .general import generate_solid
+        res = generate_solid(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                             max_elements=max_elements, max_size=max_size, check=check)
+    elif isinstance(solid, Revolution):
         axisym = model.material2d is not None or is_axisymmetric(model.material, solid)
         f2 = model.material2d or profile_field(model.material, solid)
         res = generate_revolved(solid, model.material, threshold,

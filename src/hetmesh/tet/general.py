@@ -1,0 +1,526 @@
+"""The general-solid tetrahedral mesher: solids of primitives (:mod:`hetmesh.tet.implicit`),
+meshed through a background grid, level-set cuts and MMG remeshing to the material's size.
+
+1. *Background*: a rectilinear grid over the solid's bounds whose planes include every
+   planar face (box faces, cylinder caps), each cell cut into six Kuhn tetrahedra (one
+   diagonal for all: conforming). Planar faces are then unions of grid faces: exact.
+2. *Cuts*: for every curved surface (sphere, cylinder side) MMG's level-set mode (mmg3d
+   ``-ls``, without remeshing) splits the tetrahedra along the piecewise-linear zero set of
+   its function; multi-material references record on which side of each cut a tetrahedron
+   lies. A tetrahedron is in the solid if its side of every surface and its grid cell (the
+   planes) say so; the others are dropped.
+3. *Faces*: every boundary triangle is given the face (surface and primitive) its corners
+   lie on, and every boundary vertex is projected onto the exact surfaces of its faces
+   (Gauss-Newton on their functions; planes exactly), so curved faces are within
+   interpolation error of the true surface before any remeshing.
+4. *Size*: MMG remeshes to the isotropic size ``h = S delta_0 / |grad f|`` (``|grad f|``
+   the largest constituent gradient norm at the vertex; Eq. 9's density
+   ``rho = |grad f|^5`` in 3D), capped at ``max_size`` and at what the chord tolerance
+   allows on curved faces, with the Hausdorff distance ``hausd`` at half the chord
+   tolerance and the boundary triangles' face references kept (MMG keeps edges between
+   faces as ridges). The boundary vertices are projected onto their faces again. Then, in
+   up to :data:`SIZE_ROUNDS` rounds, the size at the vertices of tetrahedra with
+   ``delta >= delta_0`` is multiplied by :data:`SHRINK` and MMG remeshes again: the mesh
+   gets finer only where it violated.
+5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
+   boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
+   chords of curved faces do not get farther from them.
+6. *Verification* (:func:`solid_problems`): positive volumes, conformity, a closed boundary,
+   every boundary triangle on a face (planar ones exactly, curved ones within the chord
+   tolerance at 12 points per triangle), the volume (exact where the solid has a closed
+   form, else within 1 % of a grid estimate), delta_max < delta_0.
+
+The same input and seed give the same mesh (MMG runs single-threaded and deterministically).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+
+from ..errors import BudgetError, MeshingError, VerificationError
+from ..mesh import simplex_measures
+from ..metrics import delta_vertices
+from .faces import boundary_faces
+from .implicit import CSGSolid
+from .mesher import CHORD, TetResult
+from .refine import repair
+from .verify import validity_problems
+
+__all__ = ["generate_solid", "solid_problems", "estimate_solid", "S", "SHRINK", "SIZE_ROUNDS"]
+
+log = logging.getLogger(__name__)
+
+#: the size factor: h = S delta_0 / |grad f|
+S = 1.0
+#: the size at the vertices of violating tetrahedra is multiplied by this each round
+SHRINK = 0.85
+#: size rounds before the bisection repair
+SIZE_ROUNDS = 6
+#: cells of the background grid across the solid's smallest curved radius
+CELLS_PER_RADIUS = 3.0
+#: background cells along the solid's largest extent, at most
+MAX_CELLS = 40
+#: rounds of bisection repair and projection of the new boundary vertices, at most
+REPROJECT = 4
+#: MMG's gradation (largest ratio of adjacent edge lengths)
+HGRAD = 1.3
+
+
+def _mmg():
+    try:
+        import mmgpy
+    except ImportError as exc:  # a core dependency: a broken installation
+        raise MeshingError(f"the general-solid mesher needs mmgpy (MMG): {exc}") from None
+    return mmgpy
+
+
+def _quiet_mmg():
+    """MMG prints warnings to stdout in C; nothing to do here but keep them in its logger."""
+    mmgpy = _mmg()
+    try:
+        mmgpy.set_log_level("ERROR")
+    except Exception:  # noqa: BLE001  (logging configuration is optional)
+        pass
+    return mmgpy
+
+
+# -- 1. background ---------------------------------------------------------------------
+
+def grid_lines(solid: CSGSolid, spacing: float) -> list[np.ndarray]:
+    """Per axis, the grid coordinates: the bounds, every planar face's coordinate inside,
+    and equal steps of at most ``spacing`` between them."""
+    lo, hi = solid.bounds
+    out = []
+    tol = 1e-9 * solid.diameter
+    for a in range(3):
+        cuts = [lo[a], hi[a]]
+        for prim in solid.primitives:
+            for s in prim.surfaces:
+                if s.kind == "plane" and s.axis == a and lo[a] + tol < s.value < hi[a] - tol:
+                    cuts.append(s.value)
+        cuts = np.unique(np.array(cuts))
+        cuts = cuts[np.r_[True, np.diff(cuts) > tol]]
+        lines = [cuts[:1]]
+        for x0, x1 in zip(cuts[:-1], cuts[1:]):
+            n = max(1, int(math.ceil((x1 - x0) / spacing - 1e-9)))
+            lines.append(x0 + (x1 - x0) * np.arange(1, n + 1) / n)
+        g = np.concatenate(lines)
+        g[-1] = hi[a]
+        out.append(g)
+    return out
+
+
+def kuhn_grid(xs, ys, zs) -> tuple[np.ndarray, np.ndarray]:
+    """Points and positively oriented tetrahedra of the rectilinear grid, each cell in six
+    tetrahedra along its main diagonal (conforming)."""
+    nx, ny, nz = len(xs), len(ys), len(zs)
+    p = np.stack(np.meshgrid(xs, ys, zs, indexing="ij"), -1).reshape(-1, 3)
+
+    def vid(i, j, k):
+        return (i * ny + j) * nz + k
+
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1),
+                                              np.arange(nz - 1), indexing="ij"))
+    c = np.stack([vid(i + a, j + b, k + d) for a in (0, 1) for b in (0, 1) for d in (0, 1)],
+                 axis=1)
+    paths = [(0, 4, 6, 7), (0, 4, 5, 7), (0, 2, 6, 7), (0, 2, 3, 7), (0, 1, 5, 7),
+             (0, 1, 3, 7)]
+    t = np.concatenate([c[:, list(pp)] for pp in paths]).astype(np.int64)
+    return p, _orient(p, t)
+
+
+def _orient(p, t):
+    v = simplex_measures(p, t)
+    t = t.copy()
+    neg = v < 0
+    t[neg, 2], t[neg, 3] = t[neg, 3], t[neg, 2].copy()
+    return t
+
+
+# -- 2. cuts ---------------------------------------------------------------------------
+
+def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The tetrahedra of the background grid cut by every curved surface, those in the solid
+    kept: ``(points, tets)``."""
+    mmgpy = _quiet_mmg()
+    p, t = kuhn_grid(*grid_lines(solid, spacing))
+    curved = solid.curved
+    # drop the cells that lie well outside the base's or the clip's curved surfaces
+    margin = 2.0 * spacing
+    keep = np.ones(len(t), dtype=bool)
+    for prim in solid.primitives[:solid.n_kept]:
+        for s in prim.surfaces:
+            if s.curved:
+                keep &= ~(s.g(p)[t] > margin).all(axis=1)
+    t = t[keep]
+    used = np.unique(t)
+    remap = np.full(len(p), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    p, t = p[used], remap[t]
+    refs = np.ones(len(t), dtype=np.int64)
+    for i, s in enumerate(curved):
+        codes = np.unique(refs)
+        m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
+        m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                         np.ascontiguousarray(refs, dtype=np.int32))
+        m.set_multi_materials([dict(ref=int(r), split=1, ref_minus=int(r + 2 ** (2 * i + 1)),
+                                    ref_plus=int(r + 2 ** (2 * i + 2))) for r in codes])
+        out = m.remesh_levelset(np.ascontiguousarray(s.g(p).reshape(-1, 1)), verbose=-1,
+                                noinsert=1, noswap=1, nomove=1)
+        if out.get("return_code", 0) != 0:
+            raise MeshingError(f"MMG's level-set cut failed (surface {i}, code "
+                               f"{out.get('return_code')})")
+        p = np.array(m.get_vertices(), dtype=np.float64)
+        tt, rr = m.get_tetrahedra_with_refs()
+        t, refs = np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+    if (refs >= 2 ** 30).any():
+        raise MeshingError("too many curved surfaces for the level-set references")
+    inside = _membership(solid, p, t, refs, curved)
+    t = t[inside]
+    used = np.unique(t)
+    remap = np.full(len(p), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return p[used], _orient(p[used], remap[t])
+
+
+def _membership(solid, p, t, refs, curved) -> np.ndarray:
+    """Whether each cut tetrahedron lies in the solid: the planes by its centroid (grid
+    cells), the curved surfaces by its cut references."""
+    c = p[t].mean(axis=1)
+    neg = {}
+    for i, s in enumerate(curved):
+        neg[id(s)] = ((refs >> (2 * i + 1)) & 1).astype(bool)
+
+    def inside(prim):
+        ok = np.ones(len(t), dtype=bool)
+        for s in prim.surfaces:
+            ok &= neg[id(s)] if s.curved else s.g(c) < 0
+        return ok
+
+    ok = inside(solid.base)
+    if solid.clip is not None:
+        ok &= inside(solid.clip)
+    for s in solid.subtract:
+        ok &= ~inside(s)
+    return ok
+
+
+# -- 3. faces ---------------------------------------------------------------------------
+
+def project(solid: CSGSolid, points: np.ndarray, faces: np.ndarray, markers: np.ndarray,
+            iters: int = 30) -> np.ndarray:
+    """Boundary vertices moved onto the surfaces of all their faces (Gauss-Newton on the
+    surfaces' functions; plane coordinates set exactly)."""
+    p = points.copy()
+    nf = len(solid.faces)
+    inc = np.zeros((len(p), nf), dtype=bool)
+    inc[faces.ravel(), np.repeat(markers, 3)] = True
+    # the distinct surfaces of each vertex (two faces on one surface count once)
+    surf_of = [f.surface for f in solid.faces]
+    key = [next(j for j in range(nf) if surf_of[j] == surf_of[i]) for i in range(nf)]
+    rows = np.flatnonzero(inc.any(axis=1))
+    combos = {}
+    for r in rows:
+        combos.setdefault(tuple(sorted({key[j] for j in np.flatnonzero(inc[r])})), []).append(r)
+    for combo, ids in combos.items():
+        ids = np.asarray(ids)
+        surfs = [surf_of[j] for j in combo[:3]]
+        x = p[ids]
+        for _ in range(iters):
+            g = np.stack([s.g(x) for s in surfs], axis=1)            # (n, k)
+            J = np.stack([s.grad(x) for s in surfs], axis=1)         # (n, k, 3)
+            JJ = np.einsum("nki,nli->nkl", J, J)
+            try:
+                lam = np.linalg.solve(JJ, g[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                lam = np.linalg.lstsq(JJ.reshape(-1, len(surfs)), g.reshape(-1),
+                                      rcond=None)[0].reshape(g.shape)
+            step = np.einsum("nki,nk->ni", J, lam)
+            x = x - step
+            if np.abs(step).max() <= 1e-15 * max(1.0, float(np.abs(x).max())):
+                break
+        for s in surfs:
+            if s.kind == "plane":
+                x[:, s.axis] = s.value
+        p[ids] = x
+    return p
+
+
+def project_safely(solid, points, tets, faces, markers, rounds: int = 20) -> np.ndarray:
+    """:func:`project`, except for the vertices whose move would leave a tetrahedron
+    around them without a positive volume: those stay (a curved face's vertex then stays
+    where MMG put it, within its Hausdorff distance of the surface; the verification
+    checks the chord tolerance)."""
+    q = project(solid, points, faces, markers)
+    moved = (q != points).any(axis=1)
+    for _ in range(rounds):
+        bad = simplex_measures(q, tets) <= 0
+        if not bad.any():
+            return q
+        back = np.unique(tets[bad])
+        back = back[moved[back]]
+        if not len(back):
+            break
+        q[back] = points[back]
+        moved[back] = False
+    _check_positive(q, tets, "after projecting the boundary vertices")
+    return q
+
+
+def _boundary(solid, p, t, tol):
+    faces, _ = boundary_faces(t)
+    markers = solid.classify(p[faces], tol)
+    if (markers < 0).any():
+        c = p[faces[markers < 0][0]].mean(axis=0)
+        raise MeshingError(f"{int((markers < 0).sum())} boundary triangles on no face of the "
+                           f"solid (e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    return faces, markers
+
+
+# -- 4. size ----------------------------------------------------------------------------
+
+def size_field(field, points, threshold, h_max, h_min):
+    """``S delta_0 / |grad f|`` at ``points``, in ``[h_min, h_max]``."""
+    g = np.linalg.norm(field.gradient(points), axis=2).max(axis=1)
+    with np.errstate(divide="ignore"):
+        h = S * threshold / g
+    return np.clip(h, h_min, h_max)
+
+
+def cap_curved(solid, size, faces, markers, chord):
+    """``size`` with the vertices of curved faces' triangles capped at the edge length
+    whose triangles stay within ``chord`` of their surface (:func:`chord_size`)."""
+    size = size.copy()
+    for fi, f in enumerate(solid.faces):
+        if f.surface.curved:
+            ids = np.unique(faces[markers == fi])
+            size[ids] = np.minimum(size[ids], math.sqrt(6.0 * f.surface.radius * chord))
+    return size
+
+
+def _remesh(p, t, faces, markers, size, hausd):
+    mmgpy = _quiet_mmg()
+    m = mmgpy.MmgMesh3D()
+    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces))
+    m.set_vertices(np.ascontiguousarray(p))
+    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32))
+    m.set_triangles(np.ascontiguousarray(faces, dtype=np.int32),
+                    np.ascontiguousarray(markers + 1, dtype=np.int32))
+    m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
+    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    if out.get("return_code", 0) != 0:
+        raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
+    p = np.array(m.get_vertices(), dtype=np.float64)
+    t = _orient(p, np.asarray(m.get_tetrahedra(), dtype=np.int64))
+    f, fr = m.get_triangles_with_refs()
+    h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
+    return p, t, np.asarray(f, dtype=np.int64), np.asarray(fr, dtype=np.int64) - 1, h
+
+
+def _faces_after(solid, p, t, f_mmg, r_mmg, tol):
+    """Boundary triangles of ``t`` with the face MMG kept for them (its triangles' refs),
+    checked against the geometry."""
+    faces, _ = boundary_faces(t)
+    n = len(p) + 1
+    def key(f):
+        s = np.sort(f, axis=1)
+        return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+    kb, km = key(faces), key(f_mmg)
+    order = np.argsort(km)
+    pos = np.clip(np.searchsorted(km[order], kb), 0, len(km) - 1)
+    hit = km[order][pos] == kb
+    markers = np.where(hit, r_mmg[order][pos], -1)
+    bad = (markers < 0) | (markers >= len(solid.faces))
+    if bad.any():  # triangles MMG did not report: classify them by their geometry
+        markers[bad] = solid.classify(p[faces[bad]], tol)
+    if (markers < 0).any():
+        c = p[faces[markers < 0][0]].mean(axis=0)
+        raise MeshingError(f"{int((markers < 0).sum())} boundary triangles on no face of the "
+                           f"solid after remeshing (e.g. at ({c[0]:.6g}, {c[1]:.6g}, "
+                           f"{c[2]:.6g}))")
+    return faces, markers
+
+
+def chord_size(solid: CSGSolid, chord: float) -> float:
+    """The edge length whose triangles on the most curved face stay within ``chord``
+    (an equilateral triangle of edge e on radius R is e^2 / (6 R) off the surface)."""
+    radii = [s.radius for s in solid.curved]
+    return math.sqrt(6.0 * min(radii) * chord) if radii else math.inf
+
+
+def estimate_solid(solid, field, threshold: float) -> float:
+    """A-priori element count: regular tetrahedra of edge ``S delta_0 / |grad f|`` (capped
+    as the mesher caps it) over the solid, twice for the rounds and the repair, plus the
+    boundary layer."""
+    lo, hi = solid.bounds
+    n = 32
+    h = (hi - lo) / n
+    g = [lo[k] + h[k] * (np.arange(n) + 0.5) for k in range(3)]
+    pts = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
+    pts = pts[solid.contains(pts)]
+    if not len(pts):
+        return 100.0
+    hh = size_field(field, pts, threshold, solid.diameter, 1e-300)
+    per = 6.0 * math.sqrt(2.0) / hh ** 3  # regular tetrahedra per unit volume
+    return 2.0 * float(per.sum() * np.prod(h)) + 100.0
+
+
+def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
+                   chord_tol: float | None = None, max_elements: int | None = None,
+                   max_size: float | None = None, check: bool = True) -> TetResult:
+    """Tetrahedralise a :class:`~hetmesh.tet.implicit.CSGSolid` with every element's delta
+    below ``threshold`` (see the module docstring). ``seed`` is accepted for the common
+    interface; the mesh does not depend on it (MMG is deterministic)."""
+    t0 = time.perf_counter()
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    est = estimate_solid(solid, field, threshold)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
+                          f"but the budget is {max_elements}")
+    lo, hi = solid.bounds
+    extent = float((hi - lo).max())
+    radii = [s.radius for s in solid.curved]
+    spacing = extent / MAX_CELLS
+    if radii:
+        spacing = max(spacing, min(extent / 6, min(radii) / CELLS_PER_RADIUS))
+    h_max = extent / 4
+    if max_size is not None:
+        h_max = min(h_max, float(max_size))
+    h_min = 1e-4 * solid.diameter
+    tol = 0.5 * spacing
+    p, t = cut_solid(solid, spacing)
+    faces, markers = _boundary(solid, p, t, tol)
+    size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
+                      chord)
+    hausd = 0.5 * chord
+    rounds = 0
+    mtol = max(0.25 * h_max, 10 * chord)
+    for rounds in range(SIZE_ROUNDS + 1):
+        p, t, fm, rm, h_mmg = _remesh(p, t, faces, markers, size, hausd)
+        faces, markers = _faces_after(solid, p, t, fm, rm, mtol)
+        p = project_safely(solid, p, t, faces, markers)
+        if max_elements is not None and len(t) > max_elements:
+            raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
+                              f"{max_elements}")
+        comp = field.composition(p)
+        delta = delta_vertices(comp, t)
+        bad = delta >= threshold
+        log.info("solid: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
+                 int(bad.sum()))
+        if not bad.any() or rounds == SIZE_ROUNDS:
+            break
+        # the size MMG interpolated at the new vertices (which keeps the earlier rounds'
+        # shrinking), at most the field's, shrunk at the vertices of the violators
+        size = np.minimum(h_mmg, size_field(field, p, threshold, h_max, h_min))
+        shrink = np.ones(len(p))
+        shrink[t[bad].ravel()] = SHRINK
+        size = cap_curved(solid, np.maximum(size * shrink, h_min), faces, markers, chord)
+    t_place = time.perf_counter() - t0
+    passes = 0
+    comp = field.composition(p)
+    for _ in range(REPROJECT):
+        p, t, comp, delta, n = repair(p, t, field, threshold, comp=comp,
+                                      max_elements=max_elements)
+        passes += n
+        faces, _ = boundary_faces(t)
+        markers = solid.classify(p[faces], mtol)
+        if n == 0:
+            break
+        # the midpoints of bisected boundary edges onto their curved faces (planar ones are
+        # in their plane already); then the compositions there, and the repair again
+        q = project_safely(solid, p, t, faces, markers)
+        moved = np.flatnonzero((q != p).any(axis=1))
+        if not len(moved):
+            break
+        p = q
+        comp = comp.copy()
+        comp[moved] = field.composition(p[moved])
+    else:
+        raise MeshingError(f"the delta repair and the projection onto curved faces did not "
+                           f"settle in {REPROJECT} rounds")
+    t = t.astype(np.int32)
+    info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
+            "estimate": est, "composition": comp, "time_place": t_place,
+            "background_spacing": spacing, "h_max": h_max}
+    res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
+                    tuple(solid.face_names), delta, float(threshold), info)
+    if check:
+        probs = solid_problems(res, solid, field, chord)
+        if probs:
+            raise VerificationError("tetrahedral mesh verification failed: " + probs[0]
+                                    + (f" (and {len(probs) - 1} more)" if len(probs) > 1
+                                       else ""))
+    res.info["time_total"] = time.perf_counter() - t0
+    log.info("solid mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, %.2f s",
+             len(p), len(t), rounds, passes, res.info["time_total"])
+    return res
+
+
+def _check_positive(p, t, when):
+    v = simplex_measures(p, t)
+    if (v <= 0).any():
+        i = int(np.argmin(v))
+        c = p[t[i]].mean(axis=0)
+        raise MeshingError(f"{int((v <= 0).sum())} tetrahedra not of positive volume {when} "
+                           f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+
+
+#: barycentric points at which curved triangles are checked against the chord tolerance
+_BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                  [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
+                  [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
+
+
+def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
+    """Every broken claim of a mesh of ``solid``, one line each (empty: valid). delta is
+    recomputed from ``field``."""
+    p, t = res.points, res.tets
+    if len(t) == 0:
+        return ["no tetrahedra"]
+    out = validity_problems(p, t)
+    faces, markers = res.faces, res.face_markers.astype(np.int64) - 1
+    bf, _ = boundary_faces(t)
+    if len(bf) != len(faces):
+        out.append(f"{len(faces)} boundary triangles recorded, {len(bf)} in the tetrahedra")
+    if (markers < 0).any():
+        c = p[faces[markers < 0][0]].mean(axis=0)
+        out.append(f"{int((markers < 0).sum())} boundary triangles on no face of the solid "
+                   f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+        return out
+    exact = 1e-9 * solid.diameter
+    for fi, f in enumerate(solid.faces):
+        sel = markers == fi
+        if not sel.any():
+            continue
+        tri = p[faces[sel]]
+        pts = np.einsum("bk,nkd->nbd", _BARY, tri).reshape(-1, 3)
+        dev = np.abs(f.surface.g(pts))
+        lim = chord_tol if f.surface.curved else exact
+        if float(dev.max()) > lim * (1 + 1e-9):
+            out.append(f"face {f.name!r}: a triangle is {float(dev.max()):.3g} off its "
+                       f"surface (allowed {lim:.3g})")
+    vol = float(simplex_measures(p, t).sum())
+    if solid.exact_volume is not None:
+        area = 0.5 * np.linalg.norm(np.cross(p[faces[:, 1]] - p[faces[:, 0]],
+                                             p[faces[:, 2]] - p[faces[:, 0]]), axis=1).sum()
+        if abs(vol - solid.exact_volume) > chord_tol * area + 1e-9 * solid.exact_volume:
+            out.append(f"volume {vol:.12g} differs from the solid's {solid.exact_volume:.12g} "
+                       f"by more than the chord tolerance allows")
+    elif abs(vol - solid.volume) > 0.01 * solid.volume:
+        out.append(f"volume {vol:.12g} differs from the solid's (grid estimate "
+                   f"{solid.volume:.12g}) by more than 1 %")
+    cen = p[t].mean(axis=1)
+    outside = ~solid.contains(cen, chord_tol)
+    if outside.any():
+        c = cen[outside][0]
+        out.append(f"{int(outside.sum())} tetrahedra outside the solid (e.g. at "
+                   f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    delta = delta_vertices(field.composition(p), t)
+    if not float(delta.max()) < res.threshold:
+        out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
+                   f"{res.threshold:g}")
+    return out
