@@ -448,6 +448,8 @@ def _fea_section(report) -> list[str]:
 
 def render(report) -> str:
     """The whole report.md."""
+    from .study3d import render3d
+
     lines = _header(report) + _case_sections(report) + _peer_section(report) \
-        + _fea_section(report)
+        + _fea_section(report) + render3d(getattr(report, "study3d", None))
     return "\n".join(lines).rstrip() + "\n"
