@@ -596,11 +596,19 @@ def gmsh_mesh3d(model, size: SizeField, *, section=None, threads: int = 1,
         surface, embedded = _gmsh_geometry(gmsh, section.domain)
         geo = gmsh.model.geo
         out = geo.extrude([(2, surface)], 0, 0, solid.length)
+        top = out[0][1]
         volume = [t for d, t in out if d == 3][0]
-        walls = [t for c in embedded for d, t in geo.extrude([(1, c)], 0, 0, solid.length)
-                 if d == 2]
+        walls, tops = [], []
+        for c in embedded:
+            ext = geo.extrude([(1, c)], 0, 0, solid.length)
+            tops.append(ext[0][1])
+            walls += [t for d, t in ext if d == 2]
+        if walls:  # the walls' top edges and corners are the volume's: one entity each
+            geo.removeAllDuplicates()
         geo.synchronize()
-        if walls:
+        if walls:  # the discontinuities: curves in both caps, walls in the volume
+            gmsh.model.mesh.embed(1, embedded, 2, surface)
+            gmsh.model.mesh.embed(1, tops, 2, top)
             gmsh.model.mesh.embed(2, walls, 3, volume)
         for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
             gmsh.option.setNumber(f"Mesh.{k}", 0)
