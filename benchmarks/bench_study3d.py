@@ -48,7 +48,8 @@ def main(argv=None) -> int:
         return examples_table(args.examples, {s for s in args.skip.split(",") if s})
 
     from hetmesh import peers
-    from hetmesh.reproduce.study3d import render3d, run3d
+    from hetmesh.reproduce.report import render3d
+    from hetmesh.reproduce.study3d import run3d
 
     have = [p for p, v in peers.available().items() if v and p == "gmsh"]
     t0 = time.perf_counter()

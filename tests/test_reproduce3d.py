@@ -16,7 +16,8 @@ from hetmesh.fea import probe_study as ps
 from hetmesh.fea import verification
 from hetmesh.io.model import load_model
 from hetmesh.reproduce import plan, split_cases
-from hetmesh.reproduce.study3d import CASES3D, Section3D, mesh_run3d, render3d
+from hetmesh.reproduce.report import render3d
+from hetmesh.reproduce.study3d import CASES3D, Section3D, mesh_run3d
 
 HAVE_GMSH = peers.available()["gmsh"] is not None
 

@@ -635,7 +635,7 @@ def study3d(model, reference: dict, *, quick: bool = False, progress: Progress |
     adaptive mesh keeps its chords at the tolerance. Returns a :class:`ProbeStudy` whose
     ``reference`` is ``reference`` and ``dim`` 3.
     """
-    from ..tet.uniform import SectionMesher, _section_chord
+    from ..tet.uniform import SectionMesher, section_chord
 
     t_start = time.perf_counter()
     cfg = getattr(model, "fea", None)
@@ -664,7 +664,7 @@ def study3d(model, reference: dict, *, quick: bool = False, progress: Progress |
     hs = sorted((h_for_tets(model.solid.volume, n) for n in counts), reverse=True)
     steps = [("uniform", h) for h in hs] + [("adaptive", d) for d in d0s]
     what = {"uniform": "uniform h = {:.3g}", "adaptive": "adaptive delta_0 = {:g}"}
-    sections = SectionMesher(model, 0.5, _section_chord(model.solid, chord_tol))
+    sections = SectionMesher(model, 0.5, section_chord(model.solid, chord_tol))
     ref = reference["von_mises"]
     meshes: list[dict] = []
     for i, (kind, p) in enumerate(steps):

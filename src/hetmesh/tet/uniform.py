@@ -40,7 +40,7 @@ from .faces import boundary_faces
 from .mesher import TetResult
 
 __all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
-           "SectionMesher", "estimate_uniform", "TETS_PER_H3"]
+           "SectionMesher", "estimate_uniform", "section_chord", "TETS_PER_H3"]
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +59,7 @@ def _is_revolution(solid) -> bool:
     return isinstance(solid, Revolution)
 
 
-def _section_chord(solid, chord_tol: float | None) -> float:
+def section_chord(solid, chord_tol: float | None) -> float:
     """The 2D mesh's chord tolerance relative to the section's (profile's) diameter, from the
     solid's (relative to its diameter): all of it for a prism, half for a revolution (the
     angular steps take the other half)."""
@@ -182,7 +182,7 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     chord = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
     revolved = _is_revolution(solid)
     dom = solid.profile if revolved else solid.section
-    sec_rel = _section_chord(solid, chord_tol)
+    sec_rel = section_chord(solid, chord_tol)
     if sections is None:
         sections = SectionMesher(model, threshold, sec_rel)
     est = estimate_uniform(solid, h)
@@ -205,11 +205,7 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     regions = None if sub2 is None else np.asarray(sub2)[tri_of].astype(np.int32)
     delta = _delta(model.material, points, tets, regions)
     faces, _ = boundary_faces(tets)
-    if revolved:
-        from .revolve import _classify
-        markers = _classify(solid, points, faces, chord)
-    else:
-        markers = solid.classify_faces(points[faces]) + 1
+    markers = solid.classify_faces(points[faces]) + 1
     info.update({"placement": "uniform swept" if not revolved else "uniform revolved",
                  "size": float(h), "section_triangles": int(len(t2)), "estimate": est,
                  "chord_tol": chord, "section_chord_tol": sec_rel * dom.diameter})
@@ -312,7 +308,7 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     t0 = time.perf_counter()
     threshold = float(threshold)
     solid = model.solid
-    sections = SectionMesher(model, threshold, _section_chord(solid, chord_tol))
+    sections = SectionMesher(model, threshold, section_chord(solid, chord_tol))
     h = _start_size(model, threshold)
     best: TetResult | None = None
     best_count = 0
