@@ -3,6 +3,8 @@
     PYTHONPATH=src python benchmarks/bench_study3d.py [--quick] [--no-peers] [--no-study]
         [--cases fgm_plate_3d,graded_cylinder] [--json out.json]
     PYTHONPATH=src python benchmarks/bench_study3d.py --examples 0.1 [--skip fgm_plate_3d]
+    PYTHONPATH=src python benchmarks/bench_study3d.py --no-meshes --cases fgm_plate_3d
+        --uniform 240000 --thresholds none        # one more point of a study's family
 
 Runs :func:`hetmesh.reproduce.study3d.run3d` -- the same code as ``hetmesh reproduce --3d``
 -- and prints its tables:
@@ -39,6 +41,12 @@ def main(argv=None) -> int:
     ap.add_argument("--no-study", action="store_true", help="meshes only, no FEA study")
     ap.add_argument("--cases", default=None, help="comma-separated solids")
     ap.add_argument("--json", default=None, help="write the studies' records here")
+    ap.add_argument("--no-meshes", action="store_true", help="the FEA study only (no T1)")
+    ap.add_argument("--uniform", default=None, metavar="COUNTS",
+                    help="the study's uniform tetrahedron counts instead of the plan's")
+    ap.add_argument("--thresholds", default=None, metavar="LIST",
+                    help="the study's adaptive thresholds instead of the plan's ('none': no "
+                         "adaptive mesh)")
     ap.add_argument("--examples", type=float, default=None, metavar="D",
                     help="T0 only: every 3-D example, adaptive and uniform at delta_0 = D")
     ap.add_argument("--skip", default="", help="with --examples: comma-separated examples")
@@ -58,8 +66,15 @@ def main(argv=None) -> int:
         print(f"[{time.perf_counter() - t0:7.1f} s] {stage}", file=sys.stderr, flush=True)
 
     cases = [c.strip() for c in args.cases.split(",")] if args.cases else None
+    plan = {}
+    if args.uniform:
+        plan["uniform_elements"] = [int(float(n)) for n in args.uniform.split(",")]
+    if args.thresholds:
+        plan["thresholds"] = [] if args.thresholds == "none" else \
+            [float(d) for d in args.thresholds.split(",")]
     sec = run3d(quick=args.quick, peers=[] if args.no_peers else have,
-                study=not args.no_study, cases=cases, progress=progress)
+                study=not args.no_study, cases=cases, progress=progress,
+                meshes=not args.no_meshes, **plan)
     print("\n".join(render3d(sec)))
     print(f"\ntotal {sec.seconds:.0f} s; peers: {', '.join(have) or 'none installed'}")
     if args.json:

@@ -125,3 +125,17 @@ def test_cli_reproduce_3d_quick(tmp_path, capsys):
     text = (out / "report.md").read_text()
     assert "## 3-D" in text and "### 3-D FEA study" in text
     assert "3-D FEA graded_cylinder" in o
+
+
+def test_run3d_with_a_plan_of_its_own():
+    """The study's plan can be overridden (benchmarks/bench_study3d.py --uniform,
+    --thresholds), and the mesh table skipped."""
+    from hetmesh.reproduce.study3d import run3d
+
+    sec = run3d(cases=["graded_cylinder"], meshes=False, uniform_elements=[800],
+                thresholds=[])
+    assert sec.runs == [] and not sec.study_errors
+    s = sec.studies["graded_cylinder"]
+    assert [m["family"] for m in s.meshes] == ["uniform"] and "error" not in s.meshes[0]
+    text = "\n".join(render3d(sec))
+    assert "graded_cylinder" in text and "| R |" in text

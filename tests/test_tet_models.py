@@ -80,6 +80,7 @@ def test_revolved_feature_tree_keeps_its_subregions(tmp_path):
     import hetmesh as hm
     text = hm.example_path("fgm_plate_3d").read_text(encoding="utf-8").replace(
         'type = "extrusion"\nlength = 10', 'type = "revolution"\nangle = 30')
+    text = text.split("\n[fea]")[0]  # its conditions name the extrusion's end faces
     m = load_model(write(tmp_path, text, "plate_turned.toml"))
     res = check_model_mesh(m, 0.3)
     assert res.info["placement"] == "revolved"

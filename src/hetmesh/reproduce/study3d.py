@@ -138,32 +138,35 @@ def mesh_run3d(case: Case3D, threshold: float, model, peers: list[str]) -> MeshR
     return run
 
 
-def study_case(case: Case3D, model, quick: bool, progress=None):
-    """The FEA study of one solid (:func:`hetmesh.fea.probe_study.study3d`)."""
+def study_case(case: Case3D, model, quick: bool, progress=None, **plan):
+    """The FEA study of one solid (:func:`hetmesh.fea.probe_study.study3d`; ``plan``:
+    ``uniform_elements``, ``thresholds`` instead of the plan's)."""
     from ..fea import probe_study as ps
     from ..io.model import example_path, load_model
 
     if case.reference == "radial":
         ref = ps.radial_reference(model)
     else:
-        plan = ps.PLANS3D["quick" if quick else "full"]
+        elements = ps.PLANS3D["quick" if quick else "full"].reference_elements
         ref = ps.plane_strain_reference(model, load_model(example_path(case.model2d)),
-                                        elements=plan.reference_elements)
-    return ps.study3d(model, ref, quick=quick, progress=progress, chord_tol=CHORD_TOL)
+                                        elements=elements)
+    return ps.study3d(model, ref, quick=quick, progress=progress, chord_tol=CHORD_TOL, **plan)
 
 
 def run3d(*, quick: bool = False, peers: list[str] | None = None, study: bool = True,
-          cases: list[str] | None = None,
-          progress: Callable[[str, float | None], None] | None = None) -> Section3D:
+          cases: list[str] | None = None, meshes: bool = True,
+          progress: Callable[[str, float | None], None] | None = None,
+          **plan) -> Section3D:
     """Everything the 3-D section measures (see the module docstring); failures are
-    recorded with their message, not raised."""
+    recorded with their message, not raised. ``meshes=False`` skips the mesh table;
+    ``plan`` (``uniform_elements``, ``thresholds``) overrides the FEA study's plan."""
     from ..io.model import example_path, load_model
 
     t0 = time.perf_counter()
     names = list(CASES3D) if cases is None else list(cases)
     out = Section3D(quick=quick)
     pairs = [(CASES3D[n], t) for n in names
-             for t in (CASES3D[n].quick if quick else CASES3D[n].thresholds)]
+             for t in (CASES3D[n].quick if quick else CASES3D[n].thresholds)] if meshes else []
     steps = len(pairs) + (len(names) if study else 0)
     done = 0
     models = {n: load_model(example_path(n)) for n in names}
@@ -181,7 +184,7 @@ def run3d(*, quick: bool = False, peers: list[str] | None = None, study: bool = 
                     progress(f"3-D FEA study {n}: {stage}", (base + (fraction or 0)) / steps)
 
             try:
-                out.studies[n] = study_case(CASES3D[n], models[n], quick, sub)
+                out.studies[n] = study_case(CASES3D[n], models[n], quick, sub, **plan)
             except HetmeshError as exc:
                 out.study_errors[n] = str(exc).splitlines()[0]
                 log.warning("3-D study of %s failed: %s", n, out.study_errors[n])
