@@ -466,13 +466,14 @@ def render3d(section) -> list[str]:
            "plane strain) and `graded_cylinder` (a graded tube under 100 MPa internal "
            "pressure). Adaptive: `hetmesh.generate`; uniform: `hetmesh.uniform`, the "
            "coarsest swept mesh of one size meeting δ0 (docs/tet.md); N_iso3 = "
-           "6√2 ∫|∇f|³ dV / δ0³. Dihedral angles in degrees; ρ the mean radius ratio.", ""]
+           "6√2 ∫|∇f|³ dV / δ0³. Dihedral angles in degrees; ρ the mean radius ratio; "
+           "*adaptive s* the wall time of `hetmesh.generate`.", ""]
     if section.quick:
         out += ["**Quick run**: one threshold per solid and the quick FEA plan (fewer "
                 "meshes); indicative only.", ""]
     peers = sorted({p for r in section.runs for p in r.peers})
     headers = ["solid", "δ0", "adaptive Ne", "Ne/N_iso3", "δ_max", "dihedral min / 1st pct",
-               "ρ", "s", "uniform Ne", "h", "uniform δ_max", "adaptive/uniform"]
+               "ρ", "adaptive s", "uniform Ne", "h", "uniform δ_max", "adaptive/uniform"]
     headers += [f"{p.capitalize()} Ne" for p in peers]
     rows = []
     for r in section.runs:
