@@ -37,8 +37,8 @@ def test_two_d_only_options_are_refused_for_a_solid(cylinder):
     model, _ = cylinder
     with pytest.raises(OptionError, match="min_angle=20.0 is not available for 3D models"):
         hetmesh.generate(model, 0.1, min_angle=20.0)
-    with pytest.raises(OptionError, match="not available yet"):
-        hetmesh.uniform(model, 0.1)
+    with pytest.raises(OptionError, match="max_size=0.5 is not available for uniform 3D"):
+        hetmesh.uniform(model, 0.1, max_size=0.5)
 
 
 def test_the_generated_mesh_solves_to_the_exact_radial_solution(cylinder, tmp_path):

@@ -80,6 +80,7 @@ def test_revolved_feature_tree_keeps_its_subregions(tmp_path):
     import hetmesh as hm
     text = hm.example_path("fgm_plate_3d").read_text(encoding="utf-8").replace(
         'type = "extrusion"\nlength = 10', 'type = "revolution"\nangle = 30')
+    text = text.split("\n[fea]")[0]  # its conditions name the extrusion's end faces
     m = load_model(write(tmp_path, text, "plate_turned.toml"))
     res = check_model_mesh(m, 0.3)
     assert res.info["placement"] == "revolved"
@@ -344,12 +345,15 @@ def test_cli_stats_of_a_3d_mesh(tmp_path, capsys):
     assert code == 2 and "outside the solid" in err and len(err.strip().splitlines()) == 1
 
 
-def test_cli_uniform_3d_is_an_error(tmp_path, capsys):
+def test_cli_uniform_3d_refuses_the_2d_options(tmp_path, capsys):
     model = write(tmp_path, CUBE, "cube.toml")
-    code, o, err = run(["uniform", model, "--threshold", 0.3, "--output", tmp_path / "u.vtu"],
-                       capsys)
+    code, o, err = run(["uniform", model, "--threshold", 0.3, "--output", tmp_path / "u.vtu",
+                        "--min-angle", 20], capsys)
     assert code == 2 and "not available for 3D models" in err
     assert not (tmp_path / "u.vtu").exists()
+    code, o, err = run(["uniform", model, "--threshold", 0.3, "--output", tmp_path / "u.vtu"],
+                       capsys)
+    assert code == 0 and (tmp_path / "u.vtu").exists()
 
 
 def test_max_size_bounds_the_spacing(tmp_path):

@@ -8,7 +8,6 @@ A planar model (:class:`~hetmesh.io.model.Model`) goes to the triangle kernel
 
 from __future__ import annotations
 
-from .errors import OptionError
 from .kernel import Result
 from .tet.api import generate as generate_tets
 from .tri.pipeline import generate as generate_triangles
@@ -40,9 +39,18 @@ def generate(model, threshold: float, **options) -> Result:
 
 
 def uniform(model, threshold: float, **options) -> Result:
-    """The coarsest uniform quality mesh meeting ``threshold``
-    (:func:`hetmesh.tri.uniform.uniform`); planar models only for now."""
+    """The coarsest uniform quality mesh meeting ``threshold``: triangles for a planar model
+    (:func:`hetmesh.tri.uniform.uniform`), tetrahedra for a solid
+    (:func:`hetmesh.tet.uniform.uniform_tets`: ``chord_tol``, ``max_elements``,
+    ``min_angle`` of the section's triangles).
+
+    >>> import hetmesh
+    >>> r = hetmesh.uniform(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.3)
+    >>> r.mesh.cell_type, bool(r.stats.delta_max < 0.3)
+    ('tetra', True)
+    """
     if model_dim(model) == 3:
-        raise OptionError(f"uniform meshes of 3D models are not available yet "
-                          f"({model.name!r} is a solid)")
+        from .tet.uniform import uniform_tets
+
+        return uniform_tets(model, threshold, **options)
     return uniform_triangles(model, threshold, **options)

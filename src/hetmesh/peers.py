@@ -30,6 +30,10 @@ interface curves), so no peer element straddles a discontinuity.
   boundaries are as accurate as hetmesh's: without it Gmsh samples a small hole with a
   handful of chords at coarse thresholds (plate_with_holes at 0.2: 198 elements against 640
   with the cap, its holes squares).
+- **Gmsh in 3-D** (:func:`search3d`, :func:`gmsh_mesh3d`): an extruded model's section (as
+  hetmesh meshes it) extruded by Gmsh, the discontinuities as embedded surfaces, Delaunay
+  (``Mesh.Algorithm3D = 1``), the section's graded size field constant along the axis (a
+  view of hexahedra), ``s`` searched as in 2-D.
 - **Triangle** (:func:`triangle_mesh`): the PSLG of the domain sampled with the same size
   field, a constrained quality Delaunay mesh (``-q`` with hetmesh's 30 degree minimum angle),
   then refinement with a per-triangle maximum area (``-ra``), the area of the equilateral
@@ -62,7 +66,8 @@ from .options import DEFAULT_CHORD_TOL
 
 __all__ = ["PEERS", "PeerMesh", "PeerResult", "PeerUnavailable", "available", "size_field",
            "gmsh_mesh", "triangle_mesh", "peer_statistics", "search",
-           "S_START", "S_FACTOR", "S_TRIES", "S_BISECT", "SizeField"]
+           "S_START", "S_FACTOR", "S_TRIES", "S_BISECT", "SizeField", "PeerMesh3D",
+           "gmsh_mesh3d", "peer_statistics3d", "search3d"]
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +77,7 @@ GMSH_ALGORITHM = 6          # Frontal-Delaunay
 MIN_ANGLE = 30.0            # Triangle's -q, hetmesh's default floor
 GRADATION = 0.3             # size growth per unit length (Lipschitz limit)
 GRID_CELLS = 400            # size grid resolution along the longer side
+GRID_CELLS_3D = 120         # the same for the 3-D peer (Gmsh looks sizes up in hexahedra)
 
 
 class PeerUnavailable(HetmeshError):
@@ -516,6 +522,196 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
     if s_pass is None:
         raise MeshingError(f"{peer}: no scale s met delta_max < {threshold:g} in {len(trace)} "
                            f"tries (last s = {s:.3g})")
+    for _ in range(bisect if s_fail is not None else 0):
+        mid = math.sqrt(s_pass * s_fail)
+        if attempt(mid):
+            s_pass = mid
+        else:
+            s_fail = mid
+    mesh, st = results[s_pass]
+    return PeerResult(peer=peer, threshold=threshold, s=s_pass, mesh=mesh, stats=st,
+                      seconds=mesh.seconds, search_seconds=time.perf_counter() - t0, trace=trace)
+
+
+# ----------------------------------------------------------------------------- 3-D (Gmsh)
+@dataclass(frozen=True)
+class PeerMesh3D:
+    """A peer's tetrahedral mesh: ``points (N, 3)``, ``tets (M, 4)`` (only used nodes) and
+    the wall time of building and meshing, in seconds."""
+
+    points: np.ndarray
+    tets: np.ndarray
+    seconds: float
+
+
+def _section_model(model):
+    """The 2-D model of an extruded 3-D model's section as hetmesh meshes it (material
+    discontinuities embedded), or :class:`OptionError` for other solids."""
+    from .io.model import Model
+    from .tri.discontinuity import embed_discontinuities
+
+    solid = model.solid
+    if getattr(model, "material2d", None) is None or not hasattr(solid, "section"):
+        raise OptionError(f"the 3-D Gmsh peer meshes extrusions of 2-D models (a composition "
+                          f"that does not change along the axis); {model.name!r} is not one")
+    return embed_discontinuities(Model(name=model.name, domain=solid.section,
+                                       material=model.material2d))
+
+
+def _gmsh_hex_field(gmsh, size: SizeField, length: float) -> None:
+    """The section's graded size grid as a view of scalar hexahedra spanning the extrusion
+    (the size does not change along it), the background field."""
+    X, Y, H = size.grid
+    ny, nx = X.shape
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    quad = np.column_stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(),
+                            idx[1:, 1:].ravel(), idx[1:, :-1].ravel()])
+    x, y, h = X.ravel()[quad], Y.ravel()[quad], H.ravel()[quad]
+    z0, z1 = np.full(quad.shape, -0.01 * length), np.full(quad.shape, 1.01 * length)
+    data = np.concatenate([np.concatenate([x, x], 1), np.concatenate([y, y], 1),
+                           np.concatenate([z0, z1], 1), np.concatenate([h, h], 1)], axis=1)
+    view = gmsh.view.add("hetmesh size")
+    gmsh.view.addListData(view, "SH", len(quad), data.ravel().tolist())
+    f = gmsh.model.mesh.field.add("PostView")
+    gmsh.model.mesh.field.setNumber(f, "ViewTag", view)
+    gmsh.model.mesh.field.setAsBackgroundMesh(f)
+
+
+def gmsh_mesh3d(model, size: SizeField, *, section=None, threads: int = 1,
+                algorithm3d: int = 1) -> PeerMesh3D:
+    """Gmsh's tetrahedral mesh of an extruded model, sizes only from ``size`` (the section's
+    :class:`SizeField`, constant along the axis): the section (``section``, default
+    :func:`_section_model`'s, with its embedded discontinuity curves) extruded by the solid's
+    length, the extruded discontinuities embedded as surfaces, ``generate(3)`` with
+    ``Mesh.Algorithm3D`` (1 = Delaunay), one thread."""
+    gmsh = _require("gmsh")
+    section = section or _section_model(model)
+    solid = model.solid
+    t0 = time.perf_counter()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", threads)
+        gmsh.model.add("hetmesh_peer3d")
+        surface, embedded = _gmsh_geometry(gmsh, section.domain)
+        geo = gmsh.model.geo
+        out = geo.extrude([(2, surface)], 0, 0, solid.length)
+        top = out[0][1]
+        volume = [t for d, t in out if d == 3][0]
+        walls, tops = [], []
+        for c in embedded:
+            ext = geo.extrude([(1, c)], 0, 0, solid.length)
+            tops.append(ext[0][1])
+            walls += [t for d, t in ext if d == 2]
+        if walls:  # the walls' top edges and corners are the volume's: one entity each
+            geo.removeAllDuplicates()
+        geo.synchronize()
+        if walls:  # the discontinuities: curves in both caps, walls in the volume
+            gmsh.model.mesh.embed(1, embedded, 2, surface)
+            gmsh.model.mesh.embed(1, tops, 2, top)
+            gmsh.model.mesh.embed(2, walls, 3, volume)
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
+        gmsh.option.setNumber("Mesh.Algorithm", GMSH_ALGORITHM)
+        gmsh.option.setNumber("Mesh.Algorithm3D", algorithm3d)
+        _gmsh_hex_field(gmsh, size, solid.length)
+        gmsh.model.mesh.generate(3)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, enodes = gmsh.model.mesh.getElementsByType(4)
+    except Exception as exc:
+        if isinstance(exc, HetmeshError):
+            raise
+        raise MeshingError(f"gmsh failed: {exc}") from exc
+    finally:
+        gmsh.finalize()
+    seconds = time.perf_counter() - t0
+    tags = tags.astype(np.int64)
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags] = np.arange(len(tags))
+    tets = index[enodes.astype(np.int64)].reshape(-1, 4)
+    used, inv = np.unique(tets, return_inverse=True)
+    p = xyz.reshape(-1, 3)[used]
+    points = solid.to3d(p[:, :2], p[:, 2] + solid.s0)
+    return PeerMesh3D(points, inv.reshape(-1, 4), seconds)
+
+
+def peer_statistics3d(model, mesh: PeerMesh3D) -> MeshStats:
+    """Np, Ne, radius ratio, smallest dihedral angle and delta of a tetrahedral peer mesh,
+    delta over the vertices as for hetmesh's meshes (each tetrahedron in its own subregion
+    for a feature-tree material)."""
+    from .material.field import element_subregions, has_subregions
+    from .mesh import simplex_measures
+    from .metrics import delta_vertices, dihedral_angles, statistics, tet_quality
+
+    P, T = mesh.points, mesh.tets.copy()
+    neg = simplex_measures(P, T) < 0
+    T[neg] = T[neg][:, [0, 1, 3, 2]]
+    field_ = model.material
+    if has_subregions(field_):
+        sub = element_subregions(field_, P, T)
+        c = field_.composition(P[T.ravel()], region=np.repeat(sub, 4)).reshape(len(T), 4, -1)
+        delta = (c.max(axis=1) - c.min(axis=1)).max(axis=1)
+    else:
+        delta = delta_vertices(field_.composition(P), T)
+    return statistics(P, T, delta, quality=tet_quality(P, T),
+                      angle=dihedral_angles(P, T).min(axis=1))
+
+
+def search3d(peer: str, model, threshold: float, *, s_start: float = S_START,
+             factor: float = S_FACTOR, tries: int = S_TRIES, bisect: int = S_BISECT,
+             gradation: float | None = GRADATION, cells: int = GRID_CELLS_3D,
+             **options) -> PeerResult:
+    """The coarsest Gmsh tetrahedral mesh of an extruded 3-D model with delta_max <
+    ``threshold`` over the scale ``s`` of the size field, searched as :func:`search` does
+    (the section's graded :class:`SizeField`, whose chord cap keeps the curved faces as
+    accurate as hetmesh's, extended along the axis; :func:`gmsh_mesh3d`). Only ``"gmsh"``.
+
+    Raises
+    ------
+    PeerUnavailable
+        If Gmsh is not installed.
+    OptionError
+        If ``model`` is not an extrusion of a 2-D model.
+    MeshingError
+        If no ``s`` met the threshold within ``tries`` meshes.
+    """
+    if peer != "gmsh":
+        raise OptionError(f"the 3-D peer is gmsh, got {peer!r}")
+    _require("gmsh")
+    section = _section_model(model)
+    t0 = time.perf_counter()
+    grid = gradient_grid_of(section, cells)
+    trace: list[dict] = []
+    results: dict[float, tuple[PeerMesh3D, MeshStats]] = {}
+
+    def attempt(s: float) -> bool:
+        sz = size_field(section, threshold, s, gradation=gradation, gradient_grid=grid,
+                        cells=cells)
+        mesh = gmsh_mesh3d(model, sz, section=section, **options)
+        st = peer_statistics3d(model, mesh)
+        ok = st.delta_max < threshold
+        trace.append({"s": s, "elements": st.n_elements, "delta_max": st.delta_max,
+                      "seconds": mesh.seconds, "pass": ok})
+        log.debug("gmsh 3-D s=%.4f: %d tetrahedra, delta_max %.4g", s, st.n_elements,
+                  st.delta_max)
+        if ok:
+            results[s] = (mesh, st)
+        return ok
+
+    s = s_start
+    s_pass, s_fail = (s, None) if attempt(s) else (None, s)
+    while len(trace) < tries and (s_pass is None or s_fail is None):
+        s = s * factor if s_pass is None else s / factor
+        if attempt(s):
+            s_pass = s
+            if len(trace) >= 2 and trace[-2]["pass"] and \
+                    trace[-2]["elements"] == trace[-1]["elements"]:
+                break
+        else:
+            s_fail = s
+    if s_pass is None:
+        raise MeshingError(f"gmsh 3-D: no scale s met delta_max < {threshold:g} in "
+                           f"{len(trace)} tries (last s = {s:.3g})")
     for _ in range(bisect if s_fail is not None else 0):
         mid = math.sqrt(s_pass * s_fail)
         if attempt(mid):

@@ -15,7 +15,7 @@ from .mesh import check_writable_dir
 from .progress import progress_reporter
 from .sweep import worker_count
 
-__all__ = ["add_parser", "run", "summary_table"]
+__all__ = ["add_parser", "run", "summary_table", "summary_3d"]
 
 
 def _cases(text: str) -> list[str]:
@@ -46,6 +46,11 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
     p.add_argument("--quick", action="store_true",
                    help="one coarse threshold per model and no peers (under a minute)")
     p.add_argument("--no-peers", action="store_true", help="skip the Gmsh/Triangle section")
+    p.add_argument("--3d", dest="three_d", action="store_true",
+                   help="add the 3-D section: fgm_plate_3d and graded_cylinder, adaptive "
+                        "against uniform tetrahedra, Gmsh 3-D as peer, tetrahedra for 0.5 %% "
+                        "at the FEA probes (a few minutes with --quick, ~15-20 without); "
+                        "naming a solid in --cases runs only the 3-D section for it")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", "-j", type=worker_count, default=None, metavar="N",
                        help="run the models and the FEA study's meshes on a local Dask "
@@ -74,16 +79,47 @@ def run(args: argparse.Namespace) -> int:
     with progress_reporter(quiet=args.quiet, label="reproduce") as progress:
         report = reproduce(out, cases=args.cases, quick=args.quick,
                            peers=False if args.no_peers else None, progress=progress,
-                           command=command, workers=args.workers, scheduler=args.scheduler)
+                           command=command, workers=args.workers, scheduler=args.scheduler,
+                           three_d=args.three_d)
     if not args.quiet:
         console = Console(highlight=False, markup=False)
-        console.print(summary_table(report))
+        if report.runs:
+            console.print(summary_table(report))
+        for line in summary_3d(report):
+            console.print(line)
         n_runs = len(report.runs)
         failed = sum(r.error is not None for r in report.runs)
         console.print(f"{n_runs} model/threshold runs ({failed} failed), "
                       f"{len(report.figures)} figures, {report.seconds:.1f} s")
         console.print(f"wrote {report.path}")
     return 0
+
+
+def _count(v) -> str:
+    return "n/a" if v is None else f"{v:.0f}"
+
+
+def summary_3d(report) -> list[str]:
+    """One line per 3-D solid and threshold (tetrahedra adaptive, uniform, ratio) and per
+    FEA study (tetrahedra for 0.5 % at the probes); nothing without the 3-D section."""
+    sec = getattr(report, "study3d", None)
+    if sec is None:
+        return []
+    out = []
+    for r in sec.runs:
+        if r.error:
+            out.append(f"3-D {r.case} δ0={r.threshold:g}: error: {r.error}")
+            continue
+        out.append(f"3-D {r.case} δ0={r.threshold:g}: adaptive {r.adaptive['elements']} tets, "
+                   f"uniform {r.uniform['elements']}, ratio {r.ratio:.3f}")
+    for name, s in sec.studies.items():
+        nd = s.needed
+        u, a = nd["uniform"], nd["adaptive"]
+        out.append(f"3-D FEA {name}, 0.5 % at {nd['probes']}: uniform {_count(u)} tets, "
+                   f"adaptive {_count(a)}" + (f" (ratio {a / u:.2f})" if u and a else ""))
+    for name, msg in sec.study_errors.items():
+        out.append(f"3-D FEA {name}: failed: {msg}")
+    return out
 
 
 def summary_table(report):

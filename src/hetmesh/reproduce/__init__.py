@@ -13,7 +13,11 @@ writes ``DIR/report.md`` with PNG figures under ``DIR/figures/``:
   uniform mesh of about the same element count);
 - a peer section: Gmsh and Triangle meeting the same thresholds (:mod:`hetmesh.peers`) when
   they are installed (``pip install "hetmesh[peers]"``);
-- a Table 7 analog when :mod:`hetmesh.fea` provides the case-4 study (``hetmesh.fea.study``).
+- a Table 7 analog when :mod:`hetmesh.fea` provides the case-4 study (``hetmesh.fea.study``);
+- with ``three_d=True`` (``--3d``), a 3-D section (:mod:`hetmesh.reproduce.study3d`): the
+  solids ``fgm_plate_3d`` and ``graded_cylinder``, adaptive against uniform tetrahedra at two
+  thresholds, Gmsh's 3-D mesh as a peer, and the tetrahedra each needs for 0.5 % at the FEA
+  probes.
 
 Every number in the report is computed by that run, except the columns labelled as the paper's.
 
@@ -42,7 +46,7 @@ from ..io.atomic import output_dir
 from .paper import CASES, Case
 from .runs import CaseRun, mesh_record
 
-__all__ = ["run", "Report", "CASES", "plan", "fea_study_function"]
+__all__ = ["run", "Report", "CASES", "plan", "fea_study_function", "split_cases"]
 
 log = logging.getLogger(__name__)
 
@@ -53,7 +57,8 @@ Progress = Callable[[str, float | None], None]
 class Report:
     """What :func:`run` measured and wrote: ``path`` of report.md, the figure files, one
     :class:`~hetmesh.reproduce.runs.CaseRun` per model and threshold, the peer versions
-    (None: not installed), whether peers were run, the FEA study (or None) and timings."""
+    (None: not installed), whether peers were run, the FEA study (or None), timings and the 3-D
+    section (:class:`~hetmesh.reproduce.study3d.Section3D`, None when not run)."""
 
     path: Path
     quick: bool
@@ -66,21 +71,43 @@ class Report:
     seconds: float = math.nan
     environment: dict = field(default_factory=dict)
     figures: list[Path] = field(default_factory=list)
+    study3d: object = None
+
+
+def split_cases(cases: Sequence[str] | None) -> tuple[list[str] | None, list[str]]:
+    """``(2-D case names or None for all, 3-D solid names)`` of a case list: the names of
+    :data:`~hetmesh.reproduce.study3d.CASES3D` are the 3-D section's."""
+    from .study3d import CASES3D
+
+    if not cases:
+        return None, []
+    names = [str(c).strip() for c in cases if str(c).strip()]
+    solids = [n for n in names if n in CASES3D]
+    planar = [n for n in names if n not in CASES3D]
+    return (planar if planar or not solids else []), solids
 
 
 def plan(cases: Sequence[str] | None = None, quick: bool = False) -> list[tuple[Case, float]]:
-    """The ``(case, threshold)`` pairs of a report, in report order.
+    """The ``(case, threshold)`` pairs of a report, in report order (the 2-D ones; names of
+    3-D solids are skipped, see :func:`split_cases`).
 
     Raises
     ------
     OptionError
         If a case name is unknown.
     """
+    from .study3d import CASES3D
+
+    if cases:
+        planar, solids = split_cases(cases)
+        if solids and not planar:
+            return []
+        cases = planar
     names = list(CASES) if not cases else [str(c).strip() for c in cases if str(c).strip()]
     unknown = [n for n in names if n not in CASES]
     if unknown:
         raise OptionError(f"unknown case(s) {', '.join(map(repr, unknown))} "
-                          f"(known: {', '.join(CASES)})")
+                          f"(known: {', '.join(list(CASES) + list(CASES3D))})")
     if not names:
         raise OptionError(f"no case given (known: {', '.join(CASES)})")
     return [(CASES[n], t) for n in dict.fromkeys(names)
@@ -112,7 +139,8 @@ def _environment(command: str | None) -> dict:
 def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | None = None,
         quick: bool = False, peers: bool | None = None, fea: bool | None = None,
         progress: Progress | None = None, command: str | None = None,
-        workers: int | None = None, scheduler: str | None = None, client=None) -> Report:
+        workers: int | None = None, scheduler: str | None = None, client=None,
+        three_d: bool = False) -> Report:
     """Mesh the paper's models and write ``out/report.md`` with its figures.
 
     Parameters
@@ -137,6 +165,10 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
         Run the models' records and the FEA study's meshes on a local Dask cluster of
         ``workers`` processes, on the scheduler at ``scheduler``, or on ``client``
         (:mod:`hetmesh.study.engine`); the same numbers as this process alone.
+    three_d : bool
+        Add the 3-D section (:mod:`hetmesh.reproduce.study3d`; also when ``cases`` names a
+        3-D solid, and then only those solids): a few minutes with ``quick``, about
+        15-20 minutes without on a 2-core machine. It runs in this process.
 
     Returns
     -------
@@ -155,13 +187,15 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
 
     t_start = time.perf_counter()
     pairs = plan(cases, quick)
+    planar, solids = split_cases(cases)
+    three_d = bool(three_d or solids)
     out = output_dir(Path(out), "figures")
     names = list(dict.fromkeys(c.name for c, _ in pairs))
     run_peers = (not quick) if peers is None else bool(peers)
     versions = peer_module.available()
     installed = [p for p, v in versions.items() if v] if run_peers else []
     study = fea_study_function() if (fea is None and "fgm_plate" in names) or fea else None
-    steps = len(pairs) * (1 + len(installed)) + (1 if study else 0)
+    steps = len(pairs) * (1 + len(installed)) + (1 if study else 0) + (1 if three_d else 0)
     done = [0]
 
     def step(stage: str) -> None:
@@ -183,11 +217,27 @@ def run(out: str | os.PathLike = "hetmesh-reproduce", *, cases: Sequence[str] | 
             figures += [out / p for r in runs for p in (r.mesh_figure, r.histogram) if p]
         fea_result, fea_error = _fea_study(study, models, quick, progress, done, steps,
                                            dask_client)
+    section3d = None
+    if three_d:
+        from .study3d import run3d
+
+        base = done[0]
+
+        def progress3d(stage: str, fraction: float | None) -> None:
+            if progress is not None:
+                progress(stage, (base + (fraction or 0.0)) / steps)
+
+        section3d = run3d(quick=quick, peers=["gmsh"] if "gmsh" in installed else [],
+                          cases=solids or None, progress=progress3d)
+        done[0] += 1
     if progress is not None:
         progress("writing the report", 1.0)
-    report = Report(path=out / "report.md", quick=quick, cases=names, runs=runs,
+    solid_names = [r.case for r in section3d.runs] if section3d is not None else []
+    report = Report(path=out / "report.md", quick=quick,
+                    cases=names + list(dict.fromkeys(solid_names)), runs=runs,
                     peer_versions=versions, peers_run=run_peers, fea=fea_result,
-                    fea_error=fea_error, environment=_environment(command), figures=figures)
+                    fea_error=fea_error, environment=_environment(command), figures=figures,
+                    study3d=section3d)
     report.seconds = time.perf_counter() - t_start
     write_report(report.path, render(report))
     return report

@@ -17,7 +17,7 @@ from ..io.atomic import atomic_write
 from .paper import CASES, NOTE_KEYS, NOTES, PAPER_TABLE7
 
 __all__ = ["render", "write_report", "markdown_table", "num", "PEER_LABELS", "peer_verdicts",
-           "paper_row"]
+           "paper_row", "render3d"]
 
 NA = "n/a"
 PEER_LABELS = {"gmsh": "Gmsh", "triangle": "Triangle"}
@@ -449,5 +449,110 @@ def _fea_section(report) -> list[str]:
 def render(report) -> str:
     """The whole report.md."""
     lines = _header(report) + _case_sections(report) + _peer_section(report) \
-        + _fea_section(report)
+        + _fea_section(report) + render3d(getattr(report, "study3d", None))
     return "\n".join(lines).rstrip() + "\n"
+
+
+# ----------------------------------------------------------------------------- 3-D section
+
+def render3d(section) -> list[str]:
+    """The 3-D section of report.md from a :class:`~hetmesh.reproduce.study3d.Section3D`
+    (nothing when it was not run)."""
+    if section is None:
+        return []
+    out = ["## 3-D: graded solids, adaptive against uniform tetrahedra", "",
+           "The paper is 2-D; this section runs its comparison on two solids "
+           "(`hetmesh reproduce --3d`): `fgm_plate_3d` (case study 4's plate extruded 10 mm, "
+           "plane strain) and `graded_cylinder` (a graded tube under 100 MPa internal "
+           "pressure). Adaptive: `hetmesh.generate`; uniform: `hetmesh.uniform`, the "
+           "coarsest swept mesh of one size meeting δ0 (docs/tet.md); N_iso3 = "
+           "6√2 ∫|∇f|³ dV / δ0³. Dihedral angles in degrees; ρ the mean radius ratio; "
+           "*adaptive s* the wall time of `hetmesh.generate`.", ""]
+    if section.quick:
+        out += ["**Quick run**: one threshold per solid and the quick FEA plan (fewer "
+                "meshes); indicative only.", ""]
+    peers = sorted({p for r in section.runs for p in r.peers})
+    headers = ["solid", "δ0", "adaptive Ne", "Ne/N_iso3", "δ_max", "dihedral min / 1st pct",
+               "ρ", "adaptive s", "uniform Ne", "h", "uniform δ_max", "adaptive/uniform"]
+    headers += [f"{p.capitalize()} Ne" for p in peers]
+    rows = []
+    for r in section.runs:
+        if r.error:
+            rows.append([r.case, f"{r.threshold:g}", "error: " + r.error]
+                        + [""] * (len(headers) - 3))
+            continue
+        a, u = r.adaptive, r.uniform
+        row = [r.case, f"{r.threshold:g}", num(a["elements"]),
+               num(a["elements"] / r.n_iso3, 2), num(a["delta_max"], 4),
+               f"{a['dihedral_min']:.1f} / {a['dihedral_p1']:.1f}",
+               num(a["radius_ratio_mean"], 3), num(a["seconds"], 1), num(u["elements"]),
+               num(u["size"], 3), num(u["delta_max"], 4), num(r.ratio, 3)]
+        for p in peers:
+            pr = r.peers.get(p, {})
+            row.append(num(pr["elements"]) if "elements" in pr else
+                       ("error" if "error" in pr else NA))
+        rows.append(row)
+    out += markdown_table(headers, rows) + [""]
+    for r in section.runs:
+        for p, pr in r.peers.items():
+            if "error" in pr:
+                out.append(f"- {p} on {r.case} at δ0 = {r.threshold:g}: {pr['error']}")
+            else:
+                out.append(f"- {p} on {r.case} at δ0 = {r.threshold:g}: s = {pr['s']:.3f}, "
+                           f"δ_max {pr['delta_max']:.4f}, dihedral min "
+                           f"{pr['dihedral_min']:.1f}, {pr['seconds']:.1f} s for the "
+                           f"accepted mesh, {pr['search_seconds']:.0f} s for the search")
+    if any(r.peers for r in section.runs):
+        out.append("")
+    if section.studies or section.study_errors:
+        out += _study_lines(section)
+    return out
+
+
+def _study_lines(section) -> list[str]:
+    from .study3d import CHORD_TOL
+
+    out = ["### 3-D FEA study: tetrahedra for 0.5 % at the probes", "",
+           "`hetmesh.fea.probe_study.study3d`: quadratic tetrahedra; the von Mises stress at "
+           "every probe against the reference (fgm_plate_3d: the 2-D plane-strain solution "
+           "of fgm_plate on a fine uniform mesh, exact at every z for these end conditions; "
+           "graded_cylinder: the exact radial solution); uniform swept meshes of "
+           "increasing size and adaptive meshes at decreasing δ0, both with the chord "
+           f"tolerance {CHORD_TOL:g} x the diameter. Tetrahedra needed: where the largest "
+           "error crosses 0.5 % for good (log-log interpolation; the target: adaptive at "
+           "most half of uniform).", ""]
+    for name, msg in section.study_errors.items():
+        out += [f"- {name}: the study failed: {msg}", ""]
+    for name, s in section.studies.items():
+        out += [f"**{name}** ({s.note}).", ""]
+        check = s.reference.get("check") if isinstance(s.reference, dict) else None
+        if check:
+            worst = max(check["difference"].values())
+            out += [f"Reference: {s.reference['elements']} triangles; on twice the edge "
+                    f"({check['elements']}) it differs by at most {100 * worst:.3f} %.", ""]
+        sets = list(s.probe_sets)
+        rows = []
+        for m in s.meshes:
+            if "error" in m:
+                rows.append([m["family"], num(m["param"], 3), "error: " + m["error"]]
+                            + [""] * len(sets))
+                continue
+            rows.append([m["family"], num(m["param"], 3), num(m["elements"])]
+                        + [num(100 * m["errors"][k], 3) for k in sets]
+                        + [num(m["solve_seconds"], 1)])
+        out += markdown_table(["mesh", "h or δ0", "tets"]
+                              + [f"max error {k} %" for k in sets] + ["solve s"], rows)
+        out += [""]
+        need = []
+        for key, nd in s.needed_by_set.items():
+            nu, na = nd["uniform"], nd["adaptive"]
+            ratio = na / nu if (nu and na) else None
+            need.append([key, num(nu, 0) + ("" if nd["uniform_exact"] or nu is None
+                                            else " (upper bound)"),
+                         num(na, 0) + ("" if nd["adaptive_exact"] or na is None
+                                       else " (upper bound)"),
+                         num(ratio, 3), NA if ratio is None else
+                         ("yes" if ratio <= 0.5 else "no")])
+        out += markdown_table(["probes", "uniform tets", "adaptive tets", "adaptive/uniform",
+                               "≤ 0.5"], need) + [""]
+    return out

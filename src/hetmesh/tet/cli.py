@@ -135,15 +135,20 @@ def plot_tets(model, res, path: Path, title: str) -> None:
 
 def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
     """Mesh a 3D model as ``hetmesh mesh`` asked; returns the exit status."""
-    if args.command != "mesh":
+    if args.command not in ("mesh", "uniform"):
         raise OptionError(f"hetmesh {args.command} is not available for 3D models yet "
-                          f"(hetmesh mesh is)")
+                          f"(hetmesh mesh and uniform are)")
     kw = check_tet_options(args, kwargs)
     from ..options import check_sampling
     check_sampling(model.material, kw.get("sampling", "vertices"),
                    names={"sampling": "--sampling"})
     t0 = time.perf_counter()
-    res = mesh_model(model, args.threshold, **kw)
+    if args.command == "uniform":  # the uniform baseline (hetmesh.tet.uniform)
+        from .uniform import uniform_model
+        kw = {k: v for k, v in kw.items() if k in ("chord_tol", "max_elements")}
+        res = uniform_model(model, args.threshold, **kw)
+    else:
+        res = mesh_model(model, args.threshold, **kw)
     seconds = time.perf_counter() - t0
     from ..io.export import write_mesh
     written = [write_mesh(res.mesh, args.output, file_format=args.format)]

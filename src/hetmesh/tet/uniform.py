@@ -1,0 +1,434 @@
+"""The uniform tetrahedral baseline: the coarsest mesh of one size h meeting delta_0.
+
+The 3D counterpart of :func:`hetmesh.tri.uniform.uniform`. At a size ``h`` the solid's
+section (a prism: box, cylinder, extrusion) or profile (a solid of revolution) gets the 2D
+uniform quality mesh of edge ~h (:func:`hetmesh.tri.uniform.uniform_at`: boundary curves
+split into pieces of ~h, a hexagonal lattice inside, the feature tree's discontinuities
+embedded), which is swept through layers of thickness ~h along the axis, or through angular
+steps of at most ~h at the largest radius about it; every triangular prism becomes three
+tetrahedra (:func:`hetmesh.tet.extrude.prism_tets`). No element is refined for the material:
+delta(T) over the four vertices is measured, and the size is searched as in 2D -- lowered by
+0.8 until delta_max < delta_0, raised by 1.25 until it fails, then bisected on log h until the
+passing and failing sizes are within 2 % -- and the coarsest passing mesh is verified
+(:func:`hetmesh.tet.verify.tet_problems`, :func:`hetmesh.tet.revolve.revolution_problems`)
+and returned. Every size's element count is estimated before it is meshed, so a threshold
+that would need more than ``max_elements`` raises :class:`~hetmesh.errors.BudgetError`
+instead of running on.
+
+>>> import hetmesh
+>>> r = uniform_tets(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.3)
+>>> r.mesh.cell_type, bool(r.stats.delta_max < 0.3), r.options["placement"]
+('tetra', True, 'uniform swept')
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import BudgetError, OptionError, VerificationError
+from ..kernel import Result
+from ..mesh import simplex_measures
+from ..metrics import delta_vertices, dihedral_angles, statistics
+from .api import DEFAULT_MAX_ELEMENTS, to_mesh
+from .extrude import prism_tets
+from .faces import boundary_faces
+from .mesher import TetResult
+
+__all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
+           "SectionMesher", "estimate_uniform", "section_chord", "TETS_PER_H3"]
+
+log = logging.getLogger(__name__)
+
+#: tetrahedra per h^3 of volume in a swept uniform mesh: 4 / (sqrt(3) h^2) triangles per
+#: unit area (equilateral, edge h), 3 tetrahedra per triangle and layer of thickness h
+TETS_PER_H3 = 12.0 / math.sqrt(3.0)
+#: default chord tolerance of curved faces, x the solid's diameter (as for the adaptive mesh)
+CHORD = 2e-3
+#: stop the size search when the failing and passing sizes are this close (ratio)
+BRACKET = 1.02
+
+
+def _is_revolution(solid) -> bool:
+    from .revolve import Revolution
+
+    return isinstance(solid, Revolution)
+
+
+def section_chord(solid, chord_tol: float | None) -> float:
+    """The 2D mesh's chord tolerance relative to the section's (profile's) diameter, from the
+    solid's (relative to its diameter): all of it for a prism, half for a revolution (the
+    angular steps take the other half)."""
+    revolved = _is_revolution(solid)
+    dom = solid.profile if revolved else solid.section
+    chord = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
+    return min(max((0.5 if revolved else 1.0) * chord / dom.diameter, 1e-7), 0.05)
+
+
+def estimate_uniform(solid, h: float) -> float:
+    """A-priori tetrahedron count of a swept uniform mesh of size ``h`` (volume x
+    :data:`TETS_PER_H3` / h^3, plus 10 % for the boundary)."""
+    return 1.1 * TETS_PER_H3 * float(solid.volume) / h ** 3 + 100.0
+
+
+class SectionMesher:
+    """The 2D uniform quality meshes of a solid's section (or profile), one per size.
+
+    The 2D model -- the section or profile and its 2D field (the extruded model's own field,
+    the axisymmetric profile field, or the field on the middle section) -- is prepared once
+    (discontinuities embedded, local frame); :meth:`__call__` meshes it at edge ``h`` (user
+    units) and returns the verified :class:`~hetmesh.mesh.Mesh` (subregions as cell data
+    ``subregion``; delta is not required of it) and the triangles' delta over their
+    vertices in the 2D field.
+    """
+
+    def __init__(self, model, threshold: float, chord_rel: float):
+        from ..io.model import Model
+        from ..tri.discontinuity import embed_discontinuities
+        from ..tri.pipeline import prepare
+        from .extrude import mid_section_field
+        from .revolve import profile_field
+
+        solid = model.solid
+        if _is_revolution(solid):
+            domain = solid.profile
+            f2 = model.material2d or profile_field(model.material, solid)
+        else:
+            domain = solid.section
+            f2 = model.material2d or mid_section_field(solid, model.material)
+        self.threshold = float(threshold)
+        self.model2d = embed_discontinuities(Model(name=model.name, domain=domain,
+                                                   material=f2))
+        self.ctx, self.frame = prepare(self.model2d, self.threshold, None, chord_rel)
+
+    def __call__(self, h: float, *, min_angle: float = 30.0, max_elements: int | None = None):
+        from ..tri.finish import finish
+        from ..tri.refine import evaluate
+        from ..tri.uniform import uniform_at
+
+        kw = {} if max_elements is None else {"max_elements": int(max_elements)}
+        ws, tris = uniform_at(self.ctx, float(h) / self.frame.scale, min_angle_deg=min_angle,
+                              **kw)
+        comp, delta = evaluate(self.ctx, ws, tris, "vertices")
+        mesh, _ = finish(ws, self.ctx, tris, comp, delta, self.frame,
+                         threshold=self.threshold, min_angle_deg=min_angle, check_delta=False)
+        return mesh, delta
+
+
+def _sweep_prism(solid, p2, t2, h):
+    nl = max(1, int(math.ceil(solid.length / h - 1e-9)))
+    levels = solid.s0 + solid.length * np.arange(nl + 1) / nl
+    levels[-1] = solid.s1
+    pl, tets, _ = prism_tets(p2, t2, levels)
+    points = solid.to3d(pl[:, :2], pl[:, 2])
+    tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), nl)
+    return points, tets, tri_of, {"layers": nl}
+
+
+def _angular_steps(solid, p2, h, chord) -> int:
+    r_max = max(float(p2[:, 0].max()), 1e-300)
+    step_chord = 2.0 * math.acos(max(-1.0, 1.0 - 0.5 * chord / r_max))
+    step = min(step_chord, h / r_max)
+    return max(3 if solid.full else 1, int(math.ceil(solid.sweep / step - 1e-9)))
+
+
+def _sweep_revolution(solid, p2, t2, h, chord):
+    """The profile mesh turned through equal angular steps of at most ``h`` at the largest
+    radius (and within the chord tolerance there); the copies of a vertex on the axis, and
+    of the last angle of a full turn, merged; the collapsed tetrahedra dropped."""
+    n = _angular_steps(solid, p2, h, chord)
+    theta = solid.sweep * np.arange(n + 1) / n
+    pl, tets, _ = prism_tets(p2, t2, theta)
+    n2 = len(p2)
+    ids = np.arange(len(pl))
+    if solid.full:
+        ids[n * n2:] = ids[:n2]
+    on_axis = np.flatnonzero(np.abs(p2[:, 0]) <= 1e-12 * solid.profile.diameter)
+    for j in range(n + 1):
+        ids[j * n2 + on_axis] = ids[on_axis]
+    tets = ids[tets]
+    keep = (np.diff(np.sort(tets, axis=1), axis=1) > 0).all(axis=1)
+    tets = tets[keep]
+    used, inv = np.unique(tets, return_inverse=True)
+    q = pl[used]
+    points = solid.to3d(q[:, :2], q[:, 2])
+    points[np.abs(q[:, 0]) <= 1e-12 * solid.profile.diameter, :2] = 0.0
+    tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), n)[keep]
+    return points, inv.reshape(-1, 4), tri_of, {"angular_steps": n}
+
+
+def _delta(field, points, tets, regions):
+    """delta(T) over the vertices, each vertex evaluated in its tetrahedron's subregion when
+    the field has subregions (a vertex on a discontinuity takes its element's side)."""
+    if regions is None:
+        return delta_vertices(field.composition(points), tets)
+    c = field.composition(points[tets.ravel()], region=np.repeat(regions, 4))
+    c = c.reshape(len(tets), 4, -1)
+    return (c.max(axis=1) - c.min(axis=1)).max(axis=1)
+
+
+def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMesher | None = None,
+                    chord_tol: float | None = None, max_elements: int | None = None,
+                    min_angle: float = 30.0) -> TetResult:
+    """The swept uniform tetrahedral mesh of ``model`` (a 3D model) at size ``h`` (model
+    units), not verified: its ``delta`` over the vertices, ``threshold`` recorded but not
+    required. ``sections``: a :class:`SectionMesher` of the model to reuse; ``chord_tol``
+    relative to the solid's diameter (default :data:`CHORD`)."""
+    solid = model.solid
+    chord = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
+    revolved = _is_revolution(solid)
+    dom = solid.profile if revolved else solid.section
+    sec_rel = section_chord(solid, chord_tol)
+    if sections is None:
+        sections = SectionMesher(model, threshold, sec_rel)
+    est = estimate_uniform(solid, h)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about {est:,.0f} "
+                          f"tetrahedra, over the budget of {max_elements:,}")
+    m2, _ = sections(h, min_angle=min_angle, max_elements=max_elements)
+    p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
+    if revolved:
+        points, tets, tri_of, info = _sweep_revolution(solid, p2, t2, h, chord)
+    else:
+        points, tets, tri_of, info = _sweep_prism(solid, p2, t2, h)
+    if max_elements is not None and len(tets) > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(tets):,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+    v = simplex_measures(points, tets)
+    tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
+    tets = tets.astype(np.int32)
+    sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
+    regions = None if sub2 is None else np.asarray(sub2)[tri_of].astype(np.int32)
+    delta = _delta(model.material, points, tets, regions)
+    faces, _ = boundary_faces(tets)
+    markers = solid.classify_faces(points[faces]) + 1
+    info.update({"placement": "uniform swept" if not revolved else "uniform revolved",
+                 "size": float(h), "section_triangles": int(len(t2)), "estimate": est,
+                 "chord_tol": chord, "section_chord_tol": sec_rel * dom.diameter})
+    res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
+                    tuple(solid.face_names), delta, float(threshold), info)
+    if regions is not None:
+        res.info["regions"] = regions
+    return res
+
+
+def verify_uniform(res: TetResult, solid) -> None:
+    """Raise :class:`VerificationError` naming the first broken claim of a uniform mesh
+    (validity, faces, chord tolerance, volume, delta_max < delta_0)."""
+    if _is_revolution(solid):
+        from .revolve import revolution_problems
+        probs = revolution_problems(res, solid, None, res.info["chord_tol"])
+    else:
+        from .verify import tet_problems
+        # the section's chords: as the 2D mesher verified them (1e-6 for rounding)
+        probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
+                             res.delta, res.threshold,
+                             res.info["section_chord_tol"] * (1 + 1e-6))
+    if probs:
+        raise VerificationError(f"uniform tetrahedral mesh verification failed: {probs[0]}"
+                                + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
+
+
+def _is_swept(model) -> bool:
+    """Whether the composition is the section's (profile's) at every point of the sweep: an
+    extruded 2D model, or an axisymmetric field on a solid of revolution. Then every
+    tetrahedron's vertices are copies of one triangle's, among them all three: its delta is
+    its triangle's, and the size search can run on the section's mesh alone."""
+    if model.material2d is not None:
+        return True
+    if _is_revolution(model.solid):
+        from .revolve import is_axisymmetric
+        return is_axisymmetric(model.material, model.solid)
+    return False
+
+
+def _section_trial(model, h, threshold, sections, chord_tol, max_elements, min_angle):
+    """The section's mesh at ``h`` standing for the swept mesh in the size search: a
+    :class:`TetResult` without tetrahedra whose ``delta`` is the triangles' (the swept
+    tetrahedra's, see :func:`_is_swept`) and whose ``info["elements"]`` is the number of
+    tetrahedra the sweep makes (a vertex on the axis of a revolution merges: a triangle with
+    k vertices on it gives 3 - k tetrahedra per step)."""
+    solid = model.solid
+    est = estimate_uniform(solid, h)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about {est:,.0f} "
+                          f"tetrahedra, over the budget of {max_elements:,}")
+    m2, delta2 = sections(h, min_angle=min_angle, max_elements=max_elements)
+    p2, t2 = np.asarray(m2.points), np.asarray(m2.cells)
+    if _is_revolution(solid):
+        chord = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
+        n = _angular_steps(solid, p2, h, chord)
+        on_axis = np.abs(p2[:, 0]) <= 1e-12 * solid.profile.diameter
+        count = int((3 - on_axis[t2].sum(axis=1)).clip(0).sum()) * n
+    else:
+        count = 3 * len(t2) * max(1, int(math.ceil(solid.length / h - 1e-9)))
+    if max_elements is not None and count > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {count:,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+    return TetResult(np.empty((0, 3)), np.empty((0, 4), dtype=np.int32),
+                     np.empty((0, 3), dtype=np.int32), np.empty(0, dtype=np.int32),
+                     tuple(solid.face_names), np.asarray(delta2), float(threshold),
+                     {"size": float(h), "elements": count})
+
+
+def _start_size(model, threshold: float) -> float:
+    """delta_0 / max |grad f| over sample points (the size at which a straight edge along
+    the steepest gradient varies by delta_0), at most a quarter of the section's diameter."""
+    solid = model.solid
+    p = solid.sample(16)
+    g = np.linalg.norm(model.material.gradient(p), axis=2).max() if len(p) else 0.0
+    dom = solid.profile if _is_revolution(solid) else solid.section
+    cap = dom.diameter / 4
+    return float(min(threshold / g, cap)) if g > 0 else float(cap)
+
+
+def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
+                  max_elements: int | None = DEFAULT_MAX_ELEMENTS, min_angle: float = 30.0,
+                  tries: int = 14, progress=None) -> TetResult:
+    """The coarsest uniform tetrahedral mesh of a 3D model with delta_max < ``threshold``,
+    verified, as a :class:`~hetmesh.tet.mesher.TetResult` (as
+    :func:`hetmesh.tet.api.mesh_model` returns; :func:`uniform_tets` wraps it as a
+    :class:`~hetmesh.kernel.Result`): ``info["size"]`` the size used, ``info["history"]``
+    every size tried, ``info["composition"]`` the vertex compositions, ``mesh`` the
+    :class:`~hetmesh.mesh.Mesh`. Options as :func:`uniform_tets`.
+    """
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) \
+            or not 0 < threshold < 1:
+        raise OptionError(f"threshold must be in (0, 1), got {threshold!r}")
+    if chord_tol is not None and not 1e-7 <= chord_tol <= 0.05:
+        raise OptionError(f"chord_tol must be in [1e-7, 0.05], got {chord_tol!r}")
+    if max_elements is not None and max_elements < 1:
+        raise OptionError(f"max_elements must be positive, got {max_elements!r}")
+    if not 0 < min_angle < 35:
+        raise OptionError(f"min_angle must be in (0, 35) degrees, got {min_angle!r}")
+    t0 = time.perf_counter()
+    threshold = float(threshold)
+    solid = model.solid
+    sections = SectionMesher(model, threshold, section_chord(solid, chord_tol))
+    h = _start_size(model, threshold)
+    best: TetResult | None = None
+    best_count = 0
+    h_pass = h_fail = None
+    history = []
+    swept = _is_swept(model)
+    for i in range(tries):
+        try:
+            if swept:
+                res = _section_trial(model, h, threshold, sections, chord_tol, max_elements,
+                                     min_angle)
+            else:
+                res = uniform_tets_at(model, h, threshold, sections=sections,
+                                      chord_tol=chord_tol, max_elements=max_elements,
+                                      min_angle=min_angle)
+        except BudgetError as exc:
+            if h_pass is None:
+                raise BudgetError(f"no uniform tetrahedral mesh meets delta_max < "
+                                  f"{threshold:g} within the budget: {exc}") from None
+            h_fail = h if h_fail is None else min(h_fail, h)  # above the budget: too fine
+            history.append({"round": i, "h": h, "elements": None, "delta_max": None,
+                            "pass": False})
+            res = None
+        if res is not None:
+            dmax = float(res.delta.max())
+            ok = dmax < threshold
+            n_el = int(res.info.get("elements", len(res.tets)))
+            history.append({"round": i, "h": h, "elements": n_el,
+                            "delta_max": dmax, "pass": bool(ok)})
+            log.info("uniform 3D: h = %.4g, %d tetrahedra, delta_max = %.4g (%s)", h,
+                     n_el, dmax, "pass" if ok else "fail")
+            if ok:
+                if best is None or n_el < best_count:
+                    best, best_count = res, n_el
+                h_pass = h if h_pass is None else max(h_pass, h)
+            else:
+                h_fail = h if h_fail is None else min(h_fail, h)
+        if progress:
+            progress("uniform", (i + 1) / tries)
+        if h_pass is None:
+            h *= 0.8
+        elif h_fail is None:
+            h *= 1.25
+        else:
+            if h_fail / h_pass < BRACKET:
+                break
+            h = math.sqrt(h_pass * h_fail)
+    if best is None:
+        raise BudgetError(f"no uniform tetrahedral mesh met delta_max < {threshold:g} within "
+                          f"{tries} sizes (the last {history[-1]['h']:.4g})")
+    if swept:  # the search ran on the section: sweep the coarsest passing size once
+        best = uniform_tets_at(model, best.info["size"], threshold, sections=sections,
+                               chord_tol=chord_tol, max_elements=max_elements,
+                               min_angle=min_angle)
+    verify_uniform(best, solid)
+    best.info["composition"] = np.asarray(model.material.composition(best.points),
+                                          dtype=np.float64)
+    best.mesh = to_mesh(best, model.constituents)
+    best.info["history"] = history
+    best.info["time_total"] = time.perf_counter() - t0
+    return best
+
+
+def uniform_tets(model, threshold: float, *, chord_tol: float | None = None,
+                 max_elements: int | None = DEFAULT_MAX_ELEMENTS, min_angle: float = 30.0,
+                 tries: int = 14, progress=None, **options) -> Result:
+    """The coarsest uniform tetrahedral mesh of a 3D model with delta_max < ``threshold``
+    (the 3D counterpart of :func:`hetmesh.tri.uniform.uniform`), verified.
+
+    Parameters
+    ----------
+    model : Model3D
+    threshold : float
+        delta_0 in (0, 1).
+    chord_tol : float, optional
+        Largest distance between a curved face and its triangles, relative to the solid's
+        diameter (default 0.002, as :func:`hetmesh.tet.api.mesh_model`).
+    max_elements : int, optional
+        Budget: a size whose estimate or mesh exceeds it ends the search with
+        :class:`BudgetError`.
+    min_angle : float
+        Smallest angle of the section's triangles (degrees).
+    tries : int
+        Most sizes tried.
+    progress : callable ``(stage, fraction)``, optional
+    **options
+        ``seed`` and ``sampling="vertices"`` are accepted (the mesh does not depend on a
+        seed; delta is over the vertices); anything else raises.
+
+    Returns
+    -------
+    Result
+        ``options["size"]`` the size used, ``history`` every size tried.
+
+    Examples
+    --------
+    >>> r = hetmesh.uniform(hetmesh.load_model("graded_cylinder.toml"), 0.1)   # doctest: +SKIP
+    """
+    for key, value in options.items():
+        if key == "seed":
+            continue
+        if key == "sampling" and value in (None, "vertices"):
+            continue
+        if key in ("sampling", "max_size", "method", "row_spacing", "min_quality",
+                   "optimize"):
+            if value is None:
+                continue
+            raise OptionError(f"{key}={value!r} is not available for uniform 3D meshes")
+        raise TypeError(f"uniform() got an unexpected keyword argument {key!r}")
+    t0 = time.perf_counter()
+    best = uniform_model(model, threshold, chord_tol=chord_tol, max_elements=max_elements,
+                         min_angle=min_angle, tries=tries, progress=progress)
+    seconds = time.perf_counter() - t0
+    q = best.mesh.cell_data["quality"]
+    ang = dihedral_angles(best.points, best.tets).min(axis=1)
+    stats = statistics(best.points, best.tets, best.delta, quality=q, angle=ang)
+    stats = replace(stats, delta_max_vertices=stats.delta_max)
+    opts = dict(threshold=threshold, size=float(best.info["size"]), chord_tol=chord_tol,
+                max_elements=max_elements, min_angle=min_angle,
+                placement=best.info["placement"])
+    return Result(mesh=best.mesh, stats=stats, threshold=float(threshold),
+                  history=best.info["history"],
+                  timings={"total": seconds}, options=opts, model=model)
