@@ -297,7 +297,7 @@ def test_cli_plot_and_stats(tmp_path, capsys):
 
 @pytest.mark.parametrize("extra, contains", [
     (["--method", "cvt"], "--method is not available for 3D models"),
-    (["--sampling", "dense"], "--sampling dense is not available"),
+    (["--sampling", "voxels"], "--sampling"),
     (["--threshold", "0"], "threshold"),
     (["--threshold", "0.01", "--max-elements", "1000"], "but the budget is 1000"),
 ])

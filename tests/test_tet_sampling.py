@@ -111,3 +111,12 @@ def test_cli_mesh_and_stats_take_dense_and_certified_sampling_in_3d(tmp_path):
                          "--sampling", "dense", "--json"], capture_output=True, text=True)
     assert st.returncode == 0, st.stderr
     assert json.loads(st.stdout)["delta_max"] < 0.2
+
+
+def test_certified_sampling_on_a_solid_of_primitives():
+    model = hetmesh.load_model(hetmesh.example_path("graded_sphere"))
+    r = hetmesh.generate(model, 0.3, sampling="certified")
+    M = r.mesh
+    check_tet_mesh(M.points, M.cells, lambda p: np.zeros(len(p)), 0.3)
+    assert certified_delta(model.material, M.points, M.cells, threshold=0.3).max() < 0.3
+    assert set(M.marker_names.values()) == {"inner", "outer", "xmin", "ymin", "zmin"}

@@ -50,6 +50,10 @@ def _delta_independent(model, mesh):
 def test_every_3d_example_gets_a_verified_uniform_mesh(path):
     model = load_model(path)
     d0 = COARSE.get(model.name, 0.4)
+    if not hasattr(model.solid, "section") and not hasattr(model.solid, "profile"):
+        with pytest.raises(OptionError, match="solids of primitives"):
+            hetmesh.uniform(model, d0)  # a solid of primitives: refused in one line
+        return
     r = hetmesh.uniform(model, d0)
     m = r.mesh
     assert m.dim == 3 and m.cell_type == "tetra" and m.problems() == []

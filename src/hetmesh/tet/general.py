@@ -477,7 +477,8 @@ _BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5
 
 def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
     """Every broken claim of a mesh of ``solid``, one line each (empty: valid). delta is
-    recomputed from ``field``."""
+    recomputed from ``field`` at the vertices (None: the result's own delta, as another
+    sampling measured it)."""
     p, t = res.points, res.tets
     if len(t) == 0:
         return ["no tetrahedra"]
@@ -519,7 +520,7 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
         c = cen[outside][0]
         out.append(f"{int(outside.sum())} tetrahedra outside the solid (e.g. at "
                    f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
-    delta = delta_vertices(field.composition(p), t)
+    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
     if not float(delta.max()) < res.threshold:
         out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
                    f"{res.threshold:g}")

@@ -209,9 +209,13 @@ def resample(res, solid, field, sampling: str, *, max_elements: int | None = Non
 
 def _problems(res, solid, chord: float) -> list[str]:
     """The verification of ``res`` with its own (sampled) delta, by the solid's kind."""
+    from .general import solid_problems
+    from .implicit import CSGSolid
     from .revolve import Revolution, revolution_problems
     from .verify import tet_problems
     if isinstance(solid, Revolution):
         return revolution_problems(res, solid, None, chord)
+    if isinstance(solid, CSGSolid):
+        return solid_problems(res, solid, None, chord)
     return tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
                         res.delta, res.threshold, chord)
