@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
+from dataclasses import replace as _replace
 from pathlib import Path
 
 import numpy as np
@@ -87,8 +88,6 @@ def _read(ctx, key: str, value, mtable, shape=None):
 
 def _geometry(ctx, t: Mapping, img):
     """``img`` with the slice, row order, origin, spacing and bounds the model file gives."""
-    from dataclasses import replace as _replace
-
     if "slice" in t:
         k = t["slice"]
         if isinstance(k, bool) or not isinstance(k, int):
@@ -103,6 +102,15 @@ def _geometry(ctx, t: Mapping, img):
     if img.dim == 3:
         raise MaterialError(f"{img.source}: a 3-D volume of {img.shape[0]} slices; 2-D "
                             f"meshing needs one of them (material.slice = k)")
+    return place_image(ctx, t, img, ctx.point, npy_raster=True)
+
+
+def place_image(ctx, t: Mapping, img, coords, npy_raster: bool):
+    """``img`` (2-D or a volume) with the row order (``first_row``), origin, spacing or
+    bounds the model file's table ``t`` gives. ``coords(value, key)`` parses a point of the
+    image's dimension; ``npy_raster``: whether a ``.npy`` file is stored top row first (a
+    2-D array of rows is; the slices of a volume are not)."""
+    d = img.dim
     if "first_row" in t:
         row = ctx.string(t, "material", "first_row")
         if row not in ("top", "bottom"):
@@ -110,40 +118,43 @@ def _geometry(ctx, t: Mapping, img):
                                                  f"{row!r}")
         from . import RASTER_SUFFIXES
 
-        raster = Path(img.source).suffix.lower() in RASTER_SUFFIXES + (".npy",)
+        raster = Path(img.source).suffix.lower() in RASTER_SUFFIXES + (
+            (".npy",) if npy_raster else ())
         if (row == "bottom") == raster:  # undo the reader's flip, or flip
-            ax = 0
-            img = _replace(img, values=np.ascontiguousarray(np.flip(img.values, axis=ax)))
+            img = _replace(img, values=np.ascontiguousarray(np.flip(img.values, axis=d - 2)))
     n = np.array(img.shape[::-1], float)
     if "bounds" in t:
         if "origin" in t or "spacing" in t:
             raise ctx.fail("material.bounds", "give either bounds or origin/spacing, not both")
         b = t["bounds"]
-        ok = isinstance(b, list) and len(b) == 4 and all(
+        ok = isinstance(b, list) and len(b) == 2 * d and all(
             isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
             for v in b)
+        names = "xyz"[:d]
         if not ok:
-            raise ctx.fail("material.bounds", f"expected [x0, y0, x1, y1], got "
-                                              f"{describe(b)}")
-        lo, hi = np.array(b[:2], float), np.array(b[2:], float)
+            want = ", ".join([f"{c}0" for c in names] + [f"{c}1" for c in names])
+            raise ctx.fail("material.bounds", f"expected [{want}], got {describe(b)}")
+        lo, hi = np.array(b[:d], float), np.array(b[d:], float)
         if (hi <= lo).any():
-            raise ctx.fail("material.bounds", f"spacing <= 0: x1 > x0 and y1 > y0 needed, "
-                                              f"got {describe(b)}")
+            need = " and ".join([", ".join(f"{c}1 > {c}0" for c in names[:-1]),
+                                 f"{names[-1]}1 > {names[-1]}0"])
+            raise ctx.fail("material.bounds", f"spacing <= 0: {need} needed, got "
+                                              f"{describe(b)}")
         sp = (hi - lo) / n
         return _replace(img, origin=tuple(lo + 0.5 * sp), spacing=tuple(sp))
     sp, org = img.spacing, img.origin
     if "spacing" in t:
         v = t["spacing"]
         if isinstance(v, (int, float)) and not isinstance(v, bool):
-            v = [v, v]
-        s = ctx.point(v, "material.spacing")
+            v = [v] * d
+        s = coords(v, "material.spacing")
         if min(s) <= 0:
             raise ctx.fail("material.spacing", f"spacing must be positive, got {list(s)}")
         sp = s
         if "origin" not in t and not img.origin_from_file:
             org = tuple(0.5 * np.asarray(s))
     if "origin" in t:
-        org = ctx.point(t["origin"], "material.origin")
+        org = coords(t["origin"], "material.origin")
     return _replace(img, origin=tuple(float(o) for o in org),
                     spacing=tuple(float(s) for s in sp))
 
@@ -330,8 +341,6 @@ def parse_image(ctx, table, domain, parameters=None, src=None, traced=None):
         if "files" in src:
             stacked = np.stack([scalar_values(ctx, "material.file", im).astype(float)
                                 for im in src["files"].values()], axis=-1)
-            from dataclasses import replace as _replace
-
             img = _replace(geo, values=stacked, channels=True,
                            source=", ".join(im.source for im in src["files"].values()))
             return image_field(img, vmap, cons, **opts)

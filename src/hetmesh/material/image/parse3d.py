@@ -16,7 +16,7 @@ import numpy as np
 
 from ...errors import MaterialError, ModelFileError
 from ...io.schema import describe
-from .parse import parse_constituents, parse_value_map, scalar_values
+from .parse import parse_constituents, parse_value_map, place_image, scalar_values
 
 __all__ = ["read_volume", "parse_volume", "volume_solid", "VOLUME_KEYS"]
 
@@ -51,48 +51,7 @@ def _triple(ctx, v, key: str) -> tuple[float, float, float]:
 
 def _geometry3d(ctx, t: Mapping, img):
     """``img`` with the row order, origin, spacing and bounds the model file gives."""
-    if "first_row" in t:
-        row = ctx.string(t, "material", "first_row")
-        if row not in ("top", "bottom"):
-            raise ctx.fail("material.first_row", f"expected \"top\" or \"bottom\", got "
-                                                 f"{row!r}")
-        from . import RASTER_SUFFIXES
-
-        raster = Path(img.source).suffix.lower() in RASTER_SUFFIXES
-        if (row == "bottom") == raster:  # undo the reader's flip, or flip
-            img = replace(img, values=np.ascontiguousarray(np.flip(img.values, axis=1)))
-    n = np.array(img.shape[::-1], float)
-    if "bounds" in t:
-        if "origin" in t or "spacing" in t:
-            raise ctx.fail("material.bounds", "give either bounds or origin/spacing, not both")
-        b = t["bounds"]
-        ok = isinstance(b, list) and len(b) == 6 and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-            for v in b)
-        if not ok:
-            raise ctx.fail("material.bounds", f"expected [x0, y0, z0, x1, y1, z1], got "
-                                              f"{describe(b)}")
-        lo, hi = np.array(b[:3], float), np.array(b[3:], float)
-        if (hi <= lo).any():
-            raise ctx.fail("material.bounds", f"spacing <= 0: x1 > x0, y1 > y0 and z1 > z0 "
-                                              f"needed, got {describe(b)}")
-        sp = (hi - lo) / n
-        return replace(img, origin=tuple(lo + 0.5 * sp), spacing=tuple(sp))
-    sp, org = img.spacing, img.origin
-    if "spacing" in t:
-        v = t["spacing"]
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
-            v = [v, v, v]
-        s = _triple(ctx, v, "material.spacing")
-        if min(s) <= 0:
-            raise ctx.fail("material.spacing", f"spacing must be positive, got {list(s)}")
-        sp = s
-        if "origin" not in t and not img.origin_from_file:
-            org = tuple(0.5 * np.asarray(s))
-    if "origin" in t:
-        org = _triple(ctx, t["origin"], "material.origin")
-    return replace(img, origin=tuple(float(o) for o in org),
-                   spacing=tuple(float(s) for s in sp))
+    return place_image(ctx, t, img, lambda v, key: _triple(ctx, v, key), npy_raster=False)
 
 
 def read_volume(ctx, table) -> dict | None:
