@@ -349,12 +349,18 @@ def gmsh_mesh(domain, size, *, field: str = "grid", cells: int = GRID_CELLS,
     finally:
         gmsh.finalize()
     seconds = time.perf_counter() - t0
+    tris = _cells_by_index(tags, enodes, 3)
+    pts, tris = _compact(xyz.reshape(-1, 3)[:, :2], tris)
+    return PeerMesh(pts, tris, seconds)
+
+
+def _cells_by_index(tags: np.ndarray, enodes: np.ndarray, k: int) -> np.ndarray:
+    """Gmsh's element node tags ``enodes`` as ``(M, k)`` indices into its node list, whose
+    node tags are ``tags`` (as ``gmsh.model.mesh.getNodes`` returns them)."""
     tags = tags.astype(np.int64)
     index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
     index[tags] = np.arange(len(tags))
-    tris = index[enodes.astype(np.int64)].reshape(-1, 3)
-    pts, tris = _compact(xyz.reshape(-1, 3)[:, :2], tris)
-    return PeerMesh(pts, tris, seconds)
+    return index[enodes.astype(np.int64)].reshape(-1, k)
 
 
 def _gmsh_grid_field(gmsh, domain, size, cells: int) -> None:
@@ -625,10 +631,7 @@ def gmsh_mesh3d(model, size: SizeField, *, section=None, threads: int = 1,
     finally:
         gmsh.finalize()
     seconds = time.perf_counter() - t0
-    tags = tags.astype(np.int64)
-    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-    index[tags] = np.arange(len(tags))
-    tets = index[enodes.astype(np.int64)].reshape(-1, 4)
+    tets = _cells_by_index(tags, enodes, 4)
     used, inv = np.unique(tets, return_inverse=True)
     p = xyz.reshape(-1, 3)[used]
     points = solid.to3d(p[:, :2], p[:, 2] + solid.s0)

@@ -36,7 +36,8 @@ from ..options import DEFAULT_ROW_SPACING
 from .extrude import generate_extruded
 from .mesher import TetResult, generate_tets
 
-__all__ = ["mesh_model", "generate", "to_mesh", "DEFAULT_MAX_ELEMENTS", "OPTIONS_2D"]
+__all__ = ["mesh_model", "generate", "to_mesh", "result_statistics", "DEFAULT_MAX_ELEMENTS",
+           "OPTIONS_2D"]
 
 DEFAULT_MAX_ELEMENTS = 20_000_000
 
@@ -130,6 +131,16 @@ def _planar_prism(solid, field):
     return None
 
 
+def result_statistics(res: TetResult, delta_at_vertices: np.ndarray):
+    """The :class:`~hetmesh.metrics.MeshStats` of a tetrahedral result (its mesh built by
+    :func:`to_mesh`): ``q`` the radius ratio, ``angle`` the smallest dihedral angle, delta
+    the result's own (its sampling's), ``delta_max_vertices`` from ``delta_at_vertices``."""
+    q = res.mesh.cell_data["quality"]
+    ang = dihedral_angles(res.points, res.tets).min(axis=1)
+    stats = statistics(res.points, res.tets, res.delta, quality=q, angle=ang)
+    return replace(stats, delta_max_vertices=float(delta_at_vertices.max()))
+
+
 def to_mesh(res: TetResult, constituents) -> Mesh:
     """The :class:`~hetmesh.mesh.Mesh` of a tetrahedral result: the boundary triangles as
     facets with their face markers and names, the compositions as point data (one array per
@@ -170,12 +181,9 @@ def generate(model, threshold: float, *, seed: int = 0, chord_tol: float | None 
     res = mesh_model(model, threshold, seed=seed, chord_tol=chord_tol,
                      max_elements=max_elements, max_size=max_size, sampling=sampling)
     seconds = time.perf_counter() - t0
-    q = res.mesh.cell_data["quality"]
-    ang = dihedral_angles(res.points, res.tets).min(axis=1)
-    stats = statistics(res.points, res.tets, res.delta, quality=q, angle=ang)
     dv = delta_vertices(res.info["composition"], res.tets) if sampling != "vertices" \
         else res.delta
-    stats = replace(stats, delta_max_vertices=float(dv.max()))
+    stats = result_statistics(res, dv)
     opts = dict(threshold=threshold, seed=seed, chord_tol=chord_tol,
                 max_elements=max_elements, max_size=max_size, sampling=sampling,
                 placement=res.info.get("placement"))

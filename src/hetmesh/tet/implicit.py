@@ -27,6 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import GeometryError
+from .solid import grid_inside
 
 __all__ = ["Surface", "Box", "Cylinder", "Sphere", "CSGSolid", "BOX_FACES"]
 
@@ -312,10 +313,7 @@ class CSGSolid:
 
     def sample(self, n: int = 24) -> np.ndarray:
         """About ``n**3`` points of a regular grid over the bounds, those in the solid."""
-        lo, hi = self.bounds
-        g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
-        p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
-        return p[self.contains(p)]
+        return grid_inside(self, n)
 
     def _face_present(self, i: int, k: int, s: Surface) -> bool:
         pts = _surface_sample(s, self.primitives[i], 40)

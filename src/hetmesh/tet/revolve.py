@@ -41,6 +41,7 @@ from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import repair
 from .smooth import smooth
+from .solid import grid_inside
 from .verify import validity_problems
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
@@ -150,10 +151,8 @@ class Revolution:
         return ok
 
     def sample(self, n: int = 24) -> np.ndarray:
-        lo, hi = self.bounds
-        g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
-        p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
-        return p[self.contains(p)]
+        """About ``n**3`` points of a regular grid over the bounds, those in the solid."""
+        return grid_inside(self, n)
 
 
 class RevolvedField(SectionField):

@@ -26,11 +26,20 @@ import numpy as np
 from ..errors import GeometryError
 from ..tri.geometry import Arc, Loop, Segment, make_domain
 
-__all__ = ["Prism", "box", "cylinder", "AXES"]
+__all__ = ["Prism", "box", "cylinder", "grid_inside", "AXES"]
 
 AXES = {"x": 0, "y": 1, "z": 2}
 #: section coordinates (u, v) of each axis, cyclic so that (u, v, s) is right-handed
 _UV = {0: (1, 2), 1: (2, 0), 2: (0, 1)}
+
+
+def grid_inside(solid, n: int = 24) -> np.ndarray:
+    """The points of the regular ``n x n x n`` grid over ``solid.bounds`` that
+    ``solid.contains``: sample points of any solid (prism, revolution, primitives)."""
+    lo, hi = solid.bounds
+    g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
+    p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
+    return p[solid.contains(p)]
 
 
 def _fmt(v: float) -> str:
@@ -142,10 +151,7 @@ class Prism:
 
     def sample(self, n: int = 24) -> np.ndarray:
         """About ``n**3`` points of a regular grid inside the solid, plus its corners."""
-        lo, hi = self.bounds
-        g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
-        p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
-        return p[self.contains(p)]
+        return grid_inside(self, n)
 
     def classify_faces(self, tri_points: np.ndarray) -> np.ndarray:
         """The face marker (index in :attr:`face_names`) of boundary triangles given by

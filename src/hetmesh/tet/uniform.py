@@ -26,15 +26,14 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import replace
 
 import numpy as np
 
 from ..errors import BudgetError, OptionError, VerificationError
 from ..kernel import Result
 from ..mesh import simplex_measures
-from ..metrics import delta_vertices, dihedral_angles, statistics
-from .api import DEFAULT_MAX_ELEMENTS, to_mesh
+from ..metrics import delta_vertices
+from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
 from .extrude import prism_tets
 from .faces import boundary_faces
 from .mesher import TetResult
@@ -426,10 +425,7 @@ def uniform_tets(model, threshold: float, *, chord_tol: float | None = None,
     best = uniform_model(model, threshold, chord_tol=chord_tol, max_elements=max_elements,
                          min_angle=min_angle, tries=tries, progress=progress)
     seconds = time.perf_counter() - t0
-    q = best.mesh.cell_data["quality"]
-    ang = dihedral_angles(best.points, best.tets).min(axis=1)
-    stats = statistics(best.points, best.tets, best.delta, quality=q, angle=ang)
-    stats = replace(stats, delta_max_vertices=stats.delta_max)
+    stats = result_statistics(best, best.delta)
     opts = dict(threshold=threshold, size=float(best.info["size"]), chord_tol=chord_tol,
                 max_elements=max_elements, min_angle=min_angle,
                 placement=best.info["placement"])
