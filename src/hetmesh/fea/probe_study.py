@@ -242,14 +242,20 @@ def measure(model, cfg, kind: str, p: float, *, uniform_mesh=None) -> dict:
     ``uniform_mesh`` is a :func:`uniform_mesher` of ``model`` to reuse (default: a new one).
     """
     from ..tri.pipeline import generate
+
+    if kind == "adaptive":
+        return _solved_on(lambda: generate(model, p).mesh, model, cfg)
+    return _solved_on(lambda: (uniform_mesh or uniform_mesher(model))(p), model, cfg)
+
+
+def _solved_on(make_mesh, model, cfg) -> dict:
+    """:func:`measure`'s record of the mesh ``make_mesh()`` makes: its element count, the
+    von Mises stress at the probes and the two times, or ``{"error": message}``."""
     from .analysis import solve
 
     t0 = time.perf_counter()
     try:
-        if kind == "adaptive":
-            mesh = generate(model, p).mesh
-        else:
-            mesh = (uniform_mesh or uniform_mesher(model))(p)
+        mesh = make_mesh()
         t1 = time.perf_counter()
         r = solve(mesh, model, config=cfg)
     except HetmeshError as exc:
@@ -599,22 +605,12 @@ def measure3d(model, cfg, kind: str, p: float, *, sections=None,
     from ..meshing import generate
     from ..tet.api import to_mesh
     from ..tet.uniform import uniform_tets_at
-    from .analysis import solve
 
-    t0 = time.perf_counter()
-    try:
-        if kind == "adaptive":
-            mesh = generate(model, p, chord_tol=chord_tol).mesh
-        else:
-            res = uniform_tets_at(model, p, 0.5, sections=sections, chord_tol=chord_tol)
-            mesh = to_mesh(res, model.constituents)
-        t1 = time.perf_counter()
-        r = solve(mesh, model, config=cfg)
-    except HetmeshError as exc:
-        return {"error": str(exc).splitlines()[0] if str(exc) else type(exc).__name__}
-    vm = {k: float(v["von_mises"]) for k, v in r.probes.items()}
-    return {"elements": int(mesh.n_elements), "von_mises": vm, "mesh_seconds": t1 - t0,
-            "solve_seconds": time.perf_counter() - t1}
+    if kind == "adaptive":
+        return _solved_on(lambda: generate(model, p, chord_tol=chord_tol).mesh, model, cfg)
+    return _solved_on(lambda: to_mesh(uniform_tets_at(model, p, 0.5, sections=sections,
+                                                      chord_tol=chord_tol),
+                                      model.constituents), model, cfg)
 
 
 def study3d(model, reference: dict, *, quick: bool = False, progress: Progress | None = None,
