@@ -337,24 +337,13 @@ def _box_enclosure_2d(field):
     if inner2d is None or getattr(field, "dim", 2) != 3:
         return None
     inner, scale, offset = _unwrap(inner2d)
-    if isinstance(inner, AnalyticField):
-        enc = _FormulaEnclosure(inner, offset)
-    elif isinstance(inner, HFTField) and inner.unenclosable() is None:
-        enc = _TreeEnclosure(inner, offset)
-    else:
+    if scale != 1.0 or np.any(offset):  # a 2D field in a local frame: not met in 3D models
         return None
-    return enc if scale == 1.0 and not np.any(offset) else _Mapped2D(enc, scale, offset)
-
-
-class _Mapped2D:
-    """A 2D box enclosure seen through the affine map ``p -> p * scale + offset``."""
-
-    def __init__(self, inner, scale: float, offset: np.ndarray):
-        self.inner, self.scale, self.offset = inner, scale, np.asarray(offset, float)
-
-    def enclose_box(self, lo: np.ndarray, hi: np.ndarray, region: np.ndarray | None):
-        return self.inner.enclose_box(*_padded(lo * self.scale + self.offset,
-                                               hi * self.scale + self.offset), region)
+    if isinstance(inner, AnalyticField):
+        return _FormulaEnclosure(inner, offset)
+    if isinstance(inner, HFTField) and inner.unenclosable() is None:
+        return _TreeEnclosure(inner, offset)
+    return None
 
 
 # --------------------------------------------------------------------------- the bound
