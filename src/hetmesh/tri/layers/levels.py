@@ -69,10 +69,15 @@ class Levels(Records):
         between two points changes the index from j to j + 1."""
         return np.searchsorted(self.key, level_key(piece, f), side="right")
 
+    def index(self, piece, value):
+        """The index in the list of every row level ``value`` of ``piece`` (adjacent rows of
+        a piece have consecutive indices)."""
+        return np.searchsorted(self.key, level_key(piece, value), side="left")
+
     def parity(self, piece, value):
         """0 or 1 for every row level ``value`` of ``piece``: its index in the list, modulo 2
         (adjacent rows of a piece alternate)."""
-        return np.searchsorted(self.key, level_key(piece, value), side="left") % 2
+        return self.index(piece, value) % 2
 
     def dprime_of(self, rlev: np.ndarray) -> np.ndarray:
         """The spacing in f of the rows at levels ``rlev`` (the smallest of equal levels)."""

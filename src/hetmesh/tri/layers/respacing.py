@@ -29,7 +29,7 @@ def start_phase(parity: np.ndarray) -> np.ndarray:
     return np.where(parity == 0, 1.0, 0.5)
 
 
-def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndarray,
+def respace_rows(ctx: Context, starts: RowSeeds, index: np.ndarray, ix: np.ndarray,
                  trace: Trace) -> RowNodes:
     """Re-place the nodes of the rows that run from curve to curve, in phase with their
     neighbours.
@@ -49,11 +49,16 @@ def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndar
       off loses 0.18). Between parallel rows of equal length (the plates) that is a shared
       spacing; between nested arcs (round a hole) it is shared angles, the spacing
       growing with the radius until the next rung;
-    * rows of even level index starting a full spacing from the curve at both ends and odd
-      rows a half spacing: n - 1 and n nodes, as in a staggered lattice.
+    * every row's first node placed so that its nodes sit above the midpoints of the row
+      before it (:func:`chain_phases`): where the wall meets the rows at a right angle,
+      rows of even and odd level index start a full and a half spacing from it, as in a
+      staggered lattice; where the wall is slanted, the start moves by the slant, so the
+      lattice is not sheared across the whole piece (a slant of 70 degrees sheared every
+      triangle's apex by a third of a spacing, q ~0.94 instead of ~1).
 
     ``starts`` are the rows' start points at the crossings of the levels with the curves,
-    ``parity`` the parity of their levels' indices (:func:`start_phase`), ``trace`` the rows
+    ``index`` the indices of their levels in the list of levels (``Levels.index``: adjacent
+    rows of a piece have consecutive indices), ``trace`` the rows
     traced from the starts ``ix``. Rows whose far end is not a crossing of their own level
     and piece keep their traced nodes. Returns all the rows' nodes."""
     p, lev, tid = trace.point, trace.level, trace.start
@@ -76,8 +81,11 @@ def respace_rows(ctx: Context, starts: RowSeeds, parity: np.ndarray, ix: np.ndar
     if len(rows) == 0:
         return RowNodes(p, lev)
     lines = row_polylines(seeds[ix[rows]], seeds[far[rows]], p, tid, rows, has)
-    even = even_nodes(ctx, lines, cdp[ix[rows]], lv[ix[rows]], start_phase(parity[ix[rows]]),
-                      closed=False)
+    r_ix = ix[rows]
+    units = row_units(ctx, lines, cdp[r_ix])
+    phi = chain_phases(ctx, lines, units, index[r_ix], pcs[r_ix], cdp[r_ix],
+                       start_phase(index[r_ix] % 2))
+    even = even_nodes(ctx, lines, cdp[r_ix], lv[r_ix], phi, closed=False, units=units)
     keep = ~has[tid]
     return RowNodes.concat([RowNodes(p[keep], lev[keep]), even])
 
@@ -106,14 +114,20 @@ def row_polylines(first, last, p, tid, rows, has) -> Polylines:
     return Polylines(pts, starts)
 
 
-def even_nodes(ctx: Context, lines: Polylines, dprime, level, phi, closed: bool) -> RowNodes:
-    """Nodes spaced evenly, in units of the local row step, along the polylines ``lines``
-    (:func:`row_polylines`) of rows with spacing ``dprime`` in f at ``level``: n spacings per
-    row, n its length in local steps rounded to a rung of the ladder (:data:`LADDER`), the
-    first node ``phi`` (1 or 1/2) spacings from the start. An open row gets n - 1 nodes
-    (phi = 1) or n (phi = 1/2) and ends ``phi`` spacings before its end; a closed row
-    (first point = last) gets n, phi = 1 meaning a node on its start. Returns the nodes
-    projected onto the levels and inside the domain."""
+@dataclass(frozen=True)
+class RowUnits:
+    """Polylines measured in local row steps: ``cu`` (P,) the arc length of every point from
+    its polyline's start; per polyline its length ``U``, its number of spacings ``n`` (a rung
+    of the ladder, :data:`LADDER`) and its spacing ``a = U / n``; lengths in steps."""
+
+    cu: np.ndarray
+    U: np.ndarray
+    n: np.ndarray
+    a: np.ndarray
+
+
+def row_units(ctx: Context, lines: Polylines, dprime) -> RowUnits:
+    """:class:`RowUnits` of the polylines ``lines`` of rows with spacing ``dprime`` in f."""
     pts, starts = lines.points, lines.starts
     nrow = len(starts) - 1
     row = np.repeat(np.arange(nrow), np.diff(starts))
@@ -122,16 +136,130 @@ def even_nodes(ctx: Context, lines: Polylines, dprime, level, phi, closed: bool)
     du = np.linalg.norm(pts[seg + 1] - pts[seg], axis=1) / row_step_at(ctx, mid, dprime[row[seg]])
     U = np.bincount(row[seg], du, minlength=nrow)
     n = np.maximum(np.round(LADDER ** np.round(np.log(np.maximum(U, 1.0)) / np.log(LADDER))), 1)
-    a = U / n
-    m = (n - ((phi == 1.0) & ~closed)).astype(np.int64)
-    # targets in step units from each row's start, then points along its polyline
-    rr = np.repeat(np.arange(nrow), m)
-    jj = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
-    ut = a[rr] * (np.where(closed, phi % 1.0, phi)[rr] + jj)
     cu = np.zeros(len(pts))
     cu[seg + 1] = du
     cu = np.cumsum(cu)
     cu -= cu[starts[:-1]][row]
+    return RowUnits(cu, U, n, U / n)
+
+
+#: rows of fewer spacings keep the symmetric phase of their level's parity, and pass no phase
+#: on: on short rows the walls, not the neighbours, shape the triangles
+CHAIN_MIN_SPACINGS = 8
+
+#: a phase within this many spacings of a multiple of 1/2 is taken as that multiple (rows
+#: meeting a wall at a right angle keep the exact staggered lattice)
+PHASE_SNAP = 0.02
+
+
+def wrap_phase(phi: np.ndarray) -> np.ndarray:
+    """Phases (in spacings) brought into [1/2, 3/2): the first node of an open row lies half
+    a spacing to one and a half spacings from its start."""
+    t = np.mod(phi - 0.5, 1.0)
+    t = np.where(t > 1.0 - PHASE_SNAP, 0.0, t) + 0.5
+    half = np.round(2.0 * t) / 2.0
+    return np.where(np.abs(t - half) < PHASE_SNAP, half, t)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+
+
+def chain_phases(ctx: Context, lines: Polylines, units: RowUnits, index: np.ndarray,
+                 piece: np.ndarray, dprime: np.ndarray, phi0: np.ndarray) -> np.ndarray:
+    """The phase of every open row (where its first node lies, in spacings from its start)
+    that puts its nodes above the midpoints of the row before it.
+
+    A row's predecessor is the row of the previous level of its piece (``index`` - 1)
+    that passes within two steps of the row's start, on the same rung of the ladder (the
+    same number of spacings n, at least :data:`CHAIN_MIN_SPACINGS`): rows of different n
+    drift out of phase along their length anyway, and there the symmetric placement by
+    parity is the better one (between nested arcs it is exact). With u the arc position (in
+    the predecessor's spacings) of the start's foot on the predecessor, counted the way the
+    row runs, and phi' the predecessor's phase counted the same way, the row's nodes at
+    (phi + j) spacings lie above the predecessor's midpoints at (phi' + 1/2 + j') when
+    phi = phi' + 1/2 - u (modulo 1, :func:`wrap_phase`). Rows without a predecessor keep
+    ``phi0`` (by their level's parity). The phases are set level by level, in the order of
+    ``index``."""
+    pts, starts = lines.points, lines.starts
+    nrow = len(starts) - 1
+    row = np.repeat(np.arange(nrow), np.diff(starts))
+    first = starts[:-1]
+    S = pts[first]
+    tS = _unit(pts[first + 1] - S)
+    step_S = row_step_at(ctx, S, dprime)
+    k = min(16, len(pts))
+    d, j = cKDTree(pts).query(S, k=k)
+    d, j = d.reshape(nrow, k), j.reshape(nrow, k)
+    cand = row[j]
+    long_ = units.n >= CHAIN_MIN_SPACINGS
+    ok = ((index[cand] == index[:, None] - 1) & (piece[cand] == piece[:, None])
+          & (d < 2.0 * step_S[:, None]) & long_[cand] & long_[:, None]
+          & (units.n[cand] == units.n[:, None]))
+    has = ok.any(axis=1)
+    rr = np.flatnonzero(has)
+    q = j[rr, np.argmax(ok[rr], axis=1)]  # the predecessor's polyline point nearest the start
+    pr = row[q]
+    # the foot of the start on the segment before or after q (the nearer one)
+    lo = np.maximum(q - 1, starts[pr])
+    hi = np.minimum(q + 1, starts[pr + 1] - 1)
+    cu = units.cu
+
+    def foot(a, b):
+        """Distance to, and arc position of, the foot on segment (a, b): beyond the
+        predecessor's ends the foot lies on its end segments extended (a start that
+        projects before the predecessor's start has a negative position)."""
+        ab = pts[b] - pts[a]
+        t = ((S[rr] - pts[a]) * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-300)
+        t = np.clip(t, np.where(a == starts[pr], -np.inf, 0.0),
+                    np.where(b == starts[pr + 1] - 1, np.inf, 1.0))
+        x = pts[a] + t[:, None] * ab
+        return np.linalg.norm(S[rr] - x, axis=1), cu[a] + t * (cu[b] - cu[a]), ab
+
+    d0, u0, ab0 = foot(lo, q)
+    d1, u1, ab1 = foot(q, hi)
+    near0 = d0 <= d1
+    u = np.where(near0, u0, u1)
+    seg = np.where(near0[:, None], ab0, ab1)
+    same = (seg * tS[rr]).sum(1) >= 0  # the predecessor runs the row's way
+    a_p = units.a[pr]
+    u_sp = np.where(same, u, units.U[pr] - u) / a_p  # in the predecessor's spacings
+    phi = np.asarray(phi0, float).copy()
+    lvl_of = index[rr]
+    for lvl in np.unique(lvl_of):
+        m = np.flatnonzero(lvl_of == lvl)
+        r, p = rr[m], pr[m]
+        prev = np.where(same[m], phi[p], np.mod(units.n[p] - phi[p], 1.0))
+        phi[r] = wrap_phase(prev + 0.5 - u_sp[m])
+    return phi
+
+
+def even_nodes(ctx: Context, lines: Polylines, dprime, level, phi, closed: bool,
+               units: RowUnits | None = None) -> RowNodes:
+    """Nodes spaced evenly, in units of the local row step, along the polylines ``lines``
+    (:func:`row_polylines`) of rows with spacing ``dprime`` in f at ``level``: n spacings per
+    row, n its length in local steps rounded to a rung of the ladder (:data:`LADDER`), the
+    first node ``phi`` spacings from the start (:func:`chain_phases`). An open row gets the
+    nodes at (phi + j) spacings that lie at least half a spacing before its end (n - 1 for
+    phi = 1, n for phi = 1/2); a closed row (first point = last) gets n, phi = 1 meaning a
+    node on its start. ``units``: the lines' :func:`row_units`, if known. Returns the nodes
+    projected onto the levels and inside the domain."""
+    pts, starts = lines.points, lines.starts
+    nrow = len(starts) - 1
+    row = np.repeat(np.arange(nrow), np.diff(starts))
+    u = row_units(ctx, lines, dprime) if units is None else units
+    U, n, a, cu = u.U, u.n, u.a, u.cu
+    phi = np.broadcast_to(np.asarray(phi, float), (nrow,))
+    if closed:
+        m = n.astype(np.int64)
+        phase = phi % 1.0
+    else:
+        m = np.maximum(np.floor(n - 0.5 - phi + 1e-9) + 1, 0).astype(np.int64)
+        phase = phi
+    # targets in step units from each row's start, then points along its polyline
+    rr = np.repeat(np.arange(nrow), m)
+    jj = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
+    ut = a[rr] * (phase[rr] + jj)
     # one sorted key for all rows: row r's arc lengths, 0..U[r], become r * span + 0..U[r]
     span = 2.0 * (U.max() + 1)
     gk, tk = row * span + cu, rr * span + ut

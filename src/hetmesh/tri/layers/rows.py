@@ -47,7 +47,7 @@ def rows_from_crossings(ctx: Context, levels: Levels, cross: Crossings, dprime: 
     ix = np.flatnonzero(inward)
     trace = trace_rows(ctx, starts.point[ix], starts.level[ix], np.ones(len(ix)),
                        starts.dprime[ix], budget)
-    return respace_rows(ctx, starts, levels.parity(starts.piece, starts.level), ix, trace)
+    return respace_rows(ctx, starts, levels.index(starts.piece, starts.level), ix, trace)
 
 
 def rows_from_seeds(ctx: Context, levels: Levels, seeds: RowSeeds, rows: list[RowNodes],
