@@ -64,10 +64,10 @@ def _lookup(sorted_keys, order, keys):
 
 
 def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=None,
-             at=None, carry=None):
+             at=None, kept=None):
     """Compositions at the nodes and delta(T); ``known`` holds those of the first nodes,
     evaluated where they were then (``at``, their positions then; without it they have not
-    moved): only new and moved nodes are evaluated again. ``carry = (src, delta)``: the
+    moved): only new and moved nodes are evaluated again. ``kept = (src, delta)``: the
     elements with ``src >= 0`` are unchanged since an evaluation that gave them
     ``delta[src]`` (:func:`carried`); only the others are evaluated.
 
@@ -90,9 +90,9 @@ def evaluate(ctx: Context, ws: WorkSet, tris: np.ndarray, sampling: str, known=N
         t = tris if rows is None else tris[rows]
         return (cell_delta(ctx.field, ws.P, t, sampling, comp, ctx.threshold),)
 
-    if carry is None:
+    if kept is None:
         return comp, delta_of(None)[0]
-    return comp, carry(carry[0], (carry[1],), delta_of)[0]
+    return comp, carry(kept[0], (kept[1],), delta_of)[0]
 
 
 
