@@ -27,6 +27,7 @@ hetmesh.errors.GeometryError: open.stl: a closed surface needs at least 4 triang
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -55,7 +56,9 @@ def read_surface(path, name: str | None = None) -> tuple[np.ndarray, np.ndarray]
     if not path.is_file():
         raise GeometryError(f"{name}: no such surface file ({path})")
     try:
-        m = meshio.read(path)
+        with warnings.catch_warnings():  # meshio sizes an ASCII STL as if binary first
+            warnings.simplefilter("ignore", RuntimeWarning)
+            m = meshio.read(path)
     except Exception as exc:  # noqa: BLE001  (meshio raises many kinds on bad files)
         msg = " ".join(str(exc).split()) or type(exc).__name__
         raise GeometryError(f"{name}: cannot read the surface: {msg}") from None
@@ -122,29 +125,40 @@ def check_surface(V: np.ndarray, F: np.ndarray, name: str) -> np.ndarray:
         raise GeometryError(f"{name}: the surface encloses no volume ({vol:.3g})")
     if vol < 0:
         F = F[:, [0, 2, 1]]
-    if _components_volumes_bad(V, F):
-        raise GeometryError(f"{name}: the surface's shells are not nested consistently "
-                            f"(a shell turned inward that is not inside another)")
+    try:
+        volumes_of_shells(V, F)
+    except GeometryError as exc:
+        raise GeometryError(f"{name}: {exc}") from None
     return F
 
 
-def _components_volumes_bad(V, F) -> bool:
-    """Whether a shell turned inward (negative volume) lies outside every outward shell."""
+def _shell_labels(V, F) -> tuple[np.ndarray, np.ndarray]:
+    """``(label (m,), volume (k,))``: the closed shells (triangles connected through shared
+    points) and the signed volume each encloses."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     m = len(F)
-    rows = np.repeat(np.arange(m), 3)
-    g = coo_matrix((np.ones(3 * m), (rows, F.ravel())), shape=(m, len(V))).tocsr()
+    g = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), F.ravel())),
+                   shape=(m, len(V))).tocsr()
     k, lab = connected_components(g @ g.T, directed=False)
-    if k == 1:
-        return False
-    vols = np.array([signed_volume(V, F[lab == i]) for i in range(k)])
-    for i in np.flatnonzero(vols < 0):
-        probe = V[F[lab == i][0, 0]][None]
-        outer = [j for j in np.flatnonzero(vols > 0)]
-        if not any(_winding(V, F[lab == j], probe)[0] > 0.5 for j in outer):
-            return True
-    return False
+    return lab, np.array([signed_volume(V, F[lab == i]) for i in range(k)])
+
+
+def volumes_of_shells(V, F) -> list[tuple[int, list[int]]]:
+    """The regions the outward surface ``V``, ``F`` bounds: ``(outer shell, [cavity
+    shells])`` per region, shells numbered as :func:`_shell_labels` does; a cavity (a shell
+    turned inward) belongs to the smallest outward shell around it. :class:`GeometryError`
+    (without a name) if a cavity lies in no outward shell."""
+    lab, vol = _shell_labels(V, F)
+    outer = [int(i) for i in np.argsort(vol) if vol[i] > 0]  # smallest first
+    regions = {i: [] for i in outer}
+    for j in np.flatnonzero(vol < 0):
+        probe = V[F[lab == j][0, 0]][None]
+        host = next((i for i in outer if _winding(V, F[lab == i], probe)[0] > 0.5), None)
+        if host is None:
+            raise GeometryError("a shell turned inward (a cavity) lies in no outward shell")
+        regions[host].append(int(j))
+    return [(i, regions[i]) for i in sorted(regions)]
 
 
 def _orient3d(a, b, c, d):
@@ -348,6 +362,57 @@ def distance_to_triangles(V: np.ndarray, F: np.ndarray, P) -> np.ndarray:
     return out
 
 
+def distance_within(V: np.ndarray, F: np.ndarray, P, tol: float) -> np.ndarray:
+    """The distance of each point ``P (k, 3)`` to the triangles ``F`` of ``V`` where it is
+    at most ``tol`` (exact), ``inf`` elsewhere. Only the triangles whose bounding box
+    widened by ``tol`` holds the point can be that close: the boxes are binned on a grid
+    over the points' and triangles' extent, and each point meets the triangles of its
+    cell."""
+    P = np.asarray(P, dtype=float).reshape(-1, 3)
+    out = np.full(len(P), np.inf)
+    if not len(P) or not len(F):
+        return out
+    tri = V[F]
+    lo, hi = tri.min(axis=1) - tol, tri.max(axis=1) + tol
+    blo = np.minimum(lo.min(axis=0), P.min(axis=0))
+    bhi = np.maximum(hi.max(axis=0), P.max(axis=0))
+    g = int(np.clip(round(2 * len(F) ** (1 / 3)), 1, 64))
+    step = np.where(bhi > blo, (bhi - blo) / g, 1.0)
+    c0 = np.clip(((lo - blo) / step).astype(np.int64), 0, g - 1)
+    c1 = np.clip(((hi - blo) / step).astype(np.int64), 0, g - 1)
+    n3 = c1 - c0 + 1
+    cnt = n3.prod(axis=1)
+    t_of = np.repeat(np.arange(len(F)), cnt)
+    k = np.arange(len(t_of)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    nyz = n3[t_of, 1] * n3[t_of, 2]
+    i = c0[t_of, 0] + k // nyz
+    j = c0[t_of, 1] + (k % nyz) // n3[t_of, 2]
+    m = c0[t_of, 2] + k % n3[t_of, 2]
+    cell = (i * g + j) * g + m
+    order = np.argsort(cell, kind="stable")
+    cell, t_of = cell[order], t_of[order]
+    start = np.searchsorted(cell, np.arange(g ** 3))
+    end = np.searchsorted(cell, np.arange(g ** 3), side="right")
+    pc = np.clip(((P - blo) / step).astype(np.int64), 0, g - 1)
+    pcell = (pc[:, 0] * g + pc[:, 1]) * g + pc[:, 2]
+    n = end[pcell] - start[pcell]
+    pos = 0
+    csum = np.cumsum(n)
+    while pos < len(P):
+        base = csum[pos - 1] if pos else 0
+        stop = max(pos + 1, int(np.searchsorted(csum, base + 2_000_000, side="right")))
+        r = np.repeat(np.arange(pos, stop), n[pos:stop])
+        off = np.arange(len(r)) - np.repeat(np.cumsum(n[pos:stop]) - n[pos:stop], n[pos:stop])
+        t = t_of[np.repeat(start[pcell[pos:stop]], n[pos:stop]) + off]
+        T = F[t]
+        d = np.linalg.norm(closest_on_triangles(P[r], V[T[:, 0]], V[T[:, 1]], V[T[:, 2]])
+                           - P[r], axis=1)
+        np.minimum.at(out, r, d)
+        pos = stop
+    out[out > tol] = np.inf
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class SurfaceSolid:
     """The solid inside a closed triangulated surface: points ``V (n, 3)`` and outward
@@ -381,6 +446,13 @@ class SurfaceSolid:
         return cls.from_arrays(V, F, name)
 
     @cached_property
+    def shells(self) -> tuple[np.ndarray, list[tuple[int, list[int]]]]:
+        """``(label (m,), regions)``: each triangle's shell and, per region, its outer
+        shell and its cavities (:func:`volumes_of_shells`)."""
+        lab, _ = _shell_labels(self.V, self.F)
+        return lab, volumes_of_shells(self.V, self.F)
+
+    @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.V.min(axis=0), self.V.max(axis=0)
 
@@ -412,6 +484,11 @@ class SurfaceSolid:
         """The distance of ``points`` to the surface."""
         return distance_to_triangles(self.V, self.F, points)
 
+    def distance_within(self, points, tol: float) -> np.ndarray:
+        """The distance of ``points`` to the surface where it is at most ``tol``, else
+        ``inf`` (:func:`distance_within`: fast when few triangles are that close)."""
+        return distance_within(self.V, self.F, points, tol)
+
     def contains(self, points, tol: float | None = None) -> np.ndarray:
         """Whether each point ``(N, 3)`` lies in the solid (an odd number of crossings
         along +z, :func:`_ray_parity`) or within ``tol`` of its surface (default: 2e-3 x
@@ -423,15 +500,15 @@ class SurfaceSolid:
         ok = _ray_parity(self.V, self.F, p)
         if tol > 0 and not ok.all():
             rest = np.flatnonzero(~ok)
-            ok[rest] = self.distance(p[rest]) <= tol
+            ok[rest] = np.isfinite(self.distance_within(p[rest], tol))
         return ok
 
     def classify_faces(self, tri_points) -> np.ndarray:
         """Face index (0: the surface) of boundary triangles ``(K, 3, 3)`` within 1 % of the
         diameter of the surface, -1 elsewhere."""
         tri = np.asarray(tri_points, dtype=float).reshape(-1, 3, 3)
-        d = self.distance(tri.reshape(-1, 3)).reshape(-1, 3).max(axis=1)
-        return np.where(d <= 0.01 * self.diameter, 0, -1)
+        d = self.distance_within(tri.reshape(-1, 3), 0.01 * self.diameter)
+        return np.where(np.isfinite(d.reshape(-1, 3)).all(axis=1), 0, -1)
 
     def sample(self, n: int = 24) -> np.ndarray:
         """The points of the regular ``n``^3 grid over the bounds inside the surface."""
