@@ -54,7 +54,8 @@ def read_surface(path, name: str | None = None) -> tuple[np.ndarray, np.ndarray]
     path = Path(path)
     name = str(path) if name is None else name
     if not path.is_file():
-        raise GeometryError(f"{name}: no such surface file ({path})")
+        where = "" if name.endswith(str(path)) else f" ({path})"
+        raise GeometryError(f"{name}: no such surface file{where}")
     try:
         with warnings.catch_warnings():  # meshio sizes an ASCII STL as if binary first
             warnings.simplefilter("ignore", RuntimeWarning)
