@@ -22,7 +22,7 @@ from hetmesh.errors import GeometryError
 from hetmesh.io.model import load_model
 from hetmesh.tet.api import mesh_model
 from hetmesh.tet.mesher import CHORD
-from hetmesh.tet.surface import SurfaceSolid, _ray_parity
+from hetmesh.tet.surface import SurfaceSolid, ray_parity
 from test_tet import check_tet_mesh
 
 CI = os.environ.get("CI", "").lower() == "true"
@@ -99,7 +99,7 @@ def test_inside_is_exact_through_vertices_and_edges():
     g = np.stack(np.meshgrid(np.arange(-2, 42, 2.0), np.arange(-2, 22, 2.0),
                              np.arange(-2, 42, 2.0), indexing="ij"), -1).reshape(-1, 3)
     off = s.distance(g) > 1e-9
-    inside = _ray_parity(s.V, s.F, g[off])
+    inside = ray_parity(s.V, s.F, g[off])
     np.testing.assert_array_equal(inside, s.winding(g[off]) > 0.5)
     assert 0.2 < inside.mean() < 0.5
 

@@ -36,7 +36,8 @@ import numpy as np
 
 from ..errors import GeometryError
 
-__all__ = ["SurfaceSolid", "read_surface", "check_surface", "SURFACE_FACE"]
+__all__ = ["SurfaceSolid", "read_surface", "check_surface", "ray_parity", "distance_within",
+           "distance_to_triangles", "closest_on_triangles", "SURFACE_FACE"]
 
 #: the name of the one face of a surface solid (boundary conditions, physical groups)
 SURFACE_FACE = "surface"
@@ -167,10 +168,13 @@ def _orient3d(a, b, c, d):
 
 
 def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, block: int = 2_000_000):
-    """Pairs ``(i, j)``, ``i < j``, of boxes ``[lo, hi]`` that overlap: sweep along x."""
-    order = np.argsort(lo[:, 0], kind="stable")
-    xs = lo[order, 0]
-    stop = np.searchsorted(xs, hi[order, 0], side="right")
+    """Pairs ``(i, j)`` of boxes ``[lo, hi]`` that overlap: a sweep along the axis on which
+    the boxes are shortest relative to the whole extent (fewest overlaps)."""
+    span = np.maximum(hi.max(axis=0) - lo.min(axis=0), 1e-300)
+    a = int(np.argmin((hi - lo).mean(axis=0) / span))
+    order = np.argsort(lo[:, a], kind="stable")
+    xs = lo[order, a]
+    stop = np.searchsorted(xs, hi[order, a], side="right")
     counts = stop - np.arange(len(order)) - 1
     start = 0
     while start < len(order):
@@ -242,7 +246,7 @@ def _side(ax, ay, bx, by, px, py) -> np.ndarray:
     return np.where(e != 0, np.sign(e), np.sign(tie))
 
 
-def _ray_parity(V, F, P) -> np.ndarray:
+def ray_parity(V, F, P) -> np.ndarray:
     """Whether each point ``P (k, 3)`` is inside the closed surface: the parity of the
     triangles crossed by the ray from it along +z. The triangles' projections are binned
     on a grid in (x, y); a ray through an edge or a vertex counts one triangle, the ties
@@ -492,13 +496,13 @@ class SurfaceSolid:
 
     def contains(self, points, tol: float | None = None) -> np.ndarray:
         """Whether each point ``(N, 3)`` lies in the solid (an odd number of crossings
-        along +z, :func:`_ray_parity`) or within ``tol`` of its surface (default: 2e-3 x
+        along +z, :func:`ray_parity`) or within ``tol`` of its surface (default: 2e-3 x
         the diameter, the default chord tolerance: a mesh's boundary may deviate that much
         from the facets)."""
         from .mesher import CHORD
         tol = CHORD * self.diameter if tol is None else tol
         p = np.asarray(points, dtype=float).reshape(-1, 3)
-        ok = _ray_parity(self.V, self.F, p)
+        ok = ray_parity(self.V, self.F, p)
         if tol > 0 and not ok.all():
             rest = np.flatnonzero(~ok)
             ok[rest] = np.isfinite(self.distance_within(p[rest], tol))
@@ -516,4 +520,4 @@ class SurfaceSolid:
         lo, hi = self.bounds
         g = [np.linspace(lo[k], hi[k], n) for k in range(3)]
         p = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
-        return p[_ray_parity(self.V, self.F, p)]
+        return p[ray_parity(self.V, self.F, p)]

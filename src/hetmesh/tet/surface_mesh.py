@@ -35,7 +35,7 @@ from ..errors import BudgetError, MeshingError, OptionError, VerificationError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from .faces import boundary_faces
-from .general import HGRAD, SHRINK, SIZE_ROUNDS, _orient, _remesh, size_field
+from .general import HGRAD, SHRINK, SIZE_ROUNDS, mmg_remesh, orient_positive, size_field
 from .mesher import CHORD, TetResult
 from .refine import repair
 from .surface import SurfaceSolid, distance_to_triangles, distance_within
@@ -71,6 +71,10 @@ def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
         gmsh.option.setNumber("General.NumThreads", 1)
         gmsh.option.setNumber("Mesh.Algorithm3D", 1)
         gmsh.option.setNumber("Mesh.Optimize", 0)
+        # no size from the surface's points: as few inside points as the recovery needs
+        # (MMG sets the sizes next)
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
         gmsh.model.add("hetmesh_surface")
         lab, regions = solid.shells
         tags = {}
@@ -103,7 +107,7 @@ def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
     used = np.unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
-    return p[used], _orient(p[used], remap[t])
+    return p[used], orient_positive(p[used], remap[t])
 
 
 def estimate_surface(solid: SurfaceSolid, field, threshold: float, h_max: float) -> float:
@@ -147,7 +151,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     hausd = 0.5 * chord
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, _, _, h_mmg = _remesh(p, t, faces, markers, size, hausd)
+        p, t, _, _, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
         faces, _ = boundary_faces(t)
         markers = np.zeros(len(faces), dtype=np.int64)
         if max_elements is not None and len(t) > max_elements:
