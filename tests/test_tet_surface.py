@@ -82,6 +82,15 @@ def test_a_cube_in_every_format_reads_the_same(tmp_path):
         assert s.contains([[1, 1, 1], [3, 1, 1]]).tolist() == [True, False]
 
 
+def test_feature_angle_splits_the_faces_at_sharp_edges():
+    V, F = cube()
+    assert SurfaceSolid.from_arrays(V, F, "c").face_names == ("surface",)
+    s = SurfaceSolid.from_arrays(V, F, "c", feature_angle=30)
+    assert s.face_names == tuple(f"surface.{i}" for i in range(1, 7))
+    assert np.bincount(s.patch).tolist() == [2] * 6
+    assert SurfaceSolid.from_arrays(V, F, "c", feature_angle=95).face_names == ("surface",)
+
+
 def test_an_inward_surface_is_turned_outward_and_a_cavity_kept():
     V, F = cube(inward=True)
     assert SurfaceSolid.from_arrays(V, F, "c").volume == pytest.approx(1.0)
@@ -169,10 +178,12 @@ def test_l_bracket_meets_every_guarantee():
     """Delta, volumes and conformity recomputed from the arrays; every boundary triangle
     (corners, edge midpoints, centroid) within the chord tolerance of the bracket's faces
     (plus the 48-gon holes' own deviation from a circle); the volume of the faceted part;
-    one face, "surface"; the same mesh twice."""
+    the ten faces between sharp edges, each on its own plane or bore; the same mesh
+    twice."""
     need_gmsh()
     m = load_model(hetmesh.example_path("l_bracket"))
-    assert isinstance(m.solid, SurfaceSolid) and m.solid.face_names == ("surface",)
+    assert isinstance(m.solid, SurfaceSolid)
+    assert m.solid.face_names == tuple(f"surface.{i}" for i in range(1, 11))
     d0 = 0.3
     res = mesh_model(m, d0)
     bnd = check_tet_mesh(res.points, res.tets, lambda p: ((p[:, 0] + p[:, 2]) / 50) ** 2, d0)
@@ -188,7 +199,14 @@ def test_l_bracket_meets_every_guarantee():
     a, b, c, d = (res.points[res.tets[:, k]] for k in range(4))
     vol = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)).sum() / 6
     assert abs(vol - exact) <= chord * m.solid.area
-    assert set(res.face_markers.tolist()) == {1} and res.face_names == ("surface",)
+    # each named face on its part of the bracket (the order of the STL's faces)
+    x, y, z = (res.points[res.faces][..., k] for k in range(3))
+    on = {1: np.abs(y), 2: np.abs(y - 20), 3: np.abs(z), 4: np.abs(z - 10),
+          5: np.abs(x - 40), 6: np.abs(x), 7: np.abs(x - 10), 8: np.abs(z - 40),
+          9: np.abs(np.hypot(x - 27, y - 10) - 5), 10: np.abs(np.hypot(y - 10, z - 27) - 5)}
+    assert sorted(set(res.face_markers.tolist())) == list(range(1, 11))
+    for k, dist in on.items():
+        assert dist[res.face_markers == k].max() <= chord + sagitta, res.face_names[k - 1]
     again = mesh_model(m, d0)
     assert again.points.tobytes() == res.points.tobytes()
     assert again.tets.tobytes() == res.tets.tobytes()
@@ -229,6 +247,7 @@ def test_a_hollow_cube_keeps_its_cavity(tmp_path):
     ("crossing", "part.stl: the surface intersects itself"),
     ("flat", "part.stl: the surface encloses no volume"),
     ("nofile", "missing key 'solid.file'"),
+    ("angle", "solid.feature_angle: must be in (0, 180) degrees, got 180"),
 ])
 def test_bad_surface_models_fail_in_one_line(case, message, tmp_path, capsys):
     V, F = cube()
@@ -248,6 +267,9 @@ def test_bad_surface_models_fail_in_one_line(case, message, tmp_path, capsys):
     text = MODEL.format(file=file, formula="z")
     if case == "nofile":
         text = text.replace(f'file = "{file}"\n', "")
+    if case == "angle":
+        write_surface(tmp_path / file, V, F)
+        text = text.replace(f'file = "{file}"\n', f'file = "{file}"\nfeature_angle = 180\n')
     model = tmp_path / "m.toml"
     model.write_text(text)
     out = tmp_path / "out.vtu"

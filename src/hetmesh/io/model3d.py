@@ -347,14 +347,20 @@ def _solid(ctx, value, top):
                                                     "extrusions yet")
             solid = Prism(dom, 2, s0, s0 + length, where=ctx.where)
         elif kind == "surface":  # a closed triangulated surface file (tet/surface.py)
-            t = ctx.table(value, key, required=("type", "file"))
+            t = ctx.table(value, key, required=("type", "file"), optional=("feature_angle",))
             f = t["file"]
             if not isinstance(f, str) or not f.strip():
                 from .schema import describe
                 raise ctx.fail("solid.file", f"expected a file name, got {describe(f)}")
+            angle = None
+            if "feature_angle" in t:
+                angle = ctx.number(t["feature_angle"], "solid.feature_angle")
+                if not 0 < angle < 180:
+                    raise ctx.fail("solid.feature_angle", f"must be in (0, 180) degrees, got "
+                                                          f"{angle:g}")
             from ..tet.surface import SurfaceSolid
             return SurfaceSolid.read(Path(f) if os.path.isabs(f) else ctx.base / f,
-                                     f"{ctx.pre}solid.file: {f}")
+                                     f"{ctx.pre}solid.file: {f}", angle)
         elif kind == "revolution":
             t = ctx.table(value, key, optional=("type", "angle"))
             angle = ctx.number(t.get("angle", 360.0), "solid.angle")

@@ -163,6 +163,28 @@ def volumes_of_shells(V, F) -> list[tuple[int, list[int]]]:
     return [(i, regions[i]) for i in sorted(regions)]
 
 
+def feature_patches(V: np.ndarray, F: np.ndarray, angle: float) -> np.ndarray:
+    """The patch of each triangle ``(m,)``: triangles joined across the edges where their
+    normals are at most ``angle`` degrees apart (the others are sharp edges), numbered in
+    the order of their first triangle."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    nrm = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    e = np.sort(_edges(F), axis=1)
+    tri = np.tile(np.arange(len(F)), 3)
+    order = np.argsort(e[:, 0] * len(V) + e[:, 1], kind="stable")
+    a, b = tri[order[0::2]], tri[order[1::2]]  # every edge in exactly two triangles
+    smooth = np.einsum("ij,ij->i", nrm[a], nrm[b]) >= np.cos(np.radians(angle))
+    g = coo_matrix((np.ones(int(smooth.sum())), (a[smooth], b[smooth])),
+                   shape=(len(F), len(F)))
+    _, lab = connected_components(g, directed=False)
+    first = np.full(lab.max() + 1, len(F))
+    np.minimum.at(first, lab, np.arange(len(F)))
+    rank = np.argsort(np.argsort(first, kind="stable"), kind="stable")
+    return rank[lab]
+
+
 def _orient3d(a, b, c, d):
     return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))
 
@@ -367,16 +389,19 @@ def distance_to_triangles(V: np.ndarray, F: np.ndarray, P) -> np.ndarray:
     return out
 
 
-def distance_within(V: np.ndarray, F: np.ndarray, P, tol: float) -> np.ndarray:
+def distance_within(V: np.ndarray, F: np.ndarray, P, tol: float, *,
+                    nearest: bool = False):
     """The distance of each point ``P (k, 3)`` to the triangles ``F`` of ``V`` where it is
-    at most ``tol`` (exact), ``inf`` elsewhere. Only the triangles whose bounding box
+    at most ``tol`` (exact), ``inf`` elsewhere; with ``nearest``, also the index of the
+    nearest triangle (-1 where none is that close). Only the triangles whose bounding box
     widened by ``tol`` holds the point can be that close: the boxes are binned on a grid
     over the points' and triangles' extent, and each point meets the triangles of its
     cell."""
     P = np.asarray(P, dtype=float).reshape(-1, 3)
     out = np.full(len(P), np.inf)
+    near = np.full(len(P), -1, dtype=np.int64)
     if not len(P) or not len(F):
-        return out
+        return (out, near) if nearest else out
     tri = V[F]
     lo, hi = tri.min(axis=1) - tol, tri.max(axis=1) + tol
     blo = np.minimum(lo.min(axis=0), P.min(axis=0))
@@ -412,24 +437,32 @@ def distance_within(V: np.ndarray, F: np.ndarray, P, tol: float) -> np.ndarray:
         T = F[t]
         d = np.linalg.norm(closest_on_triangles(P[r], V[T[:, 0]], V[T[:, 1]], V[T[:, 2]])
                            - P[r], axis=1)
-        np.minimum.at(out, r, d)
+        if len(r):  # the nearest per point: the first of its rows sorted by distance
+            o = np.lexsort((t, d, r))
+            first = o[np.r_[True, r[o][1:] != r[o][:-1]]]
+            out[r[first]], near[r[first]] = d[first], t[first]
         pos = stop
-    out[out > tol] = np.inf
-    return out
+    far = out > tol
+    out[far], near[far] = np.inf, -1
+    return (out, near) if nearest else out
 
 
 @dataclass(frozen=True, eq=False)
 class SurfaceSolid:
     """The solid inside a closed triangulated surface: points ``V (n, 3)`` and outward
     triangles ``F (m, 3)``, checked (:func:`check_surface`); ``source`` names the file in
-    messages. One face, :data:`SURFACE_FACE`."""
+    messages. One face, :data:`SURFACE_FACE`; with ``feature_angle`` (degrees), one face per
+    patch between sharp edges (:func:`feature_patches`), ``surface.1``, ``surface.2``, ...
+    in the order of the patches' first triangles in the file (one patch: ``surface``)."""
 
     V: np.ndarray
     F: np.ndarray
     source: str = ""
+    feature_angle: float | None = None
 
     @classmethod
-    def from_arrays(cls, V, F, name: str) -> SurfaceSolid:
+    def from_arrays(cls, V, F, name: str, feature_angle: float | None = None
+                    ) -> SurfaceSolid:
         """Checked solid of ``V``, ``F`` (unused points dropped); errors start with ``name``."""
         V = np.asarray(V, dtype=np.float64).reshape(-1, 3)
         F = np.asarray(F, dtype=np.int64).reshape(-1, 3)
@@ -440,15 +473,23 @@ class SurfaceSolid:
         remap = np.full(len(V), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
         V, F = V[used], remap[F]
-        return cls(V, check_surface(V, F, name), name)
+        return cls(V, check_surface(V, F, name), name, feature_angle)
 
     @classmethod
-    def read(cls, path, name: str | None = None) -> SurfaceSolid:
+    def read(cls, path, name: str | None = None, feature_angle: float | None = None
+             ) -> SurfaceSolid:
         """The solid of a surface file (:func:`read_surface`), checked; errors start with
         ``name`` (default: the path)."""
         name = str(path) if name is None else name
         V, F = read_surface(path, name)
-        return cls.from_arrays(V, F, name)
+        return cls.from_arrays(V, F, name, feature_angle)
+
+    @cached_property
+    def patch(self) -> np.ndarray:
+        """The face (index into :attr:`face_names`) of each input triangle."""
+        if self.feature_angle is None:
+            return np.zeros(len(self.F), dtype=np.int64)
+        return feature_patches(self.V, self.F, self.feature_angle)
 
     @cached_property
     def shells(self) -> tuple[np.ndarray, list[tuple[int, list[int]]]]:
@@ -477,9 +518,10 @@ class SurfaceSolid:
                                                    self.V[self.F[:, 2]] - self.V[self.F[:, 0]]),
                                           axis=1).sum())
 
-    @property
+    @cached_property
     def face_names(self) -> tuple[str, ...]:
-        return (SURFACE_FACE,)
+        k = int(self.patch.max()) + 1
+        return (SURFACE_FACE,) if k == 1 else tuple(f"{SURFACE_FACE}.{i + 1}" for i in range(k))
 
     def winding(self, points) -> np.ndarray:
         """The generalised winding number at ``points`` (1 inside, 0 outside)."""
@@ -508,12 +550,16 @@ class SurfaceSolid:
             ok[rest] = np.isfinite(self.distance_within(p[rest], tol))
         return ok
 
-    def classify_faces(self, tri_points) -> np.ndarray:
-        """Face index (0: the surface) of boundary triangles ``(K, 3, 3)`` within 1 % of the
-        diameter of the surface, -1 elsewhere."""
+    def classify_faces(self, tri_points, tol: float | None = None) -> np.ndarray:
+        """Face index (into :attr:`face_names`) of boundary triangles ``(K, 3, 3)``: the
+        face of the input triangle nearest to the centroid, where all three corners are
+        within ``tol`` (default 1 % of the diameter) of the surface; -1 elsewhere."""
+        tol = 0.01 * self.diameter if tol is None else tol
         tri = np.asarray(tri_points, dtype=float).reshape(-1, 3, 3)
-        d = self.distance_within(tri.reshape(-1, 3), 0.01 * self.diameter)
-        return np.where(np.isfinite(d.reshape(-1, 3)).all(axis=1), 0, -1)
+        d = self.distance_within(tri.reshape(-1, 3), tol)
+        ok = np.isfinite(d.reshape(-1, 3)).all(axis=1)
+        _, near = distance_within(self.V, self.F, tri.mean(axis=1), tol, nearest=True)
+        return np.where(ok & (near >= 0), self.patch[np.maximum(near, 0)], -1)
 
     def sample(self, n: int = 24) -> np.ndarray:
         """The points of the regular ``n``^3 grid over the bounds inside the surface."""

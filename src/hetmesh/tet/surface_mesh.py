@@ -146,14 +146,13 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
                           f"but the budget is {max_elements}")
     p, t = initial_volume(solid)
     faces, _ = boundary_faces(t)
-    markers = np.zeros(len(faces), dtype=np.int64)
+    markers = _classify(solid, p, faces, chord)
     size = size_field(field, p, threshold, h_max, h_min)
     hausd = 0.5 * chord
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, _, _, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
-        faces, _ = boundary_faces(t)
-        markers = np.zeros(len(faces), dtype=np.int64)
+        p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
+        faces, markers = _keep_markers(solid, p, t, fm, rm, chord)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -170,12 +169,13 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     t_place = time.perf_counter() - t0
     p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
                                        max_elements=max_elements)
-    faces, _ = boundary_faces(t)
+    if passes:  # bisected boundary triangles: the new ones take the face they lie on
+        faces, markers = _keep_markers(solid, p, t, faces, markers, chord)
     t = t.astype(np.int32)
     info = {"placement": "surface", "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place, "h_max": h_max,
             "chord_tol": chord, "hgrad": HGRAD}
-    res = TetResult(p, t, faces.astype(np.int32), np.ones(len(faces), dtype=np.int32),
+    res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold), info)
     if check:
         probs = surface_problems(res, solid, field, chord)
@@ -187,6 +187,41 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     log.info("surface mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, "
              "%.2f s", len(p), len(t), rounds, passes, res.info["time_total"])
     return res
+
+
+def _classify(solid: SurfaceSolid, p, faces, chord: float) -> np.ndarray:
+    """The face of each boundary triangle (:meth:`SurfaceSolid.classify_faces` within the
+    chord tolerance); :class:`MeshingError` where none."""
+    markers = solid.classify_faces(p[faces], chord)
+    if (markers < 0).any():
+        c = p[faces[markers < 0][0]].mean(axis=0)
+        raise MeshingError(f"{int((markers < 0).sum())} boundary triangles off the surface "
+                           f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    return markers
+
+
+def _keep_markers(solid, p, t, known, known_markers, chord):
+    """The boundary triangles of ``t`` and their faces: those of the triangles ``known``
+    (MMG's, with the references it kept; or the mesh's before a repair) where they are
+    the same, the others classified by their geometry."""
+    faces, _ = boundary_faces(t)
+    if len(solid.face_names) == 1:
+        return faces, np.zeros(len(faces), dtype=np.int64)
+    n = len(p) + 1
+
+    def key(f):
+        s = np.sort(np.asarray(f, dtype=np.int64), axis=1)
+        return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+
+    kb, km = key(faces), key(known)
+    order = np.argsort(km)
+    pos = np.clip(np.searchsorted(km[order], kb), 0, max(len(km) - 1, 0))
+    hit = km[order][pos] == kb if len(km) else np.zeros(len(kb), dtype=bool)
+    markers = np.where(hit, np.asarray(known_markers)[order][pos], -1)
+    bad = (markers < 0) | (markers >= len(solid.face_names))
+    if bad.any():
+        markers[bad] = _classify(solid, p, faces[bad], chord)
+    return faces, markers
 
 
 #: barycentric points at which boundary triangles are checked against the surface
@@ -222,6 +257,21 @@ def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[
         out.append(f"{len(far)} vertices of the surface are off the mesh's boundary, by up "
                    f"to {float(back.max()):.3g} at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}) "
                    f"(allowed {chord_tol:.3g})")
+    markers = np.asarray(res.face_markers, dtype=np.int64) - 1
+    if ((markers < 0) | (markers >= len(solid.face_names))).any():
+        out.append(f"{int(((markers < 0) | (markers >= len(solid.face_names))).sum())} "
+                   f"boundary triangles on no face")
+    elif len(solid.face_names) > 1:
+        mark = np.repeat(markers, len(_BARY))
+        for k, name in enumerate(solid.face_names):
+            sel = np.flatnonzero(mark == k)
+            own = solid.F[solid.patch == k]
+            far = np.isinf(distance_within(solid.V, own, pts[sel], lim))
+            if far.any():
+                c = pts[sel[np.flatnonzero(far)[0]]]
+                out.append(f"face {name!r}: {int(far.sum())} points of its triangles are "
+                           f"off its part of the surface (e.g. at ({c[0]:.6g}, {c[1]:.6g}, "
+                           f"{c[2]:.6g}))")
     vol = float(simplex_measures(p, t).sum())
     if abs(vol - solid.volume) > chord_tol * solid.area + 1e-9 * solid.volume:
         out.append(f"volume {vol:.12g} differs from the surface's {solid.volume:.12g} by "
