@@ -121,6 +121,8 @@ def test_inside_is_exact_through_vertices_and_edges():
     ("flat", "encloses no volume"),
     ("degenerate", "has zero area"),
     ("few", "needs at least 4 triangles"),
+    ("nested", "the shells do not nest: an outward shell lies inside the solid"),
+    ("stray cavity", "a shell turned inward (a cavity) lies outside the solid"),
 ])
 def test_bad_surfaces_are_refused(case, message):
     V, F = cube()
@@ -146,6 +148,10 @@ def test_bad_surfaces_are_refused(case, message):
         F = np.r_[F, [[0, 4, 8]]]
     elif case == "few":
         F = F[:3]
+    elif case in ("nested", "stray cavity"):
+        Vi, Fi = cube(0.25, 0.75, inward=case != "nested",
+                      offset=(0, 0, 0) if case == "nested" else (2, 0, 0))
+        V, F = np.r_[V, Vi], np.r_[F, Fi + 8]
     with pytest.raises(GeometryError, match=f"^part.stl: .*{re.escape(message)}"):
         SurfaceSolid.from_arrays(V, F, "part.stl")
 

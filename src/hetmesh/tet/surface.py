@@ -150,15 +150,26 @@ def volumes_of_shells(V, F) -> list[tuple[int, list[int]]]:
     """The regions the outward surface ``V``, ``F`` bounds: ``(outer shell, [cavity
     shells])`` per region, shells numbered as :func:`_shell_labels` does; a cavity (a shell
     turned inward) belongs to the smallest outward shell around it. :class:`GeometryError`
-    (without a name) if a cavity lies in no outward shell."""
+    (without a name) unless the shells nest consistently: the other shells' winding numbers
+    add up to 0 at an outward shell (it lies outside the solid they bound) and to 1 at a
+    cavity (inside it)."""
     lab, vol = _shell_labels(V, F)
+    k = len(vol)
+    if k == 1:
+        return [(0, [])]
+    probes = np.array([V[F[lab == i][0, 0]] for i in range(k)])
+    w = np.array([_winding(V, F[lab == j], probes) for j in range(k)])  # (shell, probe)
+    for i in range(k):
+        total = float(w[:, i].sum() - w[i, i])
+        want = 0.0 if vol[i] > 0 else 1.0
+        if abs(total - want) > 0.5:
+            what = ("an outward shell lies inside the solid" if vol[i] > 0 else
+                    "a shell turned inward (a cavity) lies outside the solid")
+            raise GeometryError(f"the shells do not nest: {what} (at {_xyz(probes[i])})")
     outer = [int(i) for i in np.argsort(vol) if vol[i] > 0]  # smallest first
     regions = {i: [] for i in outer}
     for j in np.flatnonzero(vol < 0):
-        probe = V[F[lab == j][0, 0]][None]
-        host = next((i for i in outer if _winding(V, F[lab == i], probe)[0] > 0.5), None)
-        if host is None:
-            raise GeometryError("a shell turned inward (a cavity) lies in no outward shell")
+        host = next(i for i in outer if w[i, j] > 0.5)
         regions[host].append(int(j))
     return [(i, regions[i]) for i in sorted(regions)]
 
