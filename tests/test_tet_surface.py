@@ -296,3 +296,13 @@ def test_without_gmsh_the_error_names_the_extra(tmp_path, capsys, monkeypatch):
     assert code == 2 and len(lines) == 1, err
     assert 'pip install "hetmesh[surface]"' in lines[0]
     assert not out.exists()
+
+
+def test_copying_the_example_out_copies_its_surface(tmp_path, capsys):
+    code, out, _ = run(["examples", "l_bracket", "--out", tmp_path], capsys)
+    assert code == 0 and "l_bracket.stl" in out
+    want = hetmesh.example_path("l_bracket").with_suffix(".stl").read_bytes()
+    assert (tmp_path / "l_bracket.stl").read_bytes() == want
+    m = load_model(tmp_path / "l_bracket.toml")
+    assert m.solid.volume == pytest.approx(load_model(hetmesh.example_path("l_bracket"))
+                                           .solid.volume, rel=1e-15)
