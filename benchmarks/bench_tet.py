@@ -24,6 +24,13 @@ meshed by the general-solid mesher (hetmesh.tet.general), and Gmsh's OpenCASCADE
 the same octant with the size field s delta_0 / |grad f| (capped at 5, the sphere's
 curvature on: Mesh.MeshSizeFromCurvature = 12 elements per 2 pi) at delta_0 = 0.2 only.
 
+With ``--surface`` (or ``--surface-only``), also examples/l_bracket.toml (an L bracket given
+by its STL surface, 412 triangles, metal fraction ((x + z)/50)^2) at delta_0 = 0.2, 0.1 and
+0.05, meshed by the surface mesher (hetmesh.tet.surface_mesh: Gmsh fills the surface, MMG
+remeshes), and Gmsh alone on the same STL (its surfaces classified at 40 degrees and
+reparametrised, the size field s delta_0 / |grad f| capped at 10, s lowered likewise) at
+0.2 and 0.1.
+
 Targets (PASS/FAIL columns): Ne <= 2.0 x N_iso3, min dihedral >= 10, 1st percentile >= 20,
 mean radius ratio >= 0.75. Every ratio is taken against peers measured in the same run.
 
@@ -275,6 +282,69 @@ def mmg_cube(field, s, d0, cap=1.0):
     return p, t, wall
 
 
+def gmsh_surface(field, s, d0, cap=10.0, threads=1):
+    """Gmsh alone on examples/l_bracket.stl: surfaces classified (40 degrees), reparametrised
+    and remeshed with the volume to the size field."""
+    import gmsh
+    h = _size(field, s, d0, cap)
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", threads)
+        gmsh.model.add("surface")
+        gmsh.merge(str(hetmesh.example_path("l_bracket").with_suffix(".stl")))
+        gmsh.model.mesh.classifySurfaces(40 * np.pi / 180, True, True, np.pi)
+        gmsh.model.mesh.createGeometry()
+        loop = gmsh.model.geo.addSurfaceLoop([e[1] for e in gmsh.model.getEntities(2)])
+        gmsh.model.geo.addVolume([loop])
+        gmsh.model.geo.synchronize()
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", cap)
+        gmsh.model.mesh.setSizeCallback(
+            lambda dim, tag, x, y, z, lc: min(lc, float(h(np.array([[x, y, z]]))[0])))
+        t0 = time.perf_counter()
+        gmsh.model.mesh.generate(3)
+        wall = time.perf_counter() - t0
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, en = gmsh.model.mesh.getElementsByType(4)
+        pts = xyz.reshape(-1, 3)
+        index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        tets = index[en.astype(np.int64)].reshape(-1, 4)
+    finally:
+        gmsh.finalize()
+    used = np.unique(tets)
+    remap = np.zeros(len(pts), dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    pts, tets = pts[used], remap[tets]
+    v = simplex_measures(pts, tets)
+    tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
+    return pts, tets, wall
+
+
+def surface_section(a, head):
+    from hetmesh.io.model import load_model
+    m = load_model(hetmesh.example_path("l_bracket"))
+    print("\nl_bracket (an L bracket from its STL surface, 412 triangles), surface mesher")
+    for d0 in (0.2, 0.1, 0.05):
+        niso = n_iso3(m.solid, m.material, d0, n=96)
+        print(f"\ndelta_0 = {d0}: N_iso3 = {niso:,.0f}")
+        print(head)
+        ours = run_sphere(m, d0, niso, 1 if a.quick else a.repeats)
+        print(row("hetmesh", ours) + f"   size rounds {ours['rounds']}")
+        if a.no_peers or d0 < 0.1:
+            continue
+        fig, trace = search(gmsh_surface, m.material, d0, niso)
+        print(row("gmsh", fig))
+        print(f"  {'':<10} s-search (s, Ne, violators): "
+              + ", ".join(str(tuple(round(x, 3) if isinstance(x, float) else x
+                                    for x in tr)) for tr in trace))
+        if fig is not None:
+            print(f"  {'':<10} hetmesh / gmsh: elements {ours['Ne'] / fig['Ne']:.3f}, "
+                  f"time {ours['time'] / fig['time']:.3f}")
+
+
 def search(peer, field, d0, niso, steps=14):
     trace, s = [], 1.0
     for _ in range(steps):
@@ -315,6 +385,8 @@ def main(argv=None) -> int:
                     help="without the table of the 3D examples")
     ap.add_argument("--sphere", action="store_true", help="also examples/graded_sphere.toml")
     ap.add_argument("--sphere-only", action="store_true", help="graded_sphere.toml only")
+    ap.add_argument("--surface", action="store_true", help="also examples/l_bracket.toml")
+    ap.add_argument("--surface-only", action="store_true", help="l_bracket.toml only")
     a = ap.parse_args(argv)
     if a.examples:
         print(f"hetmesh from {Path(hetmesh.__file__).parent}; load average "
@@ -327,12 +399,13 @@ def main(argv=None) -> int:
     solid, field = unit_cube()
     print(f"hetmesh {getattr(hetmesh, '__version__', '?')} from {Path(hetmesh.__file__).parent}; "
           f"load average {os.getloadavg()[0]:.2f}")
-    print(("" if a.sphere_only else "unit_cube, f = (1 - z)^2; ")
+    only = a.sphere_only or a.surface_only
+    print(("" if only else "unit_cube, f = (1 - z)^2; ")
           + "targets: Ne/N_iso3 <= 2.0, dihedral min >= 10, p1 >= 20, mean radius ratio "
           ">= 0.75")
     head = (f"  {'mesher':<10} {'Ne':>9} {'Ne/Niso3':>7} {'dmax':>9} {'dih_min':>7} "
             f"{'dih_p1':>7} {'rr_mean':>7} {'time_s':>8}   economy/min/p1/rr")
-    if a.sphere_only:
+    if only:
         thresholds = []
     for d0 in thresholds:
         niso = n_iso3(solid, field, d0, n=96)
@@ -353,6 +426,8 @@ def main(argv=None) -> int:
                       f"time {ours['time'] / fig['time']:.3f}")
     if a.sphere or a.sphere_only:
         sphere_section(a, head)
+    if a.surface or a.surface_only:
+        surface_section(a, head)
     if a.big:
         d0 = 0.021  # about 1,000,000 tetrahedra
         niso = n_iso3(solid, field, d0, n=96)
@@ -365,7 +440,7 @@ def main(argv=None) -> int:
         import resource
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6  # kB -> GB
         print(f"  peak memory (max RSS) {rss:.2f} GB")
-    if not (a.no_examples or a.sphere_only):
+    if not (a.no_examples or only):
         examples_table(repeats)
     print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
     return 0

@@ -94,4 +94,9 @@ def run(args: argparse.Namespace) -> int:
     with atomic_write(target) as fh:
         fh.write((_package_dir() / f"{name}.toml").read_text(encoding="utf-8"))
     console.print(f"wrote {target}")
+    for extra in (_package_dir() / f"{name}.stl",):  # the surface a model file reads
+        if extra.is_file():
+            with atomic_write(args.out / extra.name, "wb") as fh:
+                fh.write(extra.read_bytes())
+            console.print(f"wrote {args.out / extra.name}")
     return 0

@@ -34,7 +34,7 @@ __all__ = ["Model3D", "parse_model3d", "SOLID_TYPES"]
 
 log = logging.getLogger(__name__)
 
-SOLID_TYPES = ("box", "cylinder", "sphere", "extrusion", "revolution")
+SOLID_TYPES = ("box", "cylinder", "sphere", "extrusion", "revolution", "surface")
 
 
 @dataclass(frozen=True, eq=False)
@@ -346,6 +346,21 @@ def _solid(ctx, value, top):
                 raise ctx.fail("domain.interfaces", "interfaces are not supported in "
                                                     "extrusions yet")
             solid = Prism(dom, 2, s0, s0 + length, where=ctx.where)
+        elif kind == "surface":  # a closed triangulated surface file (tet/surface.py)
+            t = ctx.table(value, key, required=("type", "file"), optional=("feature_angle",))
+            f = t["file"]
+            if not isinstance(f, str) or not f.strip():
+                from .schema import describe
+                raise ctx.fail("solid.file", f"expected a file name, got {describe(f)}")
+            angle = None
+            if "feature_angle" in t:
+                angle = ctx.number(t["feature_angle"], "solid.feature_angle")
+                if not 0 < angle < 180:
+                    raise ctx.fail("solid.feature_angle", f"must be in (0, 180) degrees, got "
+                                                          f"{angle:g}")
+            from ..tet.surface import SurfaceSolid
+            return SurfaceSolid.read(Path(f) if os.path.isabs(f) else ctx.base / f,
+                                     f"{ctx.pre}solid.file: {f}", angle)
         elif kind == "revolution":
             t = ctx.table(value, key, optional=("type", "angle"))
             angle = ctx.number(t.get("angle", 360.0), "solid.angle")
@@ -477,8 +492,8 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
         if not isinstance(solid, Prism) and not hasattr(solid, "profile") and \
                 isinstance(top["material"], Mapping) and \
                 top["material"].get("type", "analytic") != "analytic":
-            raise ctx.fail("material.type", "a solid of primitives takes an analytic "
-                                            "material (formulas in x, y, z)")
+            raise ctx.fail("material.type", "a solid of primitives or a surface takes an "
+                                            "analytic material (formulas in x, y, z)")
     material, material2d = _material(ctx, top["material"], solid, parameters, top)
     if check:
         samples = solid.sample(20)

@@ -13,7 +13,9 @@
   (:func:`hetmesh.tet.revolve.generate_revolved`);
 * a solid of primitives (a sphere, a clipped primitive, subtractions that are not
   through-holes): level-set cuts of a background grid, MMG remeshing to the material's size
-  (:func:`hetmesh.tet.general.generate_solid`).
+  (:func:`hetmesh.tet.general.generate_solid`);
+* a solid bounded by a triangulated surface (STL, OBJ, PLY): Gmsh fills it, MMG remeshes
+  it to the material's size (:func:`hetmesh.tet.surface_mesh.generate_surface`).
 
 >>> import hetmesh
 >>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
@@ -76,7 +78,12 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     from .extrude import mid_section_field
     from .implicit import CSGSolid
     from .revolve import Revolution, generate_revolved, is_axisymmetric, profile_field
-    if isinstance(solid, CSGSolid):
+    from .surface import SurfaceSolid
+    if isinstance(solid, SurfaceSolid):
+        from .surface_mesh import generate_surface
+        res = generate_surface(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                               max_elements=max_elements, max_size=max_size, check=check)
+    elif isinstance(solid, CSGSolid):
         from .general import generate_solid
         res = generate_solid(solid, model.material, threshold, seed=seed, chord_tol=chord,
                              max_elements=max_elements, max_size=max_size, check=check)

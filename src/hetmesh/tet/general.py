@@ -50,7 +50,8 @@ from .mesher import CHORD, TetResult
 from .refine import repair
 from .verify import validity_problems
 
-__all__ = ["generate_solid", "solid_problems", "estimate_solid", "S", "SHRINK", "SIZE_ROUNDS"]
+__all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
+           "S", "SHRINK", "SIZE_ROUNDS"]
 
 log = logging.getLogger(__name__)
 
@@ -130,10 +131,11 @@ def kuhn_grid(xs, ys, zs) -> tuple[np.ndarray, np.ndarray]:
     paths = [(0, 4, 6, 7), (0, 4, 5, 7), (0, 2, 6, 7), (0, 2, 3, 7), (0, 1, 5, 7),
              (0, 1, 3, 7)]
     t = np.concatenate([c[:, list(pp)] for pp in paths]).astype(np.int64)
-    return p, _orient(p, t)
+    return p, orient_positive(p, t)
 
 
-def _orient(p, t):
+def orient_positive(p, t):
+    """``t`` with the tetrahedra of negative volume turned (two vertices swapped)."""
     v = simplex_measures(p, t)
     t = t.copy()
     neg = v < 0
@@ -184,7 +186,7 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     used = np.unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
-    return p[used], _orient(p[used], remap[t])
+    return p[used], orient_positive(p[used], remap[t])
 
 
 def _membership(solid, p, t, refs, curved) -> np.ndarray:
@@ -302,7 +304,11 @@ def cap_curved(solid, size, faces, markers, chord):
     return size
 
 
-def _remesh(p, t, faces, markers, size, hausd):
+def mmg_remesh(p, t, faces, markers, size, hausd):
+    """One MMG remeshing of ``(p, t)`` to the isotropic ``size`` per vertex, the boundary
+    triangles ``faces`` with their ``markers`` kept as references, Hausdorff distance
+    ``hausd``, gradation :data:`HGRAD`: ``(points, tets, faces, markers, size)``, the size
+    MMG interpolated at the new vertices."""
     mmgpy = _quiet_mmg()
     m = mmgpy.MmgMesh3D()
     m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces))
@@ -315,7 +321,7 @@ def _remesh(p, t, faces, markers, size, hausd):
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
-    t = _orient(p, np.asarray(m.get_tetrahedra(), dtype=np.int64))
+    t = orient_positive(p, np.asarray(m.get_tetrahedra(), dtype=np.int64))
     f, fr = m.get_triangles_with_refs()
     h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
     return p, t, np.asarray(f, dtype=np.int64), np.asarray(fr, dtype=np.int64) - 1, h
@@ -400,7 +406,7 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     rounds = 0
     mtol = max(0.25 * h_max, 10 * chord)
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, fm, rm, h_mmg = _remesh(p, t, faces, markers, size, hausd)
+        p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
         faces, markers = _faces_after(solid, p, t, fm, rm, mtol)
         p = project_safely(solid, p, t, faces, markers)
         if max_elements is not None and len(t) > max_elements:

@@ -310,7 +310,8 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     if not _is_revolution(solid) and not hasattr(solid, "section"):
         raise OptionError(f"a uniform mesh of {model.name} is not available: the uniform "
                           f"tetrahedral mesher takes prisms (boxes, cylinders, extrusions) "
-                          f"and solids of revolution, not solids of primitives")
+                          f"and solids of revolution, not solids of primitives or "
+                          f"triangulated surfaces")
     sections = SectionMesher(model, threshold, section_chord(solid, chord_tol))
     h = _start_size(model, threshold)
     best: TetResult | None = None

@@ -1,0 +1,289 @@
+"""The surface-solid tetrahedral mesher: a solid bounded by a closed triangulated surface
+(:class:`~hetmesh.tet.surface.SurfaceSolid`), meshed to the material's size.
+
+1. *Initial volume*: Gmsh's 3D Delaunay mesher (``Mesh.Algorithm3D = 1``, one thread, no
+   optimisation) fills the surface without remeshing it: the input triangles are the
+   boundary (Gmsh may split some of them, in their plane). Gmsh is an optional dependency
+   (GPL, ``pip install "hetmesh[surface]"``); without it, a one-line error (exit 2) says so.
+2. *Size*: MMG remeshes to the isotropic size ``h = delta_0 / |grad f|`` (as for solids of
+   primitives, :mod:`hetmesh.tet.general`), at most a quarter of the extent (or
+   ``max_size``), with the Hausdorff distance ``hausd`` at half the chord tolerance: MMG
+   detects the sharp edges (dihedral angles under 135 degrees: ridges, kept as polylines)
+   and moves the other boundary vertices on a smooth interpolation of the facets, within
+   ``hausd`` of them. Up to :data:`~hetmesh.tet.general.SIZE_ROUNDS` times the size at the
+   vertices of tetrahedra with ``delta >= delta_0`` is multiplied by
+   :data:`~hetmesh.tet.general.SHRINK` and MMG remeshes again.
+3. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
+   boundary edge's midpoint lies in its triangle's plane, so the boundary does not move.
+4. *Verification* (:func:`surface_problems`): positive volumes, conformity, a closed
+   boundary, every boundary triangle within the chord tolerance of the input surface (at 12
+   points per triangle), every input vertex within the chord tolerance of the mesh's
+   boundary (no corner cut off), the volume within the chord tolerance x the surface's area
+   of the surface's, every tetrahedron's centroid inside, delta_max < delta_0.
+
+Gmsh (one thread) and MMG are deterministic: the same model gives the same mesh, bit for bit.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from ..errors import BudgetError, MeshingError, OptionError, VerificationError
+from ..mesh import simplex_measures
+from ..metrics import delta_vertices
+from .faces import boundary_faces
+from .general import HGRAD, SHRINK, SIZE_ROUNDS, mmg_remesh, orient_positive, size_field
+from .mesher import CHORD, TetResult
+from .refine import repair
+from .surface import SurfaceSolid, distance_to_triangles, distance_within
+from .verify import validity_problems
+
+__all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
+           "EXTRA"]
+
+log = logging.getLogger(__name__)
+
+#: the extra that installs the initial-volume mesher
+EXTRA = "surface"
+
+
+def _gmsh():
+    try:
+        import gmsh
+    except Exception as exc:  # noqa: BLE001  (ImportError, or a broken shared library)
+        raise OptionError(f"meshing a triangulated surface needs Gmsh, which is not "
+                          f"installed: pip install \"hetmesh[{EXTRA}]\" ({exc})") from None
+    return gmsh
+
+
+def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
+    """A first tetrahedral mesh of the inside of the surface whose boundary is the input
+    triangles (Gmsh's 3D Delaunay of them, one thread): ``(points, tets)``, tetrahedra
+    positively oriented."""
+    gmsh = _gmsh()
+    V, F = solid.V, solid.F
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+        gmsh.option.setNumber("Mesh.Optimize", 0)
+        # no size from the surface's points: as few inside points as the recovery needs
+        # (MMG sets the sizes next)
+        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints"):
+            gmsh.option.setNumber(f"Mesh.{k}", 0)
+        gmsh.model.add("hetmesh_surface")
+        lab, regions = solid.shells
+        tags = {}
+        for k in np.unique(lab):  # one discrete surface per shell, its own points
+            s = gmsh.model.addDiscreteEntity(2)
+            ids = np.unique(F[lab == k])
+            gmsh.model.mesh.addNodes(2, s, ids + 1, V[ids].ravel())
+            tags[int(k)] = s
+        for k in np.unique(lab):
+            gmsh.model.mesh.addElementsByType(tags[int(k)], 2, [], (F[lab == k] + 1).ravel())
+        for outer, cavities in regions:
+            loops = [gmsh.model.geo.addSurfaceLoop([tags[j]]) for j in [outer, *cavities]]
+            gmsh.model.geo.addVolume(loops)
+        gmsh.model.geo.synchronize()
+        gmsh.model.mesh.generate(3)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, enodes = gmsh.model.mesh.getElementsByType(4)
+    except Exception as exc:  # noqa: BLE001  (Gmsh raises plain Exceptions)
+        raise MeshingError(f"Gmsh could not fill the surface {solid.source}: "
+                           f"{' '.join(str(exc).split())}") from None
+    finally:
+        gmsh.finalize()
+    if not len(enodes):
+        raise MeshingError(f"Gmsh made no tetrahedra inside the surface {solid.source}")
+    tags = tags.astype(np.int64)
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags] = np.arange(len(tags))
+    t = index[enodes.astype(np.int64)].reshape(-1, 4)
+    p = xyz.reshape(-1, 3).astype(np.float64)
+    used = np.unique(t)
+    remap = np.full(len(p), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return p[used], orient_positive(p[used], remap[t])
+
+
+def estimate_surface(solid: SurfaceSolid, field, threshold: float, h_max: float) -> float:
+    """A-priori element count: twice the regular tetrahedra of edge ``delta_0 / |grad f|``
+    (capped at ``h_max``) over the solid (a 32^3 grid), plus 100."""
+    lo, hi = solid.bounds
+    n = 32
+    h = (hi - lo) / n
+    g = [lo[k] + h[k] * (np.arange(n) + 0.5) for k in range(3)]
+    pts = np.stack(np.meshgrid(*g, indexing="ij"), axis=-1).reshape(-1, 3)
+    pts = pts[solid.contains(pts, 0.0)]
+    if not len(pts):
+        return 100.0
+    hh = size_field(field, pts, threshold, h_max, 1e-300)
+    per = 6.0 * np.sqrt(2.0) / hh ** 3
+    return 2.0 * float(per.sum() * np.prod(h)) + 100.0
+
+
+def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int = 0,
+                     chord_tol: float | None = None, max_elements: int | None = None,
+                     max_size: float | None = None, check: bool = True) -> TetResult:
+    """Tetrahedralise a :class:`~hetmesh.tet.surface.SurfaceSolid` with every element's delta
+    below ``threshold`` (module docstring). ``chord_tol`` in model units (default 2e-3 x the
+    diameter); ``seed`` is accepted for the common interface (the mesh does not depend on
+    it)."""
+    t0 = time.perf_counter()
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    lo, hi = solid.bounds
+    h_max = float((hi - lo).max()) / 4
+    if max_size is not None:
+        h_max = min(h_max, float(max_size))
+    h_min = 1e-4 * solid.diameter
+    est = estimate_surface(solid, field, threshold, h_max)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
+                          f"but the budget is {max_elements}")
+    p, t = initial_volume(solid)
+    faces, _ = boundary_faces(t)
+    markers = _classify(solid, p, faces, chord)
+    size = size_field(field, p, threshold, h_max, h_min)
+    hausd = 0.5 * chord
+    rounds = 0
+    for rounds in range(SIZE_ROUNDS + 1):
+        p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
+        faces, markers = _keep_markers(solid, p, t, fm, rm, chord)
+        if max_elements is not None and len(t) > max_elements:
+            raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
+                              f"{max_elements}")
+        comp = field.composition(p)
+        bad = delta_vertices(comp, t) >= threshold
+        log.info("surface: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
+                 int(bad.sum()))
+        if not bad.any() or rounds == SIZE_ROUNDS:
+            break
+        size = np.minimum(h_mmg, size_field(field, p, threshold, h_max, h_min))
+        shrink = np.ones(len(p))
+        shrink[t[bad].ravel()] = SHRINK
+        size = np.maximum(size * shrink, h_min)
+    t_place = time.perf_counter() - t0
+    p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
+                                       max_elements=max_elements)
+    if passes:  # bisected boundary triangles: the new ones take the face they lie on
+        faces, markers = _keep_markers(solid, p, t, faces, markers, chord)
+    t = t.astype(np.int32)
+    info = {"placement": "surface", "size_rounds": rounds, "repair_passes": passes,
+            "estimate": est, "composition": comp, "time_place": t_place, "h_max": h_max,
+            "chord_tol": chord, "hgrad": HGRAD}
+    res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
+                    tuple(solid.face_names), delta, float(threshold), info)
+    if check:
+        probs = surface_problems(res, solid, field, chord)
+        if probs:
+            raise VerificationError("tetrahedral mesh verification failed: " + probs[0]
+                                    + (f" (and {len(probs) - 1} more)" if len(probs) > 1
+                                       else ""))
+    res.info["time_total"] = time.perf_counter() - t0
+    log.info("surface mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, "
+             "%.2f s", len(p), len(t), rounds, passes, res.info["time_total"])
+    return res
+
+
+def _classify(solid: SurfaceSolid, p, faces, chord: float) -> np.ndarray:
+    """The face of each boundary triangle (:meth:`SurfaceSolid.classify_faces` within the
+    chord tolerance); :class:`MeshingError` where none."""
+    markers = solid.classify_faces(p[faces], chord)
+    if (markers < 0).any():
+        c = p[faces[markers < 0][0]].mean(axis=0)
+        raise MeshingError(f"{int((markers < 0).sum())} boundary triangles off the surface "
+                           f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    return markers
+
+
+def _keep_markers(solid, p, t, known, known_markers, chord):
+    """The boundary triangles of ``t`` and their faces: those of the triangles ``known``
+    (MMG's, with the references it kept; or the mesh's before a repair) where they are
+    the same, the others classified by their geometry."""
+    faces, _ = boundary_faces(t)
+    if len(solid.face_names) == 1:
+        return faces, np.zeros(len(faces), dtype=np.int64)
+    n = len(p) + 1
+
+    def key(f):
+        s = np.sort(np.asarray(f, dtype=np.int64), axis=1)
+        return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+
+    kb, km = key(faces), key(known)
+    order = np.argsort(km)
+    pos = np.clip(np.searchsorted(km[order], kb), 0, max(len(km) - 1, 0))
+    hit = km[order][pos] == kb if len(km) else np.zeros(len(kb), dtype=bool)
+    markers = np.where(hit, np.asarray(known_markers)[order][pos], -1)
+    bad = (markers < 0) | (markers >= len(solid.face_names))
+    if bad.any():
+        markers[bad] = _classify(solid, p, faces[bad], chord)
+    return faces, markers
+
+
+#: barycentric points at which boundary triangles are checked against the surface
+_BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                  [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
+                  [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
+
+
+def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[str]:
+    """Every broken claim of a mesh of ``solid``, one line each (empty: valid). delta is
+    recomputed from ``field`` at the vertices (None: the result's own delta)."""
+    p, t = res.points, res.tets
+    if len(t) == 0:
+        return ["no tetrahedra"]
+    out = validity_problems(p, t)
+    faces = np.asarray(res.faces, dtype=np.int64)
+    bf, _ = boundary_faces(t)
+    if len(bf) != len(faces):
+        out.append(f"{len(faces)} boundary triangles recorded, {len(bf)} in the tetrahedra")
+    lim = chord_tol * (1 + 1e-9)
+    pts = np.einsum("bk,nkd->nbd", _BARY, p[faces]).reshape(-1, 3)
+    far = np.flatnonzero(np.isinf(solid.distance_within(pts, lim)))
+    if len(far):
+        dev = solid.distance(pts[far[:1000]])
+        c = pts[far[int(np.argmax(dev))]]
+        out.append(f"{len(far)} points of boundary triangles are off the surface, by up to "
+                   f"{float(dev.max()):.3g} at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}) "
+                   f"(allowed {chord_tol:.3g})")
+    far = np.flatnonzero(np.isinf(distance_within(p, faces, solid.V, lim)))
+    if len(far):
+        back = distance_to_triangles(p, faces, solid.V[far[:1000]])
+        c = solid.V[far[int(np.argmax(back))]]
+        out.append(f"{len(far)} vertices of the surface are off the mesh's boundary, by up "
+                   f"to {float(back.max()):.3g} at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}) "
+                   f"(allowed {chord_tol:.3g})")
+    markers = np.asarray(res.face_markers, dtype=np.int64) - 1
+    if ((markers < 0) | (markers >= len(solid.face_names))).any():
+        out.append(f"{int(((markers < 0) | (markers >= len(solid.face_names))).sum())} "
+                   f"boundary triangles on no face")
+    elif len(solid.face_names) > 1:
+        mark = np.repeat(markers, len(_BARY))
+        for k, name in enumerate(solid.face_names):
+            sel = np.flatnonzero(mark == k)
+            own = solid.F[solid.patch == k]
+            far = np.isinf(distance_within(solid.V, own, pts[sel], lim))
+            if far.any():
+                c = pts[sel[np.flatnonzero(far)[0]]]
+                out.append(f"face {name!r}: {int(far.sum())} points of its triangles are "
+                           f"off its part of the surface (e.g. at ({c[0]:.6g}, {c[1]:.6g}, "
+                           f"{c[2]:.6g}))")
+    vol = float(simplex_measures(p, t).sum())
+    if abs(vol - solid.volume) > chord_tol * solid.area + 1e-9 * solid.volume:
+        out.append(f"volume {vol:.12g} differs from the surface's {solid.volume:.12g} by "
+                   f"more than the chord tolerance x its area allows")
+    cen = p[t].mean(axis=1)
+    outside = ~solid.contains(cen, chord_tol)
+    if outside.any():
+        c = cen[outside][0]
+        out.append(f"{int(outside.sum())} tetrahedra outside the surface (e.g. at "
+                   f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
+    if not float(delta.max()) < res.threshold:
+        out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
+                   f"{res.threshold:g}")
+    return out
