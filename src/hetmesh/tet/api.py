@@ -13,7 +13,9 @@
   (:func:`hetmesh.tet.revolve.generate_revolved`);
 * a solid of primitives (a sphere, a clipped primitive, subtractions that are not
   through-holes): level-set cuts of a background grid, MMG remeshing to the material's size
-  (:func:`hetmesh.tet.general.generate_solid`).
+  (:func:`hetmesh.tet.general.generate_solid`);
+* the non-zero voxels of a mask volume: the level-set cut of the voxel-centre grid, MMG
+  remeshing (:func:`hetmesh.tet.masked.generate_masked`).
 
 >>> import hetmesh
 >>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
@@ -75,8 +77,13 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     from ..io.model import Model
     from .extrude import mid_section_field
     from .implicit import CSGSolid
+    from .masked import VoxelSolid
     from .revolve import Revolution, generate_revolved, is_axisymmetric, profile_field
-    if isinstance(solid, CSGSolid):
+    if isinstance(solid, VoxelSolid):  # the non-zero voxels of a mask volume
+        from .masked import generate_masked
+        res = generate_masked(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                              max_elements=max_elements, max_size=max_size, check=check)
+    elif isinstance(solid, CSGSolid):
         from .general import generate_solid
         res = generate_solid(solid, model.material, threshold, seed=seed, chord_tol=chord,
                              max_elements=max_elements, max_size=max_size, check=check)

@@ -217,5 +217,8 @@ def _problems(res, solid, chord: float) -> list[str]:
         return revolution_problems(res, solid, None, chord)
     if isinstance(solid, CSGSolid):
         return solid_problems(res, solid, None, chord)
+    from .masked import VoxelSolid, mask_problems
+    if isinstance(solid, VoxelSolid):
+        return mask_problems(res, solid, None)
     return tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
                         res.delta, res.threshold, chord)

@@ -1,6 +1,7 @@
 """``[material] type = "image"`` in a 3D model (a ``[solid]`` table): a volume (TIFF stack,
 3-D ``.npy``, ``.vti``, NRRD) as an :class:`~hetmesh.material.image.ImageField` on
-``(N, 3)`` points, and ``[solid] image = "extent"``, the box the voxels cover (schema in
+``(N, 3)`` points, ``[solid] image = "extent"``, the box the voxels cover, and
+``[solid] image = "mask"``, the non-zero voxels of a mask volume (schema in
 docs/model-format.md, "Volumes").
 """
 
@@ -18,7 +19,7 @@ from ...errors import MaterialError, ModelFileError
 from ...io.schema import describe
 from .parse import parse_constituents, parse_value_map, place_image, scalar_values
 
-__all__ = ["read_volume", "parse_volume", "volume_solid", "VOLUME_KEYS"]
+__all__ = ["read_volume", "parse_volume", "volume_solid", "mask_solid", "VOLUME_KEYS"]
 
 #: keys of ``[material] type = "image"`` in a 3D model
 VOLUME_KEYS = ("type", "constituents", "file", "map", "spacing", "origin", "bounds",
@@ -88,24 +89,48 @@ def read_volume(ctx, table) -> dict | None:
 
 
 def volume_solid(ctx, value: Mapping, mtable):
-    """``[solid] image = "extent"``: the box the voxels of the material's volume cover, and
-    the volumes read (for :func:`parse_volume`)."""
+    """``[solid] image = "extent"``: the box the voxels of the material's volume cover;
+    ``image = "mask"``: the non-zero voxels of a mask volume
+    (:class:`~hetmesh.tet.masked.VoxelSolid`). Returns the solid and the volumes read (for
+    :func:`parse_volume`)."""
     from ...tet.solid import box
 
-    t = ctx.table(value, "solid", required=("image",))
+    t = ctx.table(value, "solid", required=("image",), optional=("mask",))
     how = t["image"]
-    if how != "extent":
-        raise ctx.fail("solid.image", f"expected \"extent\" (the box the voxels cover), got "
+    if how not in ("extent", "mask"):
+        raise ctx.fail("solid.image", f"expected \"extent\" (the box the voxels cover) or "
+                                      f"\"mask\" (the non-zero voxels of a mask), got "
                                       f"{describe(how)}")
     if not isinstance(mtable, Mapping) or mtable.get("type") != "image":
         raise ctx.fail("solid.image", "a solid taken from a volume needs [material] type = "
                                       "\"image\"")
+    if "mask" in t and how != "mask":
+        raise ctx.fail("solid.mask", "a mask file needs image = \"mask\"")
     src = read_volume(ctx, mtable)
     if src is None:
         raise ctx.fail("solid.image", "the material's file is not a volume (a TIFF stack, "
                                       "3-D .npy, .vti or .nrrd)", MaterialError)
-    lo, hi = src["geometry"].extent()
-    return box(lo, hi, where=ctx.where), src
+    geo = src["geometry"]
+    if how == "extent":
+        lo, hi = geo.extent()
+        return box(lo, hi, where=ctx.where), src
+    if "mask" not in t:
+        raise ctx.fail("solid.mask", "image = \"mask\" needs a mask volume (solid.mask = "
+                                     "\"...\")")
+    mimg = _read(ctx, "solid.mask", t["mask"], mtable, geo.shape)
+    if mimg.dim != 3:
+        raise MaterialError(f"{mimg.source}: a 2-D image; a solid's mask must be a volume "
+                            f"(a TIFF stack, 3-D .npy, .vti or .nrrd)")
+    return mask_solid(ctx, scalar_values(ctx, "solid.mask", mimg) != 0, mimg), src
+
+
+def mask_solid(ctx, inside: np.ndarray, img):
+    """The :class:`~hetmesh.tet.masked.VoxelSolid` of the voxels ``inside`` of ``img``
+    (its largest face-connected region)."""
+    from ...tet.masked import VoxelSolid, largest_component
+
+    kept = largest_component(inside, where=img.source)
+    return VoxelSolid(kept, img.origin, img.spacing, source=img.source, where=ctx.where)
 
 
 def parse_volume(ctx, table, solid, src: dict):
