@@ -109,6 +109,8 @@ class VoxelSolid:
     spacing: tuple
     source: str = "mask"
     where: str = ""
+    labels: np.ndarray | None = None
+    phases: tuple = ()
 
     def __post_init__(self):
         a = np.asarray(self.inside, bool)
@@ -118,6 +120,17 @@ class VoxelSolid:
         if not a.any():
             raise GeometryError(f"{self.source}: the mask has no non-zero voxels")
         object.__setattr__(self, "inside", a)
+        if self.labels is not None:
+            lab = np.asarray(self.labels, np.int64)
+            if lab.shape != a.shape:
+                raise GeometryError(f"{self.source}: labels of shape {lab.shape}, mask of "
+                                    f"shape {a.shape}")
+            missing = set(np.unique(lab[a]).tolist()) - set(self.phases)
+            if missing:
+                raise GeometryError(f"{self.source}: labels {sorted(missing)} inside the "
+                                    f"solid have no phase")
+            object.__setattr__(self, "labels", lab)
+            object.__setattr__(self, "phases", tuple(int(v) for v in self.phases))
         object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))
         object.__setattr__(self, "spacing", tuple(float(v) for v in self.spacing))
 
@@ -136,6 +149,57 @@ class VoxelSolid:
         pad = np.pad(sub, 1)
         org = np.asarray(self.origin) + (lo[::-1] - 1) * np.asarray(self.spacing)
         return pad, org
+
+    @property
+    def n_phases(self) -> int:
+        return max(len(self.phases), 1)
+
+    @cached_property
+    def phase_grid(self) -> np.ndarray:
+        """Per voxel of :attr:`padded`: its phase (index into :attr:`phases`; 0 for every
+        voxel of a plain mask), -1 outside the solid."""
+        pad, _ = self.padded
+        out = np.where(pad, 0, -1).astype(np.int64)
+        if self.labels is not None:
+            lo, hi = self.box
+            sub = np.pad(self.labels[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1, lo[2]:hi[2] + 1], 1)
+            index = {lab: k for k, lab in enumerate(self.phases)}
+            for lab, k in index.items():
+                out[pad & (sub == lab)] = k
+        return out
+
+    def interpolate(self, grid: np.ndarray, points) -> np.ndarray:
+        """The piecewise-linear interpolation of ``grid`` (values on the padded centres)
+        over the Kuhn tetrahedra of the centre grid (Freudenthal's: in each cell, the one
+        whose vertices are visited in the order of the decreasing fractional coordinates)
+        at ``points``; 0 beyond the padded box."""
+        _, org = self.padded
+        g = np.asarray(grid, float)
+        u = (np.asarray(points, float).reshape(-1, 3) - org) / np.asarray(self.spacing)
+        top = np.array(g.shape[::-1]) - 2
+        i0 = np.clip(np.floor(u).astype(np.int64), 0, top)
+        f = np.clip(u - i0, 0.0, 1.0)
+        out = ((u < 0) | (u > top + 1)).any(axis=1)
+        order = np.argsort(-f, axis=1, kind="stable")
+        fs = np.take_along_axis(f, order, axis=1)
+        w = np.column_stack([1 - fs[:, 0], fs[:, 0] - fs[:, 1], fs[:, 1] - fs[:, 2], fs[:, 2]])
+        c = i0.copy()
+        val = w[:, 0] * g[c[:, 2], c[:, 1], c[:, 0]]
+        rows = np.arange(len(u))
+        for k in range(3):
+            c[rows, order[:, k]] += 1
+            val = val + w[:, k + 1] * g[c[:, 2], c[:, 1], c[:, 0]]
+        return np.where(out, 0.0, val)
+
+    def phase(self, points) -> np.ndarray:
+        """The phase of each point as the cuts decide it (``points`` inside the solid): the
+        first phase (in :attr:`phases` order) whose interpolated indicator (:meth:`
+        interpolate`) exceeds 1/2, else the phase of the largest one."""
+        p = np.asarray(points, float).reshape(-1, 3)
+        grid = self.phase_grid
+        ind = np.stack([self.interpolate(grid == k, p) for k in range(self.n_phases)], 1)
+        over = ind > 0.5
+        return np.where(over.any(axis=1), np.argmax(over, axis=1), np.argmax(ind, axis=1))
 
     @cached_property
     def regions(self) -> np.ndarray:
@@ -196,26 +260,43 @@ class VoxelSolid:
         from .solid import grid_inside
         return grid_inside(self, n)
 
-    def stencil(self, points) -> tuple[np.ndarray, np.ndarray]:
-        """For every point, whether the 8 voxel centres around it include a non-zero and a
-        zero voxel, and the smallest zero-region index among them (-1: none)."""
-        pad, org = self.padded
+    def _around(self, grid: np.ndarray, points, fill: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(values (N, 27), valid (N, 27))``: ``grid`` at the voxel centres whose voxels
+        the box of one voxel centred on each point overlaps (closed boxes: 2 per axis, 3
+        where the point lies on a plane of centres), ``fill`` beyond the padded box."""
+        _, org = self.padded
         u = (np.asarray(points, float).reshape(-1, 3) - org) / np.asarray(self.spacing)
-        i0 = np.floor(u).astype(np.int64)
-        reg = self.regions
-        shape = np.array(pad.shape[::-1])
-        has_in = np.zeros(len(u), bool)
-        has_out = np.zeros(len(u), bool)
-        best = np.full(len(u), np.iinfo(np.int64).max)
-        for d in np.ndindex(2, 2, 2):
-            ii = i0 + np.array(d)
-            ok = ((ii >= 0) & (ii < shape)).all(axis=1)
-            r = np.zeros(len(u), np.int64)  # outside the padded box: the outside region
-            r[ok] = reg[ii[ok, 2], ii[ok, 1], ii[ok, 0]]
-            has_in |= r < 0
-            has_out |= r >= 0
-            best = np.where(r >= 0, np.minimum(best, r), best)
-        return has_in & has_out, np.where(has_out, best, -1)
+        lo = np.floor(u - 1e-9).astype(np.int64)
+        hi = np.floor(u + 1e-9).astype(np.int64) + 1
+        shape = np.array(grid.shape[::-1])
+        vals = np.full((len(u), 27), fill, np.int64)
+        valid = np.zeros((len(u), 27), bool)
+        for n, d in enumerate(np.ndindex(3, 3, 3)):
+            ii = lo + np.array(d)
+            use = (ii <= hi).all(axis=1)
+            ok = use & ((ii >= 0) & (ii < shape)).all(axis=1)
+            valid[:, n] = use
+            vals[ok, n] = grid[ii[ok, 2], ii[ok, 1], ii[ok, 0]]
+        return vals, valid
+
+    def stencil(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """For every point, whether the voxels the box of one voxel centred on it overlaps
+        include a non-zero and a zero voxel, and the smallest zero-region index among them
+        (-1: none)."""
+        r, valid = self._around(self.regions, points, 0)  # beyond the box: the outside
+        inside = ((r < 0) & valid).any(axis=1)
+        out = (r >= 0) & valid
+        best = np.where(out, r, np.iinfo(np.int64).max).min(axis=1)
+        has_out = out.any(axis=1)
+        return inside & has_out, np.where(has_out, best, -1)
+
+    def between(self, points, a, b) -> np.ndarray:
+        """Whether the voxels the box of one voxel centred on each point overlaps include
+        phase ``a`` and phase ``b`` (per point; -1 the outside)."""
+        r, valid = self._around(self.phase_grid, points, -1)
+        a = np.broadcast_to(np.asarray(a, np.int64), (len(r),))[:, None]
+        b = np.broadcast_to(np.asarray(b, np.int64), (len(r),))[:, None]
+        return ((r == a) & valid).any(axis=1) & ((r == b) & valid).any(axis=1)
 
     def classify_faces(self, tri_points) -> np.ndarray:
         """The face index of each boundary triangle ``(K, 3, 3)``: the zero region next to
@@ -224,60 +305,142 @@ class VoxelSolid:
         return self.stencil(tri.mean(axis=1))[1]
 
 
-# -- 1. the cut ---------------------------------------------------------------------------
+# -- 1. the cuts --------------------------------------------------------------------------
 
-def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray]:
-    """The Kuhn tetrahedra of the padded voxel-centre grid cut along the mask's contour,
-    those inside: ``(points, tets)``."""
+def _compact(p, t):
+    used = np.unique(t)
+    remap = np.full(len(p), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    return p[used], remap[t]
+
+
+def _cut(mmgpy, p, t, refs, phi, split: dict, what: str):
+    """One MMG level-set cut of the tetrahedra whose ref is a key of ``split`` (``{ref:
+    (ref_minus, ref_plus)}``; the others are kept whole): ``(points, tets, refs)``."""
+    m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
+    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                     np.ascontiguousarray(refs, dtype=np.int32))
+    mats = []
+    for r in np.unique(refs).tolist():
+        lo, hi = split.get(r, (r, r))
+        mats.append(dict(ref=int(r), split=int(r in split), ref_minus=int(lo),
+                         ref_plus=int(hi)))
+    m.set_multi_materials(mats)
+    out = m.remesh_levelset(np.ascontiguousarray(phi, dtype=np.float64).reshape(-1, 1),
+                            verbose=-1, noinsert=1, noswap=1, nomove=1)
+    if out.get("return_code", 0) != 0:
+        raise MeshingError(f"MMG's level-set cut of {what} failed (code "
+                           f"{out.get('return_code')})")
+    p = np.array(m.get_vertices(), dtype=np.float64)
+    tt, rr = m.get_tetrahedra_with_refs()
+    return p, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+
+
+def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Kuhn tetrahedra of the padded voxel-centre grid cut along the mask's contour and
+    then, for a label volume, along the contour of every phase but the last in turn (each
+    cut only through the tetrahedra no earlier phase took): ``(points, tets, phase)`` of
+    the tetrahedra inside, ``phase`` the index into :attr:`VoxelSolid.phases`."""
     from .general import _orient, _quiet_mmg, kuhn_grid
 
     mmgpy = _quiet_mmg()
     pad, org = solid.padded
-    s = np.asarray(solid.spacing)
+    sp = np.asarray(solid.spacing)
     nz, ny, nx = pad.shape
-    xs, ys, zs = (org[a] + s[a] * np.arange(n) for a, n in enumerate((nx, ny, nz)))
+    xs, ys, zs = (org[a] + sp[a] * np.arange(n) for a, n in enumerate((nx, ny, nz)))
     p, t = kuhn_grid(xs, ys, zs)
     phi = 0.5 - pad.transpose(2, 1, 0).astype(np.float64).ravel()  # kuhn_grid's (i, j, k)
-    t = t[~(phi[t] > 0).all(axis=1)]  # tetrahedra wholly outside: not needed
-    used = np.unique(t)
-    remap = np.full(len(p), -1, np.int64)
-    remap[used] = np.arange(len(used))
-    p, t, phi = p[used], remap[t], phi[used]
-    m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
-    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                     np.ones(len(t), dtype=np.int32))
-    m.set_multi_materials([dict(ref=1, split=1, ref_minus=3, ref_plus=5)])
-    out = m.remesh_levelset(np.ascontiguousarray(phi.reshape(-1, 1)), verbose=-1,
-                            noinsert=1, noswap=1, nomove=1)
-    if out.get("return_code", 0) != 0:
-        raise MeshingError(f"MMG's level-set cut of the mask failed (code "
-                           f"{out.get('return_code')})")
-    p = np.array(m.get_vertices(), dtype=np.float64)
-    tt, rr = m.get_tetrahedra_with_refs()
-    t = np.asarray(tt, dtype=np.int64)[np.asarray(rr) == 3]
-    used = np.unique(t)
-    remap = np.full(len(p), -1, np.int64)
-    remap[used] = np.arange(len(used))
-    return p[used], _orient(p[used], remap[t])
+    p, t = _compact(p, t[~(phi[t] > 0).all(axis=1)])  # wholly outside: not needed
+    phi = 0.5 - solid.interpolate(pad, p)
+    # refs: 1 outside, 2 the mask before the cuts, 10 + k phase k, 100 + k undecided before
+    # the cut of phase k (all distinct, as MMG asks)
+    OUT = 1
+    p, t, refs = _cut(mmgpy, p, t, np.full(len(t), 2), phi, {2: (100, OUT)}, "the mask")
+    n = solid.n_phases
+    grid = solid.phase_grid
+    for k in range(n if n > 1 else 0):
+        if not (refs == 100 + k).any():
+            break
+        p, t, refs = _cut(mmgpy, p, t, refs, 0.5 - solid.interpolate(grid == k, p),
+                          {100 + k: (10 + k, 101 + k)}, f"phase {solid.phases[k]}")
+    # what no phase's indicator took (where three phases or more meet): the phase with the
+    # largest indicator at the centroid, one whose voxel is a corner of its Kuhn tetrahedron
+    rest = np.flatnonzero(refs >= 100)
+    if n == 1:
+        refs[rest] = 10
+    elif len(rest):
+        refs[rest] = 10 + solid.phase(p[t[rest]].mean(axis=1))
+    keep = refs != OUT
+    p, t = _compact(p, t[keep])
+    return p, _orient(p, t), refs[keep] - 10
 
 
 # -- 2. size -------------------------------------------------------------------------------
 
-def _mesh(solid, field, threshold, p, t, hausd, h_max, h_min, max_elements):
-    from .general import _remesh, size_field
+def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles between tetrahedra of different phases, once each, with the phases of
+    the tetrahedra on either side: ``(faces (K, 3), sides (K, 2))``."""
+    f = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
+                        tets[:, [0, 2, 1]]])
+    owner = np.tile(np.arange(len(tets)), 4)
+    key = np.sort(f, axis=1)
+    order = np.lexsort(key.T[::-1])
+    ks = key[order]
+    same = (ks[1:] == ks[:-1]).all(axis=1)
+    a, b = order[:-1][same], order[1:][same]
+    differ = phase[owner[a]] != phase[owner[b]]
+    a, b = a[differ], b[differ]
+    return f[a], np.column_stack([phase[owner[a]], phase[owner[b]]])
 
+
+def _remesh(p, t, phase, size, hausd):
+    """MMG's remeshing to ``size`` with the boundary and the phases' interfaces kept within
+    ``hausd``: ``(points, tets, phase, size MMG interpolated)``."""
+    from .general import _orient, _quiet_mmg
+
+    mmgpy = _quiet_mmg()
     faces, _ = boundary_faces(t)
-    markers = np.zeros(len(faces), np.int64)
+    inter, _ = interface_faces(t, phase)
+    tri = np.concatenate([faces, inter]).astype(np.int32)
+    refs = np.r_[np.ones(len(faces)), np.full(len(inter), 2)].astype(np.int32)
+    m = mmgpy.MmgMesh3D()
+    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(tri))
+    m.set_vertices(np.ascontiguousarray(p))
+    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                     np.ascontiguousarray(phase + 1, dtype=np.int32))
+    m.set_triangles(np.ascontiguousarray(tri), np.ascontiguousarray(refs))
+    m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
+    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    if out.get("return_code", 0) != 0:
+        raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
+    p = np.array(m.get_vertices(), dtype=np.float64)
+    tt, rr = m.get_tetrahedra_with_refs()
+    t = _orient(p, np.asarray(tt, dtype=np.int64))
+    h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
+    return p, t, np.asarray(rr, dtype=np.int64) - 1, h
+
+
+def _delta(field, p, t, phase, comp):
+    from ..delta import element_delta
+
+    if getattr(field, "n_regions", 1) > 1:
+        return element_delta(field, p, t, composition=comp, regions=phase)
+    return delta_vertices(comp, t)
+
+
+def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_elements):
+    from .general import size_field
+    from .sampling import repair_sampled, sampled_delta
+
     size = size_field(field, p, threshold, h_max, h_min)
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, faces, markers, h_mmg = _remesh(p, t, faces, np.zeros(len(faces), np.int64),
-                                              size, hausd)
+        p, t, phase, h_mmg = _remesh(p, t, phase, size, hausd)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
-        delta = delta_vertices(field.composition(p), t)
-        bad = delta >= threshold
+        comp = field.composition(p)
+        bad = _delta(field, p, t, phase, comp) >= threshold
         log.info("mask: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
         if not bad.any() or rounds == SIZE_ROUNDS:
@@ -286,8 +449,13 @@ def _mesh(solid, field, threshold, p, t, hausd, h_max, h_min, max_elements):
         shrink = np.ones(len(p))
         shrink[t[bad].ravel()] = SHRINK
         size = np.maximum(size * shrink, h_min)
-    p, t, comp, delta, passes = repair(p, t, field, threshold, max_elements=max_elements)
-    return p, t, comp, delta, rounds, passes
+    if solid.n_phases == 1:
+        p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
+                                           max_elements=max_elements)
+        return p, t, np.zeros(len(t), np.int64), comp, delta, rounds, passes
+    rep = repair_sampled(p, t, comp, field, threshold, sampled_delta(field, "vertices"),
+                         max_elements=max_elements, regions=phase)
+    return rep.points, rep.tets, rep.regions, rep.comp, rep.delta, rounds, rep.passes
 
 
 def estimate_masked(solid: VoxelSolid, field, threshold: float) -> float:
@@ -305,7 +473,8 @@ def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0
                     chord_tol: float | None = None, max_elements: int | None = None,
                     max_size: float | None = None, check: bool = True) -> TetResult:
     """Tetrahedralise a :class:`VoxelSolid` with every element's delta below ``threshold``
-    (see the module docstring). ``seed`` and ``chord_tol`` are accepted for the common
+    (see the module docstring); with phases, every tetrahedron in one phase
+    (``info["regions"]``). ``seed`` and ``chord_tol`` are accepted for the common
     interface: the boundary follows the voxels (:data:`HAUSD`) and MMG is deterministic."""
     t0 = time.perf_counter()
     est = estimate_masked(solid, field, threshold)
@@ -317,19 +486,21 @@ def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0
     if max_size is not None:
         h_max = min(h_max, float(max_size))
     h_min = 1e-4 * solid.diameter
-    p0, t0_ = cut_mask(solid)
+    p0, t0_, ph0 = cut_mask(solid)
     log.info("mask: cut %d tetrahedra of the voxel grid", len(t0_))
     probs: list[str] = []
     for hv in HAUSD:
         hausd = hv * solid.voxel
-        p, t, comp, delta, rounds, passes = _mesh(solid, field, threshold, p0, t0_, hausd,
-                                                  h_max, h_min, max_elements)
+        p, t, phase, comp, delta, rounds, passes = _mesh(
+            solid, field, threshold, p0, t0_, ph0, hausd, h_max, h_min, max_elements)
         t = t.astype(np.int32)
         faces, _ = boundary_faces(t)
         markers = solid.classify_faces(p[faces])
         info = {"placement": "mask", "size_rounds": rounds, "repair_passes": passes,
                 "estimate": est, "composition": comp, "hausd": hausd, "h_max": h_max,
                 "time_place": time.perf_counter() - t0}
+        if solid.n_phases > 1:
+            info["regions"] = phase.astype(np.int32)
         res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
                         tuple(solid.face_names), delta, float(threshold), info)
         if not check:
@@ -351,9 +522,10 @@ def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0
 
 def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None) -> list[str]:
     """Every broken claim of a mesh of ``solid``, one line each (empty: valid): validity,
-    the recorded boundary, the voxel centres inside exactly the mask's, the boundary between
-    unlike centres, delta_max < delta_0 (recomputed from ``field`` at the vertices; None:
-    the result's own delta)."""
+    the recorded boundary, every voxel centre inside exactly the tetrahedra of its own phase
+    (none for the mask's zero voxels), the boundary and the phases' interfaces between
+    unlike centres, delta_max < delta_0 (recomputed from ``field`` at the vertices, each
+    tetrahedron in its own phase; None: the result's own delta)."""
     from ..material.image.sampling import voxel_centres_in_tets
 
     p, t = res.points, res.tets
@@ -369,8 +541,12 @@ def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None)
         c = p[res.faces[markers < 0][0]].mean(axis=0)
         out.append(f"{int((markers < 0).sum())} boundary triangles on no face of the solid "
                    f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    regions = res.info.get("regions")
+    phase = np.zeros(len(t), np.int64) if regions is None else np.asarray(regions, np.int64)
     pad, org = solid.padded
-    _, v = voxel_centres_in_tets(p, t, org, solid.spacing, pad.shape)
+    grid = solid.phase_grid
+    with np.errstate(invalid="ignore"):
+        e, v = voxel_centres_in_tets(p, t, org, solid.spacing, pad.shape)
     covered = np.zeros(pad.size, bool)
     covered[v] = True
     covered = covered.reshape(pad.shape)
@@ -382,6 +558,13 @@ def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None)
         out.append(f"{int(wrong.sum())} voxel centres on the wrong side of the boundary "
                    f"(e.g. the centre ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}) is {what} the "
                    f"mesh)")
+    other = grid.ravel()[v] != phase[e]
+    if other.any():
+        q = v[other][0]
+        k, j, i = np.unravel_index(q, pad.shape)
+        c = org + np.array([i, j, k]) * np.asarray(solid.spacing)
+        out.append(f"{int(other.sum())} voxel centres in a tetrahedron of another phase "
+                   f"(e.g. the centre ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
     pts = np.einsum("bk,nkd->nbd", _BARY, p[res.faces]).reshape(-1, 3)
     mixed, _ = solid.stencil(pts)
     if not mixed.all():
@@ -389,7 +572,21 @@ def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None)
         out.append(f"the boundary leaves the voxels' contour by more than half a voxel at "
                    f"{int((~mixed).sum())} of {len(pts)} checked points (e.g. at "
                    f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
-    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
+    if regions is not None:
+        inter, sides = interface_faces(np.asarray(t, np.int64), phase)
+        if len(inter):
+            pts = np.einsum("bk,nkd->nbd", _BARY, p[inter]).reshape(-1, 3)
+            s = np.repeat(sides, len(_BARY), axis=0)
+            ok = solid.between(pts, s[:, 0], s[:, 1])
+            if not ok.all():
+                c = pts[np.flatnonzero(~ok)[0]]
+                out.append(f"an interface between phases leaves their voxels' contour by "
+                           f"more than half a voxel at {int((~ok).sum())} of {len(pts)} "
+                           f"checked points (e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    if field is None:
+        delta = res.delta
+    else:
+        delta = _delta(field, p, np.asarray(t, np.int64), phase, field.composition(p))
     if not float(delta.max()) < res.threshold:
         out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
                    f"{res.threshold:g}")
