@@ -128,9 +128,13 @@ def test_label_volume_extent_and_cli(tmp_path):
     assert m.solid.phases == (0, 1, 2, 3)
     assert m.solid.volume == pytest.approx(6.0 ** 3)
     out = tmp_path / "out.vtu"
-    assert main(["mesh", str(path), "-d", "0.3", "-o", str(out), "--quiet"]) == 0
+    assert main(["mesh", str(path), "-d", "0.3", "-o", str(out), "--quiet",
+                 "--sampling", "pixels"]) == 0
     mesh = read_mesh(out)
     assert mesh.problems() == [] and set(np.unique(mesh.regions).tolist()) == {0, 1, 2, 3}
+    # every tetrahedron in its own phase, over its vertices and the voxel centres it covers
+    d = m.material.pixel_delta(mesh.points, mesh.cells, regions=mesh.regions)
+    assert d.max() < 0.3
 
 
 def test_example_phase_volume(tmp_path):

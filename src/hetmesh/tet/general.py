@@ -50,7 +50,8 @@ from .mesher import CHORD, TetResult
 from .refine import repair
 from .verify import validity_problems
 
-__all__ = ["generate_solid", "solid_problems", "estimate_solid", "S", "SHRINK", "SIZE_ROUNDS"]
+__all__ = ["generate_solid", "solid_problems", "estimate_solid", "S", "SHRINK", "SIZE_ROUNDS",
+           "orient", "quiet_mmg"]
 
 log = logging.getLogger(__name__)
 
@@ -139,6 +140,10 @@ def _orient(p, t):
     neg = v < 0
     t[neg, 2], t[neg, 3] = t[neg, 3], t[neg, 2].copy()
     return t
+
+
+#: public names for the other MMG-based meshers (:mod:`hetmesh.tet.masked`)
+orient, quiet_mmg = _orient, _quiet_mmg
 
 
 # -- 2. cuts ---------------------------------------------------------------------------

@@ -1,5 +1,6 @@
-"""Solids from voxel masks: the non-zero voxels of a 3-D mask, meshed through a level-set cut
-of the voxel-centre grid and MMG remeshing to the material's size.
+"""Solids from voxel masks: the non-zero voxels of a 3-D mask, and the phases of a label
+volume inside them, meshed through level-set cuts of the voxel-centre grid and MMG
+remeshing to the material's size.
 
 A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin + (i, j, k)
 * spacing``. Its staircase region ``V`` is the union of the non-zero voxels' boxes.
@@ -14,20 +15,30 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
 2. *Size*: MMG remeshes the inside to ``delta_0 / |grad f|`` (as for solids of primitives,
    :mod:`hetmesh.tet.general`), the boundary within a Hausdorff distance of
    :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds
-   and bisects the rest (:func:`hetmesh.tet.refine.repair`).
+   and bisects the rest (:func:`hetmesh.tet.refine.repair`; with phases
+   :func:`hetmesh.tet.sampling.repair_sampled`).
 3. *Faces*: the boundary triangles take the name of the zero region on their side: ``outer``
    (the zeros connected to the outside of the volume) or ``cavity[k]`` (an enclosed zero
    region, numbered in the order of its first voxel, k fastest x).
-4. *Verification* (:func:`mask_problems`), besides positive volumes, conformity, a closed
+4. *Phases* (a label volume: ``labels`` and the ``phases`` inside the solid): after the
+   mask's cut, the tetrahedra no earlier phase took are cut along ``1/2 - I_k``, ``I_k``
+   phase ``k``'s interpolated indicator, one phase after another; the pieces no phase took
+   (where three phases or more meet) take the phase of the largest indicator at their
+   centroid, a phase with a voxel at a corner of their Kuhn tetrahedron. MMG's remeshing
+   keeps the interfaces between tetrahedra of different phases like the boundary, the
+   repair keeps every tetrahedron in its phase (``info["regions"]``), and delta is
+   measured with every tetrahedron's vertices in its own phase.
+5. *Verification* (:func:`mask_problems`), besides positive volumes, conformity, a closed
    boundary and delta_max < delta_0: **every voxel centre of the mask is inside the mesh
-   and every other centre outside it**, and **the boundary passes only between unlike
-   centres**: at 12 points of every boundary triangle the eight voxel centres around the
-   point (those its trilinear interpolation uses) include a non-zero and a zero voxel. The
-   second claim is the same as: every point of the boundary lies within half a voxel,
-   along each axis, of the voxel faces between non-zero and zero voxels (the box of one
-   voxel centred on it overlaps voxels of both). If MMG's surface breaks a claim, the
-   remeshing is repeated with half the Hausdorff distance (at most :data:`HAUSD` has
-   entries).
+   and every other centre outside it** (and, with phases, inside tetrahedra of its own
+   phase only), and **the boundary passes only between unlike centres**: at 12 points of
+   every boundary triangle, the box of one voxel centred on the point overlaps a non-zero
+   and a zero voxel (closed boxes: the eight voxels around the point, or more on a plane
+   of centres); that is, every checked point of the boundary lies within half a voxel,
+   along each axis, of the voxel faces between non-zero and zero voxels. Interfaces
+   between phases are checked in the same way against the voxels of their two phases. If
+   MMG's surface breaks a claim, the remeshing is repeated with the next, smaller,
+   Hausdorff distance of :data:`HAUSD`; after the last, :class:`VerificationError`.
 
 The mask's 6-connected components other than the largest are dropped (with a warning);
 zero regions inside become cavities. The same input gives the same mesh.
@@ -298,6 +309,10 @@ class VoxelSolid:
         b = np.broadcast_to(np.asarray(b, np.int64), (len(r),))[:, None]
         return ((r == a) & valid).any(axis=1) & ((r == b) & valid).any(axis=1)
 
+    def mesh_problems(self, res, field, chord_tol: float | None = None) -> list[str]:
+        """:func:`mask_problems` of a mesh of this solid."""
+        return mask_problems(res, self, field, chord_tol)
+
     def classify_faces(self, tri_points) -> np.ndarray:
         """The face index of each boundary triangle ``(K, 3, 3)``: the zero region next to
         its centroid (-1 where none)."""
@@ -341,9 +356,9 @@ def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     then, for a label volume, along the contour of every phase but the last in turn (each
     cut only through the tetrahedra no earlier phase took): ``(points, tets, phase)`` of
     the tetrahedra inside, ``phase`` the index into :attr:`VoxelSolid.phases`."""
-    from .general import _orient, _quiet_mmg, kuhn_grid
+    from .general import kuhn_grid, orient, quiet_mmg
 
-    mmgpy = _quiet_mmg()
+    mmgpy = quiet_mmg()
     pad, org = solid.padded
     sp = np.asarray(solid.spacing)
     nz, ny, nx = pad.shape
@@ -372,7 +387,7 @@ def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         refs[rest] = 10 + solid.phase(p[t[rest]].mean(axis=1))
     keep = refs != OUT
     p, t = _compact(p, t[keep])
-    return p, _orient(p, t), refs[keep] - 10
+    return p, orient(p, t), refs[keep] - 10
 
 
 # -- 2. size -------------------------------------------------------------------------------
@@ -396,9 +411,9 @@ def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np
 def _remesh(p, t, phase, size, hausd):
     """MMG's remeshing to ``size`` with the boundary and the phases' interfaces kept within
     ``hausd``: ``(points, tets, phase, size MMG interpolated)``."""
-    from .general import _orient, _quiet_mmg
+    from .general import orient, quiet_mmg
 
-    mmgpy = _quiet_mmg()
+    mmgpy = quiet_mmg()
     faces, _ = boundary_faces(t)
     inter, _ = interface_faces(t, phase)
     tri = np.concatenate([faces, inter]).astype(np.int32)
@@ -415,7 +430,7 @@ def _remesh(p, t, phase, size, hausd):
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
     tt, rr = m.get_tetrahedra_with_refs()
-    t = _orient(p, np.asarray(tt, dtype=np.int64))
+    t = orient(p, np.asarray(tt, dtype=np.int64))
     h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
     return p, t, np.asarray(rr, dtype=np.int64) - 1, h
 

@@ -16,7 +16,7 @@ from ...errors import GeometryError, MaterialError, ModelFileError
 from ...io.schema import describe
 
 __all__ = ["parse_image", "parse_image_model", "parse_constituents", "parse_value_map",
-           "scalar_values", "parse_phases", "check_phases", "label_values"]
+           "scalar_values", "parse_phases", "check_phases", "label_values", "fill_phase"]
 
 
 #: keys of ``[material] type = "image"``
@@ -394,7 +394,7 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
         img = src.get("image")
         values = img.values
         frac = what(values, img.source, mask=inside)
-        fields.append(ImageField(_fill(frac, inside), img, cons, **opts))
+        fields.append(ImageField(fill_phase(frac, inside), img, cons, **opts))
     if chains_lab is None:
         tol = DEFAULT_TOL
         chains = label_chains(labels, tol)
@@ -449,7 +449,7 @@ def check_phases(spec: dict, present, labels: np.ndarray, source: str) -> None:
                                 f"[[material.phases]] entry with label = {lab}")
 
 
-def _fill(frac: np.ndarray, inside: np.ndarray) -> np.ndarray:
+def fill_phase(frac: np.ndarray, inside: np.ndarray) -> np.ndarray:
     """``frac`` ``(m, ny, nx)`` with the pixels outside ``inside`` set to the nearest pixel
     inside, so that interpolation within a phase never mixes in another phase's pixels."""
     from scipy.ndimage import distance_transform_edt

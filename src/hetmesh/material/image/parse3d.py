@@ -18,8 +18,8 @@ import numpy as np
 from ...errors import MaterialError, ModelFileError
 from ...io.schema import describe
 from .parse import (
-    _fill,
     check_phases,
+    fill_phase,
     label_values,
     parse_constituents,
     parse_phases,
@@ -226,6 +226,6 @@ def _label_volume(ctx, t, solid, src, cons, opts):
         img = src["image"]
         inside = labels == lab
         frac = what(img.values, img.source, mask=inside)
-        fields.append(ImageField(_fill(frac, inside), img, cons, **opts))
+        fields.append(ImageField(fill_phase(frac, inside), img, cons, **opts))
     return LabelField(solid.phase, fields, [spec[lab][0] for lab in solid.phases], cons,
                       source=src["geometry"].source, dim=3)
