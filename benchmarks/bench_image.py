@@ -31,6 +31,13 @@ Tables
   5. Tetrahedra on the noise-free 256^3 volume against a uniform tetrahedral mesh meeting
      the same delta_0 (hetmesh.uniform, where the build has a 3D uniform mesher) and against
      N_iso3 = 6 sqrt(2) int |grad f|^3 dV / delta_0^3, same run.
+  6. Gmsh on a volume: the graded cube at --gmsh-voxels^3 voxels (default 64) at delta_0 =
+     --gmsh-threshold (default 0.1), same run: hetmesh, a uniform tetrahedral mesh, and Gmsh
+     (optional peer) meshing the volume's box with the size field s delta_0 / |grad f|
+     (|grad f| the image field's largest constituent gradient norm, on a grid of 48 cells
+     per side, capped at a quarter of the box and graded by 0.3 per unit length as the 2-D
+     peers are; Delaunay, one thread), s lowered from 1.2 by 0.9 until delta_max < delta_0
+     at the vertices, then bisected twice; tetrahedra and the ratio to hetmesh's.
 """
 
 from __future__ import annotations
@@ -54,6 +61,8 @@ try:
     import hetmesh  # noqa: F401
 except ImportError:  # not installed and no PYTHONPATH=src: use the checkout
     sys.path.insert(0, str(ROOT / "src"))
+
+import numpy as np  # noqa: E402
 
 import hetmesh  # noqa: E402
 from hetmesh import peers  # noqa: E402
@@ -365,18 +374,184 @@ def table_volume_peers(path: Path, out: dict) -> None:
           ["mesher", "tets", "delta_max", "dihedral min", "s", "N / hetmesh"], rows)
 
 
+GMSH_VOXELS = 64
+GMSH_THRESHOLD = 0.1
+GMSH_CELLS = 48           # size grid cells per side of the box
+
+
+def _graded3(H: np.ndarray, step: np.ndarray, beta: float) -> np.ndarray:
+    """``min_y H(y) + beta |x - y|_1`` on a 3-D grid (one pass of running minima per axis)."""
+    for axis in range(3):
+        n = H.shape[axis]
+        shape = [1, 1, 1]
+        shape[axis] = n
+        ramp = (beta * step[axis] * np.arange(n)).reshape(shape)
+        fwd = np.minimum.accumulate(H - ramp, axis=axis) + ramp
+        bwd = np.flip(np.minimum.accumulate(np.flip(H + ramp, axis=axis), axis=axis),
+                      axis=axis) - ramp
+        H = np.minimum(fwd, bwd)
+    return H
+
+
+def volume_sizes(model, threshold: float, cells: int = GMSH_CELLS):
+    """``(xs, ys, zs, G)``: the largest constituent gradient norm of the image field on a
+    regular grid over the solid's box, ``G[i, j, k]`` at ``(xs[i], ys[j], zs[k])``."""
+    lo, hi = (np.asarray(b, float) for b in model.solid.bounds)
+    axes = [np.linspace(lo[a], hi[a], cells + 1) for a in range(3)]
+    P = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    G = np.linalg.norm(model.material.gradient(P), axis=2).max(axis=1)
+    return (*axes, G.reshape(cells + 1, cells + 1, cells + 1))
+
+
+def gmsh_box_mesh(model, grid, threshold: float, s: float):
+    """Gmsh's tetrahedral mesh of the solid's box with sizes only from ``s delta_0 /
+    |grad f|`` (capped, graded) as a view of scalar hexahedra: ``PeerMesh3D``."""
+    import gmsh
+
+    xs, ys, zs, G = grid
+    lo, hi = (np.asarray(b, float) for b in model.solid.bounds)
+    with np.errstate(divide="ignore"):
+        H = np.minimum(s * threshold / G, float((hi - lo).max()) / 4)
+    step = np.array([xs[1] - xs[0], ys[1] - ys[0], zs[1] - zs[0]])
+    H = _graded3(H, step, peers.GRADATION)
+    n = len(xs) - 1
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), np.arange(n),
+                                              indexing="ij"))
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1),
+               (0, 1, 1)]  # Gmsh's hexahedron node order
+    cx = np.stack([xs[i + a] for a, _, _ in corners], 1)
+    cy = np.stack([ys[j + b] for _, b, _ in corners], 1)
+    cz = np.stack([zs[k + c] for _, _, c in corners], 1)
+    ch = np.stack([H[i + a, j + b, k + c] for a, b, c in corners], 1)
+    data = np.concatenate([cx, cy, cz, ch], axis=1)
+    t0 = time.perf_counter()
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.model.add("hetmesh_volume_peer")
+        gmsh.model.occ.addBox(*lo, *(hi - lo))
+        gmsh.model.occ.synchronize()
+        for key in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints",
+                    "MeshSizeFromCurvature"):
+            gmsh.option.setNumber(f"Mesh.{key}", 0)
+        gmsh.option.setNumber("Mesh.Algorithm", peers.GMSH_ALGORITHM)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+        view = gmsh.view.add("size")
+        gmsh.view.addListData(view, "SH", len(data), data.ravel().tolist())
+        f = gmsh.model.mesh.field.add("PostView")
+        gmsh.model.mesh.field.setNumber(f, "ViewTag", view)
+        gmsh.model.mesh.field.setAsBackgroundMesh(f)
+        gmsh.model.mesh.generate(3)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, enodes = gmsh.model.mesh.getElementsByType(4)
+    finally:
+        gmsh.finalize()
+    tets = peers._cells_by_index(tags, enodes, 4)
+    used, inv = np.unique(tets, return_inverse=True)
+    return peers.PeerMesh3D(xyz.reshape(-1, 3)[used], inv.reshape(-1, 4),
+                            time.perf_counter() - t0)
+
+
+def gmsh_volume_search(model, threshold: float) -> dict:
+    """The coarsest Gmsh mesh of the volume's box with delta_max < delta_0 over the scale s
+    (from 1.2 down by 0.9 until it passes, then two bisections): its statistics, s, the
+    trace."""
+    grid = volume_sizes(model, threshold)
+    trace, best = [], None
+
+    def attempt(s: float) -> bool:
+        nonlocal best
+        mesh = gmsh_box_mesh(model, grid, threshold, s)
+        st = peers.peer_statistics3d(model, mesh)
+        ok = st.delta_max < threshold
+        trace.append({"s": s, "tets": st.n_elements, "delta_max": st.delta_max,
+                      "seconds": mesh.seconds, "pass": ok})
+        if ok and (best is None or s > best[0]):
+            best = (s, st, mesh.seconds)
+        return ok
+
+    s, s_fail = peers.S_START, None
+    while not attempt(s):
+        s_fail = s
+        s *= peers.S_FACTOR
+        if len(trace) >= peers.S_TRIES:
+            raise HetmeshError(f"gmsh: no s met delta_max < {threshold:g} in "
+                               f"{len(trace)} tries")
+    s_pass = s
+    for _ in range(peers.S_BISECT if s_fail is not None else 0):
+        mid = math.sqrt(s_pass * s_fail)
+        if attempt(mid):
+            s_pass = mid
+        else:
+            s_fail = mid
+    s, st, seconds = best
+    return {"s": s, "stats": st, "seconds": seconds, "trace": trace}
+
+
+def table_volume_gmsh(folder: Path, voxels: int, threshold: float, out: dict) -> None:
+    from hetmesh.tet.mesher import n_iso3
+
+    path = write_volume_case(folder, f"cube{voxels}", voxels, 0.0, 0.0)
+    model = hetmesh.load_model(path)
+    t = time.perf_counter()
+    r = hetmesh.generate(model, threshold)
+    ts = time.perf_counter() - t
+    ne = r.stats.n_elements
+    rows = [["hetmesh", f"{ne:,}", f"{r.stats.delta_max:.4f}", f"{r.stats.angle_min:.1f}",
+             f"{ts:.1f}", "", "1.000"]]
+    out["volume_gmsh"] = {"voxels": voxels, "threshold": threshold,
+                          "hetmesh": r.stats.as_dict()}
+    try:
+        t = time.perf_counter()
+        u = hetmesh.uniform(model, threshold)
+        rows.append(["uniform", f"{u.stats.n_elements:,}", f"{u.stats.delta_max:.4f}",
+                     f"{u.stats.angle_min:.1f}", f"{time.perf_counter() - t:.1f}", "",
+                     f"{u.stats.n_elements / ne:.3f}"])
+        out["volume_gmsh"]["uniform"] = u.stats.as_dict()
+    except HetmeshError as exc:
+        rows.append(["uniform", f"not available: {str(exc)[:70]}", "", "", "", "", ""])
+    if peers.available().get("gmsh"):
+        try:
+            t = time.perf_counter()
+            g = gmsh_volume_search(model, threshold)
+            st = g["stats"]
+            rows.append(["gmsh (image gradient size field)", f"{st.n_elements:,}",
+                         f"{st.delta_max:.4f}", f"{st.angle_min:.1f}",
+                         f"{g['seconds']:.1f}", f"{g['s']:.3f}",
+                         f"{st.n_elements / ne:.3f}"])
+            out["volume_gmsh"]["gmsh"] = {**st.as_dict(), "s": g["s"], "trace": g["trace"],
+                                          "search_s": time.perf_counter() - t}
+        except HetmeshError as exc:
+            rows.append(["gmsh", f"ERROR {str(exc)[:70]}", "", "", "", "", ""])
+    else:
+        rows.append(["gmsh", "not installed", "", "", "", "", ""])
+    niso = n_iso3(model.solid, model.material, threshold)
+    rows.append(["N_iso3 (ideal isotropic count)", f"{niso:,.0f}", "", "", "", "",
+                 f"{niso / ne:.3f}"])
+    table(f"6. Tetrahedra on the graded cube at {voxels}^3 voxels, delta_0 = {threshold}, "
+          f"same run", ["mesher", "tets", "delta_max", "dihedral min", "s", "scale s",
+                        "N / hetmesh"], rows)
+    print("  s: the wall time of hetmesh's run, and of Gmsh's accepted run (its search ran "
+          f"{len(out['volume_gmsh'].get('gmsh', {}).get('trace', []))} meshes)")
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["--worker"]:
         return worker(argv[1:])
-    p = argparse.ArgumentParser(description="hetmesh image benchmarks (tables 1-5)")
+    p = argparse.ArgumentParser(description="hetmesh image benchmarks (tables 1-6)")
     p.add_argument("--quick", action="store_true",
                    help="1 run per case, no unsmoothed case, no noisy volume")
     p.add_argument("--runs", type=int, default=3, help="fresh-process runs of tables 1, 4")
-    p.add_argument("--only", type=int, action="append", choices=(1, 2, 3, 4, 5))
+    p.add_argument("--only", type=int, action="append", choices=(1, 2, 3, 4, 5, 6))
+    p.add_argument("--gmsh-voxels", type=int, default=GMSH_VOXELS,
+                   help=f"voxels per edge of the cube of table 6 (default {GMSH_VOXELS})")
+    p.add_argument("--gmsh-threshold", type=float, default=GMSH_THRESHOLD,
+                   help=f"delta_0 of table 6 (default {GMSH_THRESHOLD})")
     p.add_argument("--out", type=Path, help="write all measurements as JSON")
     a = p.parse_args(argv)
-    only = set(a.only or (1, 2, 3, 4, 5))
+    only = set(a.only or (1, 2, 3, 4, 5, 6))
     runs = 1 if a.quick else a.runs
     print(f"hetmesh {hetmesh.__version__} from {Path(hetmesh.__file__).parent}, python "
           f"{platform.python_version()}, {os.cpu_count()} cpus, load {os.getloadavg()[0]:.2f}")
@@ -397,6 +572,8 @@ def main(argv=None) -> int:
         if 5 in only:
             cube = cube or write_volume_case(folder, "cube", VOXELS, 0.0, 0.0)
             table_volume_peers(cube, out)
+        if 6 in only:
+            table_volume_gmsh(folder, a.gmsh_voxels, a.gmsh_threshold, out)
     print(f"\nload at the end {os.getloadavg()[0]:.2f}")
     if a.out:
         from hetmesh.io.atomic import atomic_write

@@ -491,7 +491,7 @@ def test_examples_mesh(tmp_path):
     import hetmesh
     from hetmesh.material.image import write_examples
 
-    models = write_examples(tmp_path, shape=(64, 128))
+    models = write_examples(tmp_path, shape=(64, 128), masked=24, phases=16)
     for path in models.values():
         m = load_model(path)
         r = hetmesh.generate(m, 0.1)

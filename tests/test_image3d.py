@@ -365,7 +365,7 @@ BAD = [
     ('type = "box"\nmin = [0, 0, 0]\nmax = [30, 20, 20]', "ball.tif", "",
      "ball.tif: the image covers (0, 0, 0) - (24, 24, 24) but the domain reaches "
      "(30, 20, 20)"),
-    ('image = "mask"', "ball.tif", "", "m.toml: solid.image: expected \"extent\""),
+    ('image = "voxels"', "ball.tif", "", "m.toml: solid.image: expected \"extent\""),
     ('image = "extent"', "p.png", "", "m.toml: solid.image: the material's file is not a "
                                       "volume"),
 ]

@@ -15,7 +15,9 @@
   through-holes): level-set cuts of a background grid, MMG remeshing to the material's size
   (:func:`hetmesh.tet.general.generate_solid`);
 * a solid bounded by a triangulated surface (STL, OBJ, PLY): Gmsh fills it, MMG remeshes
-  it to the material's size (:func:`hetmesh.tet.surface_mesh.generate_surface`).
+  it to the material's size (:func:`hetmesh.tet.surface_mesh.generate_surface`);
+* the non-zero voxels of a mask volume: the level-set cut of the voxel-centre grid, MMG
+  remeshing (:func:`hetmesh.tet.masked.generate_masked`).
 
 >>> import hetmesh
 >>> r = mesh_model(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.2)
@@ -77,12 +79,17 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     from ..io.model import Model
     from .extrude import mid_section_field
     from .implicit import CSGSolid
+    from .masked import VoxelSolid
     from .revolve import Revolution, generate_revolved, is_axisymmetric, profile_field
     from .surface import SurfaceSolid
     if isinstance(solid, SurfaceSolid):
         from .surface_mesh import generate_surface
         res = generate_surface(solid, model.material, threshold, seed=seed, chord_tol=chord,
                                max_elements=max_elements, max_size=max_size, check=check)
+    elif isinstance(solid, VoxelSolid):  # the non-zero voxels of a mask volume
+        from .masked import generate_masked
+        res = generate_masked(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                              max_elements=max_elements, max_size=max_size, check=check)
     elif isinstance(solid, CSGSolid):
         from .general import generate_solid
         res = generate_solid(solid, model.material, threshold, seed=seed, chord_tol=chord,

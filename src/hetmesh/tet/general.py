@@ -51,7 +51,7 @@ from .refine import repair
 from .verify import validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
-           "S", "SHRINK", "SIZE_ROUNDS"]
+           "quiet_mmg", "S", "SHRINK", "SIZE_ROUNDS"]
 
 log = logging.getLogger(__name__)
 
@@ -141,6 +141,10 @@ def orient_positive(p, t):
     neg = v < 0
     t[neg, 2], t[neg, 3] = t[neg, 3], t[neg, 2].copy()
     return t
+
+
+#: public names for the other MMG-based meshers (:mod:`hetmesh.tet.masked`)
+quiet_mmg = _quiet_mmg
 
 
 # -- 2. cuts ---------------------------------------------------------------------------

@@ -217,5 +217,7 @@ def _problems(res, solid, chord: float) -> list[str]:
         return revolution_problems(res, solid, None, chord)
     if isinstance(solid, CSGSolid):
         return solid_problems(res, solid, None, chord)
+    if hasattr(solid, "mesh_problems"):  # a solid with its own checks (voxel masks)
+        return solid.mesh_problems(res, None, chord)
     return tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
                         res.delta, res.threshold, chord)

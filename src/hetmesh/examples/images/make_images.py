@@ -20,10 +20,29 @@ Nothing is downloaded; every image is computed (``hetmesh.material.image.synthet
 
       hetmesh mesh examples/images/graded_volume.toml -d 0.1 -o cube.vtu --plot cube.png
 
+* ``masked_part_mask.tif`` / ``masked_part.tif`` -- a mask volume and a grey volume, TIFF
+  stacks of 48 pages of 48 x 48 voxels covering a 24 mm cube (calibrated, 0.5 mm): the mask
+  is 255 in a cylinder of radius 10 mm about x = y = 12 mm from z = 2 to 22 mm, except a
+  ball of radius 4 mm about (12, 12, 13) (an enclosed cavity), 0 elsewhere; the grey is
+  65535 x 0.5 (1 + tanh((z - 12 - 2 sin(2 pi x / 24)) / 4)). The solid is the mask's
+  non-zero voxels:
+
+      hetmesh mesh examples/images/masked_part.toml -d 0.1 -o part.vtu
+
+* ``phase_volume_labels.tif`` / ``phase_volume_grey.tif`` -- a label volume and a grey
+  volume, 8-bit TIFF stacks of 32 pages of 32 x 32 voxels covering a 16 mm cube
+  (calibrated, 0.5 mm): label 1 a matrix, 2 the ball of radius 5 mm about (7, 8, 8) (its
+  grey 255 x (0.2 + 0.6 r / 5), r the distance to that centre), 3 a fibre of radius
+  1.5 mm along x about y = 12, z = 4, 0 a hole of radius 2 mm along z about x = y = 3:
+
+      hetmesh mesh examples/images/phase_volume.toml -d 0.1 -o phases.vtu
+
 The model files (``graded_part.toml``, ``graded_part_noisy.toml``, ``two_phase.toml``,
-``graded_volume.toml``) are also in this folder; this script rewrites them from the same
-text (hetmesh.material.image.synthetic.MODELS). Options: ``--out DIR``, ``--size NX NY``,
-``--volume N`` (voxels per edge of the cube), ``--noise F``, ``--seed S``.
+``graded_volume.toml``, ``masked_part.toml``, ``phase_volume.toml``) are also in this
+folder; this script rewrites them from the same text (hetmesh.material.image.synthetic.
+MODELS). Options: ``--out DIR``, ``--size NX NY``, ``--volume N`` (voxels per edge of the
+cube), ``--masked N`` (voxels per edge of the masked part's cube), ``--phases N`` (voxels
+per edge of the label volume), ``--noise F``, ``--seed S``.
 """
 
 from __future__ import annotations
@@ -44,10 +63,15 @@ def main(argv=None) -> int:
                    help="grey-level noise, fraction of the range (default: 0.02)")
     p.add_argument("--volume", type=int, default=96, metavar="N",
                    help="voxels per edge of the graded cube (default: 96)")
+    p.add_argument("--masked", type=int, default=48, metavar="N",
+                   help="voxels per edge of the masked part's cube (default: 48)")
+    p.add_argument("--phases", type=int, default=32, metavar="N",
+                   help="voxels per edge of the label volume (default: 32)")
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
     models = write_examples(a.out, shape=(a.size[1], a.size[0]), noise=a.noise, seed=a.seed,
-                            volume=a.volume)
+                            volume=a.volume, masked=a.masked,
+                            phases=a.phases)
     for path in models.values():
         print(f"wrote {path} (and the images it reads)")
     return 0

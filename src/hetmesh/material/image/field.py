@@ -245,28 +245,30 @@ class LabelField:
 
     Parameters
     ----------
-    regions : callable ``points (N, 2) -> (N,) int``
+    regions : callable ``points (N, dim) -> (N,) int``
         The subregion of each point (phase index into ``phases``), normally the traced,
-        simplified label polygons (:func:`hetmesh.tri.geometry.trace.region_lookup`).
+        simplified label polygons (:func:`hetmesh.tri.geometry.trace.region_lookup`), or
+        for a label volume the contours of its labels
+        (:meth:`hetmesh.tet.masked.VoxelSolid.phase`).
     phases : list
         Per subregion, either a composition ``(m,)`` (a constant phase) or an
         :class:`ImageField` (a graded phase, its pixels outside the phase filled with the
         nearest pixel of the phase so that interpolation never mixes phases).
     names : list of str
         The subregion names (``"label 3"``).
+    dim : int
+        2 (a label image) or 3 (a label volume): the dimension of the points it takes.
     """
 
-    #: the dimension of the points the field takes (a 2D image)
-    dim = 2
-
     def __init__(self, regions, phases: list, names: list[str],
-                 constituents: Sequence[str], source: str = "labels"):
+                 constituents: Sequence[str], source: str = "labels", dim: int = 2):
         self._regions = regions
         self.phases = phases
         self.region_names = list(names)
         self.constituents = tuple(constituents)
         self.source = source
-        self._offset = np.zeros(2)
+        self.dim = int(dim)
+        self._offset = np.zeros(self.dim)
 
     def __repr__(self) -> str:
         return f"LabelField({self.source!r}, {self.n_regions} phases)"
@@ -280,11 +282,11 @@ class LabelField:
 
     def shifted(self, offset) -> LabelField:
         new = copy.copy(self)
-        new._offset = self._offset + np.asarray(offset, float).reshape(2)
+        new._offset = self._offset + np.asarray(offset, float).reshape(self.dim)
         return new
 
     def _points(self, points):
-        p = as_points(points, repr(self))
+        p = as_points(points, repr(self), self.dim)
         return p + self._offset if self._offset.any() else p
 
     def region(self, points) -> np.ndarray:
@@ -297,7 +299,7 @@ class LabelField:
             np.asarray(region, np.int64), (len(p),))
         m = len(self.constituents)
         comp = np.empty((len(p), m))
-        grad = np.zeros((len(p), m, 2))
+        grad = np.zeros((len(p), m, self.dim))
         for k, ph in enumerate(self.phases):
             sel = np.flatnonzero(r == k)
             if not len(sel):
@@ -313,7 +315,7 @@ class LabelField:
         return self._evaluate(points, region)[0]
 
     def gradient(self, points, region=None) -> np.ndarray:
-        """Gradients ``(N, m, 2)`` (zero in a constant phase)."""
+        """Gradients ``(N, m, dim)`` (zero in a constant phase)."""
         return self._evaluate(points, region)[1]
 
     def pixel_delta(self, points, triangles, regions=None, composition=None) -> np.ndarray:
@@ -325,14 +327,15 @@ class LabelField:
         T = np.asarray(triangles, np.int64)
         own = (self.region(P[T].mean(axis=1)) if regions is None
                else np.asarray(regions, np.int64))
-        corner = np.stack([self.composition(P[T[:, k]], region=own) for k in range(3)], 1)
+        corner = np.stack([self.composition(P[T[:, k]], region=own)
+                           for k in range(T.shape[1])], 1)
         delta = (corner.max(axis=1) - corner.min(axis=1)).max(axis=1)
         for k, ph in enumerate(self.phases):
             sel = np.flatnonzero(own == k)
             if isinstance(ph, ImageField) and len(sel):
                 used, tri = np.unique(T[sel], return_inverse=True)
                 d = element_pixel_delta(ph.shifted(self._offset), P[used],
-                                        tri.reshape(-1, 3))
+                                        tri.reshape(-1, T.shape[1]))
                 delta[sel] = np.maximum(delta[sel], d)
         return delta
 

@@ -16,7 +16,7 @@ from ...errors import GeometryError, MaterialError, ModelFileError
 from ...io.schema import describe
 
 __all__ = ["parse_image", "parse_image_model", "parse_constituents", "parse_value_map",
-           "scalar_values"]
+           "scalar_values", "parse_phases", "check_phases", "label_values", "fill_phase"]
 
 
 #: keys of ``[material] type = "image"``
@@ -177,15 +177,7 @@ def _image_sources(ctx, t) -> dict:
     shape = None
     if "labels" in t:
         lab = _read(ctx, "material.labels", t["labels"], t)
-        v = scalar_values(ctx, "material.labels", lab)
-        if v.dtype.kind not in "ui":
-            raise MaterialError(f"{lab.source}: a label image needs integer pixels, got "
-                                f"{v.dtype}")
-        if v.size and v.min() < 0:
-            j, i = np.argwhere(v < 0)[0]
-            raise MaterialError(f"{lab.source}: label {v[j, i]} at pixel ({i}, {j}): labels "
-                                f"must be >= 0")
-        out["labels"], shape, out["geometry"] = v.astype(np.int64), lab.shape, lab
+        out["labels"], shape, out["geometry"] = label_values(ctx, lab), lab.shape, lab
     f = t.get("file")
     if isinstance(f, Mapping):
         out["files"] = {}
@@ -201,6 +193,21 @@ def _image_sources(ctx, t) -> dict:
         out.setdefault("geometry", img)
     out["shape"] = shape
     return out
+
+
+def label_values(ctx, img) -> np.ndarray:
+    """The labels of a label image or volume ``img`` as int64, checked: integers >= 0."""
+    v = scalar_values(ctx, "material.labels", img)
+    what = "pixel" if v.ndim == 2 else "voxel"
+    if v.dtype.kind not in "ui":
+        raise MaterialError(f"{img.source}: a label {'image' if v.ndim == 2 else 'volume'} "
+                            f"needs integer {what}s, got {v.dtype}")
+    if v.size and v.min() < 0:
+        idx = np.argwhere(v < 0)[0]
+        at = ", ".join(str(int(c)) for c in idx[::-1])
+        raise MaterialError(f"{img.source}: label {v[tuple(idx)]} at {what} ({at}): labels "
+                            f"must be >= 0")
+    return v.astype(np.int64)
 
 
 def parse_constituents(ctx, t) -> tuple[str, ...]:
@@ -373,6 +380,34 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
     else:
         chains_lab = traced
         present = np.unique(traced[1][traced[1] != OUTSIDE])
+    spec = parse_phases(ctx, phases, cons, src)
+    check_phases(spec, present, labels, lab_img.source)
+    used = [lab for lab in sorted(spec) if lab in set(present.tolist())]
+    index = {lab: k for k, lab in enumerate(used)}
+    fields = []
+    for lab in used:
+        name, what = spec[lab]
+        if isinstance(what, np.ndarray):
+            fields.append(what)
+            continue
+        inside = labels == lab
+        img = src.get("image")
+        values = img.values
+        frac = what(values, img.source, mask=inside)
+        fields.append(ImageField(fill_phase(frac, inside), img, cons, **opts))
+    if chains_lab is None:
+        tol = DEFAULT_TOL
+        chains = label_chains(labels, tol)
+        lab_arr = labels
+    else:
+        chains, lab_arr, tol = chains_lab
+    region = region_lookup(chains, lab_arr, index, lab_img.origin, lab_img.spacing, tol)
+    return LabelField(region, fields, [spec[lab][0] for lab in used], cons,
+                      source=lab_img.source)
+
+
+def parse_phases(ctx, phases, cons, src) -> dict:
+    """``[[material.phases]]`` -> ``{label: (name, composition (m,) or ValueMap)}``."""
     spec: dict[int, tuple[str, object]] = {}
     for i, item in enumerate(phases):
         key = f"material.phases[{i}]"
@@ -399,38 +434,22 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
                 raise ctx.fail(f"{key}.map", "a graded phase needs a grey image "
                                              "(material.file)")
             spec[lab] = (name, parse_value_map(ctx, f"{key}.map", p["map"], cons, src))
+    return spec
+
+
+def check_phases(spec: dict, present, labels: np.ndarray, source: str) -> None:
+    """A :class:`MaterialError` naming the first label in ``present`` without a phase."""
     for lab in present.tolist():
         if lab not in spec:
             count = int((labels == lab).sum())
-            j, i = np.argwhere(labels == lab)[0]
-            raise MaterialError(f"{lab_img.source}: label {lab} ({count:,} pixels, the first "
-                                f"at pixel ({i}, {j})) has no composition: add a "
+            first = ", ".join(str(int(v)) for v in np.argwhere(labels == lab)[0][::-1])
+            what = "pixel" if labels.ndim == 2 else "voxel"
+            raise MaterialError(f"{source}: label {lab} ({count:,} {what}s, the first "
+                                f"at {what} ({first})) has no composition: add a "
                                 f"[[material.phases]] entry with label = {lab}")
-    used = [lab for lab in sorted(spec) if lab in set(present.tolist())]
-    index = {lab: k for k, lab in enumerate(used)}
-    fields = []
-    for lab in used:
-        name, what = spec[lab]
-        if isinstance(what, np.ndarray):
-            fields.append(what)
-            continue
-        inside = labels == lab
-        img = src.get("image")
-        values = img.values
-        frac = what(values, img.source, mask=inside)
-        fields.append(ImageField(_fill(frac, inside), img, cons, **opts))
-    if chains_lab is None:
-        tol = DEFAULT_TOL
-        chains = label_chains(labels, tol)
-        lab_arr = labels
-    else:
-        chains, lab_arr, tol = chains_lab
-    region = region_lookup(chains, lab_arr, index, lab_img.origin, lab_img.spacing, tol)
-    return LabelField(region, fields, [spec[lab][0] for lab in used], cons,
-                      source=lab_img.source)
 
 
-def _fill(frac: np.ndarray, inside: np.ndarray) -> np.ndarray:
+def fill_phase(frac: np.ndarray, inside: np.ndarray) -> np.ndarray:
     """``frac`` ``(m, ny, nx)`` with the pixels outside ``inside`` set to the nearest pixel
     inside, so that interpolation within a phase never mixes in another phase's pixels."""
     from scipy.ndimage import distance_transform_edt

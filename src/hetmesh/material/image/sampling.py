@@ -224,8 +224,12 @@ def voxel_blocks(points, tets, origin, spacing, shape, *, block: int = 1 << 19):
         missed = ((b == 0) & (a < -_EPS)).any(axis=1)
         xl = np.maximum(xl, lo[er, 0])
         xr = np.minimum(xr, hi[er, 0])
+        # an empty row: missed, or bounds past each other (an infinite bound where a
+        # coordinate barely changes along the row)
+        empty = missed | ~(xl <= xr)
+        xl, xr = np.where(empty, 0.0, xl), np.where(empty, -1.0, xr)
         i0 = np.ceil(xl).astype(np.int64)
-        n = np.where(missed, 0, np.maximum(np.floor(xr).astype(np.int64) - i0 + 1, 0))
+        n = np.maximum(np.floor(xr).astype(np.int64) - i0 + 1, 0)
         e = np.repeat(er, n)
         i = np.repeat(i0, n) + np.arange(len(e)) - np.repeat(np.cumsum(n) - n, n)
         yield e, (np.repeat(kr, n) * ny + np.repeat(jr, n)) * nx + i
