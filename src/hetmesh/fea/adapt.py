@@ -50,7 +50,8 @@ from .blocks import CHUNK
 
 __all__ = ["zz_indicator", "compliance_energy", "doerfler_mark", "snap_to_surface",
            "refine_marked", "mesh_faces", "adapt", "Adapted", "check_adapt_options",
-           "DEFAULT_FRACTION", "DEFAULT_STEPS"]
+           "DEFAULT_FRACTION", "DEFAULT_STEPS", "refinement_study", "STUDY_REFINEMENT",
+           "relative_estimate", "Refined"]
 
 log = logging.getLogger(__name__)
 
@@ -516,3 +517,67 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     return Adapted(result=result, mesh=cur_mesh, steps=records, reason=reason,
                    threshold=float(threshold), tolerance=float(tolerance),
                    fraction=float(fraction), seconds=time.perf_counter() - t_start)
+
+
+# ---------------------------------------------------------------------------- the study
+
+#: the refinement family of the 3-D study: Doerfler fraction, refinements, tetrahedra budget
+STUDY_REFINEMENT = {"full": {"fraction": 0.5, "steps": 8, "max_elements": 60_000},
+                    "quick": {"fraction": 0.5, "steps": 5, "max_elements": 20_000}}
+
+
+def refinement_study(model, reference: dict, study, *, threshold: float, quick: bool = False,
+                     chord_tol: float | None = None, fraction: float | None = None,
+                     steps: int | None = None, max_elements: int | None = None) -> dict:
+    """The third family of the 3-D study: the material-adaptive mesh at ``threshold``
+    (:func:`hetmesh.generate` with ``chord_tol``, relative) refined by :func:`adapt` step by
+    step, every step's mesh one member, with the probe errors against ``reference`` (as
+    :func:`hetmesh.fea.probe_study.study3d`'s ``study``, whose uniform counts give the
+    ratios).
+
+    Returns ``{"threshold", "fraction", "steps", "max_elements", "reason", "seconds",
+    "meshes": [{"family": "refined", "param": step, "elements", "von_mises", "estimate",
+    "errors", "max_error", "solve_seconds"}], "needed": {set: {"refined", "refined_exact",
+    "uniform", "uniform_exact", "adaptive", "ratio"}}}``; ``ratio`` is refined / uniform
+    where the uniform count is a crossing (else None).
+    """
+    from ..meshing import generate
+    from .probe_study import TOLERANCE, elements_needed, probe_sets
+
+    plan = dict(STUDY_REFINEMENT["quick" if quick else "full"])
+    for k, v in (("fraction", fraction), ("steps", steps), ("max_elements", max_elements)):
+        if v is not None:
+            plan[k] = v
+    t0 = time.perf_counter()
+    ref = reference["von_mises"]
+    names = list(model.fea.probes)
+    sets = probe_sets(names)
+    primary = study.primary if study is not None else ("P" if "P" in sets else next(iter(sets)))
+    start = generate(model, threshold, chord_tol=chord_tol).mesh
+    a = adapt(start, model, threshold, tolerance=1e-9, steps=plan["steps"],
+              fraction=plan["fraction"], max_elements=plan["max_elements"],
+              chord_tol=chord_tol)
+    tol = TOLERANCE if study is None else study.tolerance
+    meshes = []
+    for st in a.steps:
+        errs = {s: max(abs(st["von_mises"][k] - ref[k]) / abs(ref[k]) for k in ns)
+                for s, ns in sets.items()}
+        meshes.append({"family": "refined", "param": st["step"], "elements": st["elements"],
+                       "von_mises": st["von_mises"], "estimate": st["estimate"],
+                       "errors": errs, "max_error": errs[primary],
+                       "solve_seconds": st["solve_seconds"]})
+    needed = {}
+    for s in sets:
+        n, exact = elements_needed([m["elements"] for m in meshes],
+                                   [m["errors"][s] for m in meshes], tol)
+        nd = {"refined": n, "refined_exact": exact, "uniform": None, "uniform_exact": False,
+              "adaptive": None, "ratio": None}
+        if study is not None and s in study.needed_by_set:
+            u = study.needed_by_set[s]
+            nd.update(uniform=u["uniform"], uniform_exact=u["uniform_exact"],
+                      adaptive=u["adaptive"])
+            if n is not None and u["uniform"] and u["uniform_exact"]:
+                nd["ratio"] = n / u["uniform"]
+        needed[s] = nd
+    return {"threshold": float(threshold), **plan, "reason": a.reason, "meshes": meshes,
+            "needed": needed, "primary": primary, "seconds": time.perf_counter() - t0}
