@@ -178,9 +178,10 @@ def snap_to_surface(solid, points: np.ndarray, ids: np.ndarray, faces: np.ndarra
 
     Prisms and revolutions: a side face is a curve of the section (profile) swept along the
     axis (about it), so the vertex's section coordinates are projected onto the curve
-    (``curve.point(curve.project(q))``) and its axial coordinate (angle) kept -- on a cap it stays on the
-    cap; a vertex on two curved faces is projected onto each in turn. Solids of primitives:
-    Gauss-Newton onto the faces' surfaces (:func:`hetmesh.tet.general.project`).
+    (``curve.point(curve.project(q))``) and its axial coordinate (angle) kept -- on a cap
+    it stays on the cap; a vertex on two curved faces is projected onto each in turn.
+    Solids of primitives: Gauss-Newton onto the faces' surfaces
+    (:func:`hetmesh.tet.general.project`).
     """
     ids = np.unique(np.asarray(ids, dtype=np.int64))
     p = np.array(points, dtype=np.float64, copy=True)
@@ -389,8 +390,8 @@ def check_adapt_options(tolerance: float, steps: int, fraction: float,
 
 
 def _mesh_of(ref: Refined, constituents, names) -> Any:
-    from ..metrics import tet_quality
     from ..mesh import Mesh
+    from ..metrics import tet_quality
 
     pd = {c: ref.comp[:, j] for j, c in enumerate(constituents)}
     cd = {"delta": ref.delta, "quality": tet_quality(ref.points, ref.tets)}

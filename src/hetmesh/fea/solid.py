@@ -39,8 +39,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import FEAError
-from .blocks import CHUNK, sum_into
 from .adapt import zz_indicator
+from .blocks import CHUNK, sum_into
 from .linsolve import blas_threads, rigid_modes, solve_spd
 from .recovery3d import (
     STRESS_NAMES_3D,
