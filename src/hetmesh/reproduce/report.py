@@ -535,11 +535,13 @@ def _refinement_lines(section) -> list[str]:
         rows = []
         for k, nd in r["needed"].items():
             def cnt(v, exact):
-                return NA if v is None else (num(v) if exact else f"<= {num(v)}")
+                if v is None:
+                    return NA
+                return num(int(round(v))) if exact else f"<= {num(int(round(v)))}"
             ratio = NA if nd["ratio"] is None else (
                 num(nd["ratio"], 3) if nd["refined_exact"] else f"<= {num(nd['ratio'], 3)}")
             rows.append([k, cnt(nd["uniform"], nd["uniform_exact"]),
-                         NA if nd["adaptive"] is None else num(nd["adaptive"]),
+                         NA if nd["adaptive"] is None else num(int(round(nd["adaptive"]))),
                          cnt(nd["refined"], nd["refined_exact"]), ratio])
         out += markdown_table(["probes", "(a) uniform", "(b) adaptive", "(c) adaptive + refined",
                                "(c)/(a), target <= 0.5"], rows) + [""]
