@@ -280,3 +280,30 @@ def test_cli_adapt(tmp_path, capsys, cylinder, start):
         err = capsys.readouterr().err.strip()
         assert rc == 2, argv
         assert len(err.splitlines()) == 1 and word in err, err
+
+
+def test_refinement_study_and_its_table(cylinder):
+    """The 3-D study's third family on a small plan: every step a mesh with its errors,
+    the counts for 0.5 % of the three families, and the table of ``reproduce --3d``."""
+    from hetmesh.fea import probe_study as ps
+    from hetmesh.reproduce.report import render3d
+    from hetmesh.reproduce.study3d import Section3D
+
+    ref = ps.radial_reference(cylinder)
+    s = ps.study3d(cylinder, ref, uniform_elements=(800, 3000), thresholds=(0.4,),
+                   chord_tol=CHORD)
+    r = ad.refinement_study(cylinder, ref, s, threshold=0.4, chord_tol=CHORD, steps=1,
+                            fraction=0.3)
+    assert [m["param"] for m in r["meshes"]] == [0, 1]
+    first = r["meshes"][0]
+    adaptive = next(m for m in s.meshes if m["family"] == "adaptive")
+    assert first["elements"] == adaptive["elements"]          # the same starting mesh
+    assert first["von_mises"] == pytest.approx(adaptive["von_mises"], rel=1e-12)
+    nd = r["needed"]["R"]
+    assert nd["uniform"] == s.needed_by_set["R"]["uniform"]
+    if nd["ratio"] is not None:
+        assert nd["ratio"] == pytest.approx(nd["refined"] / nd["uniform"])
+    sec = Section3D(quick=True, studies={"graded_cylinder": s},
+                    refinements={"graded_cylinder": r})
+    text = "\n".join(render3d(sec))
+    assert "(c) adaptive + refined" in text and "ZZ estimate" in text

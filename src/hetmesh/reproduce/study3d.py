@@ -156,16 +156,16 @@ def study_case(case: Case3D, model, quick: bool, progress=None, **plan):
     return ps.study3d(model, ref, quick=quick, progress=progress, chord_tol=CHORD_TOL, **plan)
 
 
-def refine_case(model, study, quick: bool, plan: dict) -> dict:
+def refine_case(model, study, quick: bool, plan: dict) -> dict | None:
     """The study's third family (:func:`hetmesh.fea.adapt.refinement_study`) from the
     material-adaptive mesh at the plan's largest threshold; ``{"error": message}`` if it
-    fails or the plan has no threshold."""
+    fails, None if the plan has no threshold."""
     from ..fea import probe_study as ps
     from ..fea.adapt import refinement_study
 
     d0s = plan.get("thresholds", ps.PLANS3D["quick" if quick else "full"].thresholds)
     if not d0s:
-        return {"error": "no adaptive threshold in the plan"}
+        return None
     try:
         return refinement_study(model, study.reference, study, threshold=max(d0s),
                                 quick=quick, chord_tol=CHORD_TOL)
@@ -212,7 +212,9 @@ def run3d(*, quick: bool = False, peers: list[str] | None = None, study: bool = 
                 log.warning("3-D study of %s failed: %s", n, out.study_errors[n])
             if refine and n in out.studies:
                 sub("material-adaptive + solution-adaptive refinement", 0.95)
-                out.refinements[n] = refine_case(models[n], out.studies[n], quick, plan)
+                r = refine_case(models[n], out.studies[n], quick, plan)
+                if r is not None:
+                    out.refinements[n] = r
             done += 1
     out.seconds = time.perf_counter() - t0
     return out
