@@ -441,20 +441,27 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     FEAError, VerificationError
         From the solver; a refined mesh that fails verification (never used).
     """
+    from ..delta import element_delta
     from ..errors import MeshDataError
-    from ..metrics import delta_vertices
     from .analysis import solve
 
     check_adapt_options(tolerance, steps, fraction, max_elements, threshold)
     if getattr(mesh, "dim", None) != 3:
         raise MeshDataError("solution-adaptive refinement needs a tetrahedral (3-D) mesh")
-    solid, field_ = model.solid, model.material
+    solid, field_ = getattr(model, "solid", None), model.material
+    if solid is None or not callable(getattr(solid, "classify_faces", None)):
+        raise FEAError(f"model {getattr(model, 'name', '')!r}: refinement needs the model's "
+                       f"solid (to name the faces and put new vertices on them)")
     t_start = time.perf_counter()
     faces, markers = mesh_faces(mesh, solid)
     P = np.asarray(mesh.points, dtype=np.float64)
     T = np.asarray(mesh.cells, dtype=np.int64)
     comp = np.asarray(field_.composition(P), dtype=np.float64)
-    delta = delta_vertices(comp, T)
+    regions = None
+    if mesh.cell_data.get("subregion") is not None:
+        regions = np.asarray(mesh.cell_data["subregion"], dtype=np.int64)
+    # every element in its own subregion (a vertex on a discontinuity has two compositions)
+    delta = element_delta(field_, P, T, "vertices", composition=comp, regions=regions)
     if not float(delta.max()) < threshold:
         i = int(np.argmax(delta))
         c = P[T[i]].mean(axis=0)
@@ -462,11 +469,8 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
                             f"delta_0 = {threshold:g} (tetrahedron {i} at ({c[0]:.6g}, "
                             f"{c[1]:.6g}, {c[2]:.6g})): refinement keeps delta_0, so the "
                             f"mesh must meet it")
-    regions = None
-    if mesh.cell_data.get("subregion") is not None:
-        regions = np.asarray(mesh.cell_data["subregion"], dtype=np.int64)
     names = tuple(solid.face_names)
-    cons = list(model.constituents)
+    cons = list(getattr(model, "constituents", None) or field_.constituents)
     current = Refined(P, T, comp, delta, regions, faces, markers, 0, 0, 0)
     cur_mesh = _mesh_of(current, cons, names)
     records: list[dict] = []
