@@ -160,7 +160,7 @@ def test_refined_mesh_passes_independent_checks_and_is_deterministic(cylinder):
     coarse = hetmesh.generate(cylinder, 0.4).mesh
     ref, snapped = _refine_inner(cylinder, coarse, 2)
     assert snapped > 10                    # new vertices of the inner chords moved out
-    mesh = ad._mesh_of(ref, cylinder.constituents, cylinder.solid.face_names)
+    mesh = ad.refined_mesh(ref, cylinder.constituents, cylinder.solid.face_names)
     assert independent_problems(mesh, cylinder, 0.4) == []
     # the check can fail: midpoints of chords left where they are are off the cylinder
     from hetmesh.tet.refine import bisect_edges
@@ -176,7 +176,7 @@ def test_refined_mesh_passes_independent_checks_and_is_deterministic(cylinder):
     bad = ad.Refined(P2, T2, C2, np.zeros(len(T2)), None, F, Mk, 0, 0, 0)
     assert np.hypot(*P2[-1, :2]) < 10 - 1e-9
     assert any("off its cylinder" in p for p in independent_problems(
-        ad._mesh_of(bad, cylinder.constituents, cylinder.solid.face_names), cylinder, 0.4))
+        ad.refined_mesh(bad, cylinder.constituents, cylinder.solid.face_names), cylinder, 0.4))
     again, _ = _refine_inner(cylinder, coarse, 2)
     assert np.array_equal(again.points, ref.points) and np.array_equal(again.tets, ref.tets)
     assert np.array_equal(again.faces, ref.faces) and np.array_equal(again.markers,
@@ -187,7 +187,7 @@ def test_refinement_of_marked_elements(cylinder, start):
     r, marked, ref = _refined_once(cylinder, start)
     assert 0 < marked.sum() < len(marked)
     assert len(ref.tets) >= len(start.cells) + marked.sum()   # every marked one bisected
-    mesh = ad._mesh_of(ref, cylinder.constituents, cylinder.solid.face_names)
+    mesh = ad.refined_mesh(ref, cylinder.constituents, cylinder.solid.face_names)
     assert independent_problems(mesh, cylinder, 0.4) == []
 
 

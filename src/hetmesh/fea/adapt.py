@@ -46,12 +46,12 @@ from typing import Any
 import numpy as np
 
 from ..errors import FEAError, OptionError, VerificationError
-from .blocks import CHUNK
+from .estimate import compliance_energy, relative_estimate, zz_indicator
 
 __all__ = ["zz_indicator", "compliance_energy", "doerfler_mark", "snap_to_surface",
            "refine_marked", "mesh_faces", "adapt", "Adapted", "check_adapt_options",
            "DEFAULT_FRACTION", "DEFAULT_STEPS", "refinement_study", "STUDY_REFINEMENT",
-           "relative_estimate", "Refined"]
+           "relative_estimate", "Refined", "refined_mesh"]
 
 log = logging.getLogger(__name__)
 
@@ -61,67 +61,7 @@ DEFAULT_FRACTION = 0.5
 DEFAULT_STEPS = 8
 
 
-# ---------------------------------------------------------------------------- estimate
-
-def compliance_energy(s: np.ndarray, E: np.ndarray, nu: np.ndarray) -> np.ndarray:
-    """``s : C^-1 s`` of stresses ``s (..., 6)`` (``xx, yy, zz, xy, yz, xz``) for an
-    isotropic material ``E, nu (...)``: ``((1 + nu) s:s - nu (tr s)^2) / E``.
-
-    >>> float(compliance_energy(np.array([2.0, 0, 0, 0, 0, 0]), 4.0, 0.25))  # s^2 / E
-    1.0
-    """
-    tr = s[..., 0] + s[..., 1] + s[..., 2]
-    ss = (s[..., :3] ** 2).sum(axis=-1) + 2.0 * (s[..., 3:] ** 2).sum(axis=-1)
-    return ((1.0 + nu) * ss - nu * tr ** 2) / E
-
-
-def zz_indicator(space, rec: np.ndarray, copies: np.ndarray, sq: np.ndarray,
-                 E: np.ndarray, nu: np.ndarray) -> tuple[np.ndarray, float]:
-    """The Zienkiewicz-Zhu indicator of every element and the energy-like norm of the stress.
-
-    Parameters
-    ----------
-    space : TetSpace
-        The element space (its ``dx (M, Q)`` quadrature weights and the reference
-        quadrature points ``basis.X``).
-    rec : (D, 6) recovered stresses at the vertex copies; copies : (M, 4) every element's
-        vertex copies (:func:`hetmesh.fea.recovery3d.recover_stresses`)
-    sq : (M, Q, 6) element stresses at the quadrature points
-    E, nu : (M, Q) the mixed Young's modulus and Poisson's ratio there
-
-    Returns
-    -------
-    eta : (M,) ``sqrt(int_T (sigma* - sigma_h) : C^-1 (sigma* - sigma_h))``, with
-        ``sigma*`` the recovered stress interpolated linearly at the quadrature points
-    energy : float
-        ``sqrt(int sigma_h : C^-1 sigma_h)`` over the mesh
-    """
-    X = np.asarray(space.basis.X)
-    phi = np.vstack([1 - X.sum(axis=0), X])  # (4, Q) the P1 basis at the points
-    dx = np.asarray(space.dx)
-    M = len(dx)
-    eta2 = np.empty(M)
-    energy = 0.0
-    for a in range(0, M, CHUNK):
-        sl = slice(a, min(a + CHUNK, M))
-        star = np.einsum("iq,mic->mqc", phi, rec[copies[sl]])
-        e = compliance_energy(star - sq[sl], E[sl], nu[sl])
-        eta2[sl] = (dx[sl] * e).sum(axis=1)
-        energy += float((dx[sl] * compliance_energy(sq[sl], E[sl], nu[sl])).sum())
-    return np.sqrt(np.maximum(eta2, 0.0)), math.sqrt(max(energy, 0.0))
-
-
-def relative_estimate(eta: np.ndarray, energy: float) -> float:
-    """ZZ's relative error ``eta / sqrt(energy^2 + eta^2)``, ``eta`` the root sum of
-    squares of the element indicators (0 for a zero field).
-
-    >>> relative_estimate(np.array([3.0, 4.0]), 0.0)
-    1.0
-    """
-    e2 = float((np.asarray(eta) ** 2).sum())
-    den = energy ** 2 + e2
-    return math.sqrt(e2 / den) if den > 0 else 0.0
-
+# ---------------------------------------------------------------------------- mark
 
 def doerfler_mark(eta: np.ndarray, fraction: float) -> np.ndarray:
     """Doerfler's bulk marking: the fewest elements (largest ``eta`` first, ties by index)
@@ -284,7 +224,7 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
     """
     from ..tet.mesher import CHORD, TetResult
     from ..tet.refine import MAX_PASSES, bisect_edges, select_edges
-    from ..tet.sampling import _problems, bisect_faces, repair_sampled, sampled_delta
+    from ..tet.sampling import bisect_faces, repair_sampled, result_problems, sampled_delta
 
     P = np.asarray(points, dtype=np.float64)
     T = np.asarray(tets, dtype=np.int64)
@@ -324,7 +264,7 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
     res = TetResult(rep.points, rep.tets.astype(np.int32), rep.faces.astype(np.int32),
                     rep.markers.astype(np.int32), names, rep.delta, float(threshold), {})
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
-    probs = _problems(res, solid, chord)
+    probs = result_problems(res, solid, chord)
     if probs:
         raise VerificationError(f"refined tetrahedral mesh failed verification: {probs[0]}"
                                 + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
@@ -389,7 +329,10 @@ def check_adapt_options(tolerance: float, steps: int, fraction: float,
         raise OptionError(f"--threshold: expected delta_0 in (0, 1), got {threshold!r}")
 
 
-def _mesh_of(ref: Refined, constituents, names) -> Any:
+def refined_mesh(ref: Refined, constituents, names) -> Any:
+    """The :class:`~hetmesh.mesh.Mesh` of a :class:`Refined`, as :func:`hetmesh.generate`
+    writes one: compositions as point data, ``delta`` and ``quality`` (and ``subregion``)
+    as cell data, the boundary triangles as facets named by ``names``."""
     from ..mesh import Mesh
     from ..metrics import tet_quality
 
@@ -472,7 +415,7 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     names = tuple(solid.face_names)
     cons = list(getattr(model, "constituents", None) or field_.constituents)
     current = Refined(P, T, comp, delta, regions, faces, markers, 0, 0, 0)
-    cur_mesh = _mesh_of(current, cons, names)
+    cur_mesh = refined_mesh(current, cons, names)
     records: list[dict] = []
     reason = "steps"
     refine_seconds = 0.0
@@ -513,7 +456,7 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
             reason = "max_elements"
             break
         current = nxt
-        cur_mesh = _mesh_of(current, cons, names)
+        cur_mesh = refined_mesh(current, cons, names)
     out_mesh = result.mesh.with_data(cell_data={"error_indicator":
                                                 np.asarray(result.error_indicator)})
     from dataclasses import replace

@@ -40,7 +40,7 @@ class FEAResult3D:
     (``xx, yy, zz, xy, yz, xz``), and ``solver`` (per system: method, unknowns, CG
     iterations, residual), ``error_indicator (M,)`` the Zienkiewicz-Zhu indicator of every
     element and ``energy`` the energy-like norm of the stress
-    (:func:`hetmesh.fea.adapt.zz_indicator`)."""
+    (:func:`hetmesh.fea.estimate.zz_indicator`)."""
 
     mesh: Any
     temperature: np.ndarray

@@ -39,8 +39,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import FEAError
-from .adapt import zz_indicator
 from .blocks import CHUNK, sum_into
+from .estimate import zz_indicator
 from .linsolve import blas_threads, rigid_modes, solve_spd
 from .recovery3d import (
     STRESS_NAMES_3D,
@@ -313,7 +313,7 @@ class SolidResult:
         ``von_mises``)
     timings : phase -> seconds; solver : "thermal"/"elastic" -> solver info
     error_indicator : (M,) the Zienkiewicz-Zhu indicator of every element
-        (:func:`hetmesh.fea.adapt.zz_indicator`); energy : the stress's energy-like norm
+        (:func:`hetmesh.fea.estimate.zz_indicator`); energy : the stress's energy-like norm
     """
 
     points: np.ndarray
