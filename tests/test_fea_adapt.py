@@ -307,3 +307,12 @@ def test_refinement_study_and_its_table(cylinder):
                     refinements={"graded_cylinder": r})
     text = "\n".join(render3d(sec))
     assert "(c) adaptive + refined" in text and "ZZ estimate" in text
+
+
+def test_cli_adapt_needs_a_tetrahedral_mesh(tmp_path, capsys):
+    model = hetmesh.example_path("fgm_plate")
+    mesh = tmp_path / "plate.vtu"
+    hetmesh.generate(hetmesh.load_model(model), 0.4).mesh.write(mesh)
+    rc = main(["fea", str(model), "--mesh", str(mesh), "--adapt", "0.01", "-d", "0.4"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "tetrahedral" in err, err
