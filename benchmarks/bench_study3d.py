@@ -16,7 +16,12 @@ Runs :func:`hetmesh.reproduce.study3d.run3d` -- the same code as ``hetmesh repro
   reference: the 2-D plane-strain fine solution for fgm_plate_3d, the exact radial solution
   for graded_cylinder), every mesh's tetrahedra and largest error per probe set;
 - T3: the tetrahedra each family needs for 0.5 % at the probes, and adaptive / uniform
-  (the target: at most 0.5).
+  (the target: at most 0.5);
+- T4 (unless ``--no-refine``): the third family, the material-adaptive mesh at the plan's
+  largest delta_0 refined by the solution (:func:`hetmesh.fea.adapt.refinement_study`:
+  Zienkiewicz-Zhu estimate, Doerfler marking, longest-edge bisection, re-verified), every
+  step's tetrahedra, ZZ estimate and probe errors, and the tetrahedra for 0.5 % by (a)
+  uniform, (b) adaptive, (c) adaptive + refined meshes with (c)/(a) against 0.5.
 
 ``--examples D`` prints instead T0: every 3-D example meshed adaptively and uniformly at
 delta_0 = D (tetrahedra, ratio, the uniform size, smallest dihedral angles, wall times).
@@ -42,6 +47,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", default=None, help="comma-separated solids")
     ap.add_argument("--json", default=None, help="write the studies' records here")
     ap.add_argument("--no-meshes", action="store_true", help="the FEA study only (no T1)")
+    ap.add_argument("--no-refine", action="store_true",
+                    help="no solution-adaptive family (T4)")
     ap.add_argument("--uniform", default=None, metavar="COUNTS",
                     help="the study's uniform tetrahedron counts instead of the plan's")
     ap.add_argument("--thresholds", default=None, metavar="LIST",
@@ -74,13 +81,14 @@ def main(argv=None) -> int:
             [float(d) for d in args.thresholds.split(",")]
     sec = run3d(quick=args.quick, peers=[] if args.no_peers else have,
                 study=not args.no_study, cases=cases, progress=progress,
-                meshes=not args.no_meshes, **plan)
+                meshes=not args.no_meshes, refine=not args.no_refine, **plan)
     print("\n".join(render3d(sec)))
     print(f"\ntotal {sec.seconds:.0f} s; peers: {', '.join(have) or 'none installed'}")
     if args.json:
         doc = {"runs": [r.__dict__ for r in sec.runs],
                "studies": {k: s.to_dict() for k, s in sec.studies.items()},
-               "study_errors": sec.study_errors, "seconds": sec.seconds}
+               "study_errors": sec.study_errors, "refinements": sec.refinements,
+               "seconds": sec.seconds}
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(doc, fh, indent=1, default=float)
     return 0

@@ -15,6 +15,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from ..fea.adapt import DEFAULT_FRACTION, DEFAULT_STEPS
 from .mesh import check_output_paths, mesh_extensions, plot_extensions
 from .stats import check_mesh_of_model
 
@@ -47,6 +48,24 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                    help="write a JSON report: settings, extremes, timings, one entry per probe")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="write a picture of the von Mises stress (.png, .pdf, .svg)")
+    a = p.add_argument_group(
+        "solution-adaptive refinement (tetrahedral meshes)",
+        "Solve, estimate every element's error by Zienkiewicz-Zhu stress recovery, refine the "
+        "elements carrying FRACTION of it (Doerfler marking) by longest-edge bisection, "
+        "re-verify (delta_max < delta_0, faces on the solid), repeat; --output gets the last "
+        "mesh with its results and the cell data error_indicator (docs/fea.md).")
+    a.add_argument("--adapt", type=float, metavar="TOL",
+                   help="refine until the relative error estimate (energy norm) is <= TOL, "
+                        "e.g. 0.005")
+    a.add_argument("--threshold", "-d", type=float, metavar="D",
+                   help="with --adapt: delta_0 of the mesh, which every refined mesh keeps")
+    a.add_argument("--adapt-steps", type=int, metavar="N",
+                   help=f"with --adapt: at most N refinements (default {DEFAULT_STEPS})")
+    a.add_argument("--adapt-fraction", type=float, metavar="F",
+                   help=f"with --adapt: Doerfler's bulk fraction, 0 < F <= 1 (default "
+                        f"{DEFAULT_FRACTION})")
+    a.add_argument("--adapt-max-elements", type=int, metavar="N",
+                   help="with --adapt: stop before a mesh of more than N tetrahedra")
     p.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
     p.set_defaults(run=run)
     return p
@@ -62,6 +81,27 @@ def check_fea_outputs(args: argparse.Namespace) -> None:
     if args.plot is not None:
         outputs.append(("--plot", args.plot, plot_extensions(), "image"))
     check_output_paths(outputs, {args.model: "MODEL", args.mesh: "--mesh"})
+
+
+def check_adapt_args(args: argparse.Namespace) -> None:
+    """The refinement options: only with ``--adapt``, which needs ``--threshold``; values by
+    :func:`hetmesh.fea.adapt.check_adapt_options`."""
+    from ..errors import OptionError
+    from ..fea.adapt import check_adapt_options
+
+    extra = [f for f, v in (("--threshold", args.threshold), ("--adapt-steps", args.adapt_steps),
+                            ("--adapt-fraction", args.adapt_fraction),
+                            ("--adapt-max-elements", args.adapt_max_elements)) if v is not None]
+    if args.adapt is None:
+        if extra:
+            raise OptionError(f"{extra[0]} is an option of --adapt, which is not given")
+        return
+    if args.threshold is None:
+        raise OptionError("--adapt needs --threshold D: the delta_0 every refined mesh keeps")
+    check_adapt_options(args.adapt, DEFAULT_STEPS if args.adapt_steps is None
+                        else args.adapt_steps,
+                        DEFAULT_FRACTION if args.adapt_fraction is None else args.adapt_fraction,
+                        args.adapt_max_elements, args.threshold)
 
 
 def probe_table(result) -> Table:
@@ -90,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
     from .examples import check_model_path
 
     check_fea_outputs(args)
+    check_adapt_args(args)
     check_model_path(args.model)
     model = load_model(args.model)
     if getattr(model, "fea", None) is None:
@@ -108,13 +149,31 @@ def run(args: argparse.Namespace) -> int:
 
         raise MeshDataError(f"{args.mesh}: not a mesh of model {model.name!r}: non-finite "
                             f"node coordinates")
-    result = solve(mesh, model)
+    adapted = None
+    if args.adapt is not None:
+        if mesh.dim != 3:
+            from ..errors import OptionError
+
+            raise OptionError(f"--adapt: solution-adaptive refinement needs a tetrahedral "
+                              f"mesh; {args.mesh} is {mesh.dim}-D")
+        from ..fea.adapt import adapt
+
+        adapted = adapt(mesh, model, args.threshold, tolerance=args.adapt,
+                        steps=DEFAULT_STEPS if args.adapt_steps is None else args.adapt_steps,
+                        fraction=(DEFAULT_FRACTION if args.adapt_fraction is None
+                                  else args.adapt_fraction),
+                        max_elements=args.adapt_max_elements)
+        result, mesh = adapted.result, adapted.mesh
+    else:
+        result = solve(mesh, model)
     written = []
     if args.output is not None:
         written.append(write_mesh(result.mesh, args.output))
     if args.report is not None:
         written.append(write_report(result, args.report, model_file=str(args.model),
-                                    mesh_file=str(args.mesh)))
+                                    mesh_file=str(args.mesh),
+                                    **({} if adapted is None else
+                                       {"adaptive": adapted.report()})))
     if args.plot is not None:
         written.append(plot_von_mises(result, args.plot, units=model.units))
     if not args.quiet:
@@ -126,6 +185,12 @@ def run(args: argparse.Namespace) -> int:
                       f"{result.config.mixing} mixing; T in [{T.min():.2f}, {T.max():.2f}] K, "
                       f"max von Mises {result.von_mises.max() / 1e6:.2f} MPa "
                       f"({result.timings['total']:.2f} s)")
+        if adapted is not None:
+            for st in adapted.steps:
+                console.print(f"  step {st['step']}: {st['elements']} tetrahedra, error "
+                              f"estimate {100 * st['estimate']:.3g} %, delta_max "
+                              f"{st['delta_max']:.4g}")
+            console.print(f"adaptive refinement stopped: {adapted.reason}")
         if result.probes:
             console.print(probe_table(result))
         for path in written:

@@ -38,7 +38,9 @@ class FEAResult3D:
     :class:`~hetmesh.fea.analysis.FEAResult` with 3-D shapes: ``displacement (N, 3)``,
     ``stress (N, 6)`` and ``cell_stress (M, 6)`` in the order of :data:`STRESS_NAMES_3D`
     (``xx, yy, zz, xy, yz, xz``), and ``solver`` (per system: method, unknowns, CG
-    iterations, residual)."""
+    iterations, residual), ``error_indicator (M,)`` the Zienkiewicz-Zhu indicator of every
+    element and ``energy`` the energy-like norm of the stress
+    (:func:`hetmesh.fea.estimate.zz_indicator`)."""
 
     mesh: Any
     temperature: np.ndarray
@@ -52,6 +54,8 @@ class FEAResult3D:
     model_name: str = ""
     timings: Mapping[str, float] = field(default_factory=dict)
     solver: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    error_indicator: np.ndarray | None = None
+    energy: float = float("nan")
 
     def report(self) -> dict[str, Any]:
         """A JSON-ready summary: settings, extremes, solver statistics, timings and one entry
@@ -186,4 +190,5 @@ def solve_mesh3d(mesh, model, cfg: FEAConfig3D) -> FEAResult3D:
                        stress=r.stress, von_mises=r.von_mises, cell_stress=r.cell_stress,
                        cell_von_mises=r.cell_von_mises, probes=r.probes, config=cfg,
                        model_name=getattr(model, "name", ""), timings=r.timings,
-                       solver=r.solver)
+                       solver=r.solver, error_indicator=r.error_indicator,
+                       energy=r.energy)

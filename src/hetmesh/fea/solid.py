@@ -40,6 +40,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import FEAError
 from .blocks import CHUNK, sum_into
+from .estimate import zz_indicator
 from .linsolve import blas_threads, rigid_modes, solve_spd
 from .recovery3d import (
     STRESS_NAMES_3D,
@@ -311,6 +312,8 @@ class SolidResult:
     probes : name -> dict (``x, y, z, element, temperature, ux, uy, uz``, the six stresses,
         ``von_mises``)
     timings : phase -> seconds; solver : "thermal"/"elastic" -> solver info
+    error_indicator : (M,) the Zienkiewicz-Zhu indicator of every element
+        (:func:`hetmesh.fea.estimate.zz_indicator`); energy : the stress's energy-like norm
     """
 
     points: np.ndarray
@@ -325,6 +328,8 @@ class SolidResult:
     probes: Mapping[str, Mapping[str, float]]
     timings: Mapping[str, float] = field(default_factory=dict)
     solver: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    error_indicator: np.ndarray | None = None
+    energy: float = float("nan")
 
 
 def solve_tets(P: np.ndarray, T: np.ndarray, material: Material, *, order: int = 1,
@@ -406,6 +411,8 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
     w = space.dx / space.dx.sum(axis=1, keepdims=True)
     cell = np.einsum("mq,mqc->mc", w, sq)
     rec, copies, nodal = recover_stresses(space, T, len(P), sq, groups, order, pattern)
+    eta, energy = zz_indicator(space, rec, copies, sq, props["youngs_modulus"],
+                               props["poisson_ratio"])
     timings["recovery"] = time.perf_counter() - t1
 
     Tv = Tfull[space.basis.nodal_dofs[0]]
@@ -417,7 +424,7 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
     return SolidResult(points=P, tets=T, order=order, temperature=Tv, displacement=Uv,
                        stress=nodal, von_mises=von_mises_3d(nodal), cell_stress=cell,
                        cell_von_mises=von_mises_3d(cell), probes=out_probes,
-                       timings=timings, solver=info)
+                       timings=timings, solver=info, error_indicator=eta, energy=energy)
 
 
 def _check_conditions(P, T, temperature, displacement) -> None:

@@ -506,6 +506,45 @@ def render3d(section) -> list[str]:
         out.append("")
     if section.studies or section.study_errors:
         out += _study_lines(section)
+    if getattr(section, "refinements", None):
+        out += _refinement_lines(section)
+    return out
+
+
+def _refinement_lines(section) -> list[str]:
+    """The study's third family: material-adaptive + solution-adaptive refinement
+    (:func:`hetmesh.fea.adapt.refinement_study`)."""
+    out = ["### 3-D: material-adaptive + solution-adaptive refinement", "",
+           "`hetmesh.fea.adapt`: the adaptive mesh at the plan's largest δ0 solved, its "
+           "elements' errors estimated by Zienkiewicz-Zhu stress recovery, the elements "
+           "carrying half of the estimate (Dörfler marking) bisected along their longest "
+           "edge, new boundary vertices put on the exact surface, the mesh re-verified "
+           "(δ_max < δ0), solved again; every step one mesh of the family.", ""]
+    for name, r in section.refinements.items():
+        if "error" in r:
+            out += [f"- {name}: the refinement failed: {r['error']}", ""]
+            continue
+        sets = list(r["needed"])
+        rows = [[str(m["param"]), num(m["elements"]), num(100 * m["estimate"], 3)]
+                + [num(100 * m["errors"][k], 3) for k in sets] + [num(m["solve_seconds"], 1)]
+                for m in r["meshes"]]
+        out += [f"**{name}** (from δ0 = {r['threshold']:g}, fraction {r['fraction']:g}, "
+                f"stopped: {r['reason']}, {r['seconds']:.0f} s).", ""]
+        out += markdown_table(["step", "tets", "ZZ estimate %"]
+                              + [f"max error {k} %" for k in sets] + ["solve s"], rows) + [""]
+        rows = []
+        for k, nd in r["needed"].items():
+            def cnt(v, exact):
+                if v is None:
+                    return NA
+                return num(int(round(v))) if exact else f"<= {num(int(round(v)))}"
+            ratio = NA if nd["ratio"] is None else (
+                num(nd["ratio"], 3) if nd["refined_exact"] else f"<= {num(nd['ratio'], 3)}")
+            rows.append([k, cnt(nd["uniform"], nd["uniform_exact"]),
+                         NA if nd["adaptive"] is None else num(int(round(nd["adaptive"]))),
+                         cnt(nd["refined"], nd["refined_exact"]), ratio])
+        out += markdown_table(["probes", "(a) uniform", "(b) adaptive", "(c) adaptive + refined",
+                               "(c)/(a), target <= 0.5"], rows) + [""]
     return out
 
 

@@ -88,6 +88,9 @@ class Section3D:
     studies: dict = field(default_factory=dict)
     study_errors: dict = field(default_factory=dict)
     seconds: float = math.nan
+    #: name -> :func:`hetmesh.fea.adapt.refinement_study` (the material-adaptive mesh refined
+    #: by the solution: the study's third family), or {"error": message}
+    refinements: dict = field(default_factory=dict)
 
 
 def _figures(result, seconds: float) -> dict:
@@ -153,13 +156,32 @@ def study_case(case: Case3D, model, quick: bool, progress=None, **plan):
     return ps.study3d(model, ref, quick=quick, progress=progress, chord_tol=CHORD_TOL, **plan)
 
 
+def refine_case(model, study, quick: bool, plan: dict) -> dict | None:
+    """The study's third family (:func:`hetmesh.fea.adapt.refinement_study`) from the
+    material-adaptive mesh at the plan's largest threshold; ``{"error": message}`` if it
+    fails, None if the plan has no threshold."""
+    from ..fea import probe_study as ps
+    from ..fea.adapt import refinement_study
+
+    d0s = plan.get("thresholds", ps.PLANS3D["quick" if quick else "full"].thresholds)
+    if not d0s:
+        return None
+    try:
+        return refinement_study(model, study.reference, study, threshold=max(d0s),
+                                quick=quick, chord_tol=CHORD_TOL)
+    except HetmeshError as exc:
+        log.warning("3-D refinement of %s failed: %s", model.name, exc)
+        return {"error": str(exc).splitlines()[0]}
+
+
 def run3d(*, quick: bool = False, peers: list[str] | None = None, study: bool = True,
           cases: list[str] | None = None, meshes: bool = True,
           progress: Callable[[str, float | None], None] | None = None,
-          **plan) -> Section3D:
+          refine: bool = True, **plan) -> Section3D:
     """Everything the 3-D section measures (see the module docstring); failures are
     recorded with their message, not raised. ``meshes=False`` skips the mesh table;
-    ``plan`` (``uniform_elements``, ``thresholds``) overrides the FEA study's plan."""
+    ``plan`` (``uniform_elements``, ``thresholds``) overrides the FEA study's plan;
+    ``refine`` adds the study's third family (:func:`refine_case`)."""
     from ..io.model import example_path, load_model
 
     t0 = time.perf_counter()
@@ -188,6 +210,11 @@ def run3d(*, quick: bool = False, peers: list[str] | None = None, study: bool = 
             except HetmeshError as exc:
                 out.study_errors[n] = str(exc).splitlines()[0]
                 log.warning("3-D study of %s failed: %s", n, out.study_errors[n])
+            if refine and n in out.studies:
+                sub("material-adaptive + solution-adaptive refinement", 0.95)
+                r = refine_case(models[n], out.studies[n], quick, plan)
+                if r is not None:
+                    out.refinements[n] = r
             done += 1
     out.seconds = time.perf_counter() - t0
     return out

@@ -31,7 +31,7 @@ from ..refinement import check_budget, check_progress
 from .refine import MAX_PASSES, bisect_edges, select_edges
 
 __all__ = ["sampled_delta", "repair_sampled", "bisect_faces", "resample", "Repaired",
-           "TET_SAMPLINGS"]
+           "TET_SAMPLINGS", "result_problems"]
 
 log = logging.getLogger(__name__)
 
@@ -198,7 +198,7 @@ def resample(res, solid, field, sampling: str, *, max_elements: int | None = Non
             f"delta_max = {dmax:.6g} is not below delta_0 = {res.threshold:g}"]
     elif check:
         chord = CHORD * solid.diameter if chord_tol is None else chord_tol
-        probs = _problems(res, solid, chord)
+        probs = result_problems(res, solid, chord)
         if probs:
             from ..errors import VerificationError
             raise VerificationError(f"tetrahedral mesh verification failed ({sampling} "
@@ -207,7 +207,7 @@ def resample(res, solid, field, sampling: str, *, max_elements: int | None = Non
     return res
 
 
-def _problems(res, solid, chord: float) -> list[str]:
+def result_problems(res, solid, chord: float) -> list[str]:
     """The verification of ``res`` with its own (sampled) delta, by the solid's kind."""
     from .general import solid_problems
     from .implicit import CSGSolid
