@@ -51,7 +51,8 @@ from .refine import repair
 from .verify import validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
-           "quiet_mmg", "S", "SHRINK", "SIZE_ROUNDS"]
+           "quiet_mmg", "next_size", "centroid_and_delta_problems", "S", "SHRINK",
+           "SIZE_ROUNDS"]
 
 log = logging.getLogger(__name__)
 
@@ -297,6 +298,17 @@ def size_field(field, points, threshold, h_max, h_min):
     return np.clip(h, h_min, h_max)
 
 
+def next_size(h_mmg, field, points, tets, bad, threshold, h_max, h_min):
+    """The size for the next MMG round: the size MMG interpolated at the vertices ``h_mmg``
+    (which keeps the earlier rounds' shrinking), at most the field's (:func:`size_field`),
+    times :data:`SHRINK` at the vertices of the violating tetrahedra ``bad``, at least
+    ``h_min``."""
+    size = np.minimum(h_mmg, size_field(field, points, threshold, h_max, h_min))
+    shrink = np.ones(len(points))
+    shrink[tets[bad].ravel()] = SHRINK
+    return np.maximum(size * shrink, h_min)
+
+
 def cap_curved(solid, size, faces, markers, chord):
     """``size`` with the vertices of curved faces' triangles capped at the edge length
     whose triangles stay within ``chord`` of their surface (:func:`chord_size`)."""
@@ -423,12 +435,8 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                  int(bad.sum()))
         if not bad.any() or rounds == SIZE_ROUNDS:
             break
-        # the size MMG interpolated at the new vertices (which keeps the earlier rounds'
-        # shrinking), at most the field's, shrunk at the vertices of the violators
-        size = np.minimum(h_mmg, size_field(field, p, threshold, h_max, h_min))
-        shrink = np.ones(len(p))
-        shrink[t[bad].ravel()] = SHRINK
-        size = cap_curved(solid, np.maximum(size * shrink, h_min), faces, markers, chord)
+        size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
+                          faces, markers, chord)
     t_place = time.perf_counter() - t0
     passes = 0
     comp = field.composition(p)
@@ -524,11 +532,20 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
     elif abs(vol - solid.volume) > 0.01 * solid.volume:
         out.append(f"volume {vol:.12g} differs from the solid's (grid estimate "
                    f"{solid.volume:.12g}) by more than 1 %")
+    return out + centroid_and_delta_problems(res, solid, field, chord_tol, "the solid")
+
+
+def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) -> list[str]:
+    """The last checks of a remeshed solid: every tetrahedron's centroid inside ``solid``
+    (``solid.contains(points, tol)``, called ``what`` in the message), and delta_max below
+    delta_0 (``res.delta``, or recomputed at the vertices from ``field`` if given)."""
+    out = []
+    p, t = res.points, res.tets
     cen = p[t].mean(axis=1)
     outside = ~solid.contains(cen, chord_tol)
     if outside.any():
         c = cen[outside][0]
-        out.append(f"{int(outside.sum())} tetrahedra outside the solid (e.g. at "
+        out.append(f"{int(outside.sum())} tetrahedra outside {what} (e.g. at "
                    f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
     delta = res.delta if field is None else delta_vertices(field.composition(p), t)
     if not float(delta.max()) < res.threshold:

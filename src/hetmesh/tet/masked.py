@@ -78,8 +78,6 @@ log = logging.getLogger(__name__)
 HAUSD = (0.3, 0.2, 0.1)
 #: size rounds before the bisection repair
 SIZE_ROUNDS = 6
-#: the size at the vertices of violating tetrahedra is multiplied by this each round
-SHRINK = 0.85
 #: MMG's gradation
 HGRAD = 1.3
 #: barycentric points at which the boundary triangles are checked
@@ -444,7 +442,7 @@ def _delta(field, p, t, phase, comp):
 
 
 def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_elements):
-    from .general import size_field
+    from .general import next_size, size_field
     from .sampling import repair_sampled, sampled_delta
 
     size = size_field(field, p, threshold, h_max, h_min)
@@ -460,10 +458,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
                  int(bad.sum()))
         if not bad.any() or rounds == SIZE_ROUNDS:
             break
-        size = np.minimum(h_mmg, size_field(field, p, threshold, h_max, h_min))
-        shrink = np.ones(len(p))
-        shrink[t[bad].ravel()] = SHRINK
-        size = np.maximum(size * shrink, h_min)
+        size = next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min)
     if solid.n_phases == 1:
         p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
                                            max_elements=max_elements)

@@ -35,7 +35,15 @@ from ..errors import BudgetError, MeshingError, OptionError, VerificationError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from .faces import boundary_faces
-from .general import HGRAD, SHRINK, SIZE_ROUNDS, mmg_remesh, orient_positive, size_field
+from .general import (
+    HGRAD,
+    SIZE_ROUNDS,
+    centroid_and_delta_problems,
+    mmg_remesh,
+    next_size,
+    orient_positive,
+    size_field,
+)
 from .mesher import CHORD, TetResult
 from .refine import repair
 from .surface import SurfaceSolid, distance_to_triangles, distance_within
@@ -162,10 +170,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
                  int(bad.sum()))
         if not bad.any() or rounds == SIZE_ROUNDS:
             break
-        size = np.minimum(h_mmg, size_field(field, p, threshold, h_max, h_min))
-        shrink = np.ones(len(p))
-        shrink[t[bad].ravel()] = SHRINK
-        size = np.maximum(size * shrink, h_min)
+        size = next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min)
     t_place = time.perf_counter() - t0
     p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
                                        max_elements=max_elements)
@@ -276,14 +281,4 @@ def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[
     if abs(vol - solid.volume) > chord_tol * solid.area + 1e-9 * solid.volume:
         out.append(f"volume {vol:.12g} differs from the surface's {solid.volume:.12g} by "
                    f"more than the chord tolerance x its area allows")
-    cen = p[t].mean(axis=1)
-    outside = ~solid.contains(cen, chord_tol)
-    if outside.any():
-        c = cen[outside][0]
-        out.append(f"{int(outside.sum())} tetrahedra outside the surface (e.g. at "
-                   f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
-    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
-    if not float(delta.max()) < res.threshold:
-        out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
-                   f"{res.threshold:g}")
-    return out
+    return out + centroid_and_delta_problems(res, solid, field, chord_tol, "the surface")
