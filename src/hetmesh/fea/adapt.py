@@ -161,27 +161,6 @@ def snap_to_surface(solid, points: np.ndarray, ids: np.ndarray, faces: np.ndarra
     return p
 
 
-def _keep_positive(old: np.ndarray, new: np.ndarray, tets: np.ndarray, moved: np.ndarray,
-                   rounds: int = 20) -> np.ndarray:
-    """``new``, except the ``moved`` vertices whose move leaves a tetrahedron around them
-    without a positive volume: those go back to ``old``."""
-    from ..mesh import simplex_measures
-
-    q = new.copy()
-    moved = moved.copy()
-    for _ in range(rounds):
-        bad = simplex_measures(q, tets) <= 0
-        if not bad.any():
-            break
-        back = np.unique(tets[bad])
-        back = back[moved[back]]
-        if not len(back):
-            break
-        q[back] = old[back]
-        moved[back] = False
-    return q
-
-
 @dataclass(frozen=True)
 class Refined:
     """A refined, verified mesh: points, tetrahedra, compositions at the points, vertex
@@ -222,6 +201,7 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
     BudgetError
         Past ``max_elements`` in the delta repair.
     """
+    from ..tet.general import keep_positive
     from ..tet.mesher import CHORD, TetResult
     from ..tet.refine import MAX_PASSES, bisect_edges, select_edges
     from ..tet.sampling import bisect_faces, repair_sampled, result_problems, sampled_delta
@@ -253,7 +233,7 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
     moved = np.zeros(len(P), dtype=bool)
     moved[on_boundary] = (snapped[on_boundary] != P[on_boundary]).any(axis=1)
     before = P
-    P = _keep_positive(P, snapped, T, moved)
+    P = keep_positive(P, snapped, T, moved)
     n_snapped = int((P[on_boundary] != before[on_boundary]).any(axis=1).sum())
     C = (field.composition(P) if comp is None else
          np.concatenate([np.asarray(comp, dtype=np.float64), field.composition(P[n_start:])]))

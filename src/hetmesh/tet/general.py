@@ -41,17 +41,17 @@ import time
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError, VerificationError
+from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from .faces import boundary_faces
 from .implicit import CSGSolid
 from .mesher import CHORD, TetResult
 from .refine import repair
-from .verify import validity_problems
+from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
-           "quiet_mmg", "next_size", "centroid_and_delta_problems", "S", "SHRINK",
+           "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
            "SIZE_ROUNDS"]
 
 log = logging.getLogger(__name__)
@@ -263,18 +263,27 @@ def project_safely(solid, points, tets, faces, markers, rounds: int = 20) -> np.
     where MMG put it, within its Hausdorff distance of the surface; the verification
     checks the chord tolerance)."""
     q = project(solid, points, faces, markers)
-    moved = (q != points).any(axis=1)
+    q = keep_positive(points, q, tets, (q != points).any(axis=1), rounds)
+    _check_positive(q, tets, "after projecting the boundary vertices")
+    return q
+
+
+def keep_positive(old: np.ndarray, new: np.ndarray, tets: np.ndarray, moved: np.ndarray,
+                  rounds: int = 20) -> np.ndarray:
+    """``new``, except the ``moved`` vertices whose move leaves a tetrahedron around them
+    without a positive volume: those go back to ``old`` (round by round, at most
+    ``rounds``; the caller checks what is left)."""
+    q, moved = new.copy(), moved.copy()
     for _ in range(rounds):
         bad = simplex_measures(q, tets) <= 0
         if not bad.any():
-            return q
+            break
         back = np.unique(tets[bad])
         back = back[moved[back]]
         if not len(back):
             break
-        q[back] = points[back]
+        q[back] = old[back]
         moved[back] = False
-    _check_positive(q, tets, "after projecting the boundary vertices")
     return q
 
 
@@ -467,11 +476,7 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold), info)
     if check:
-        probs = solid_problems(res, solid, field, chord)
-        if probs:
-            raise VerificationError("tetrahedral mesh verification failed: " + probs[0]
-                                    + (f" (and {len(probs) - 1} more)" if len(probs) > 1
-                                       else ""))
+        raise_problems(solid_problems(res, solid, field, chord))
     res.info["time_total"] = time.perf_counter() - t0
     log.info("solid mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, %.2f s",
              len(p), len(t), rounds, passes, res.info["time_total"])

@@ -62,12 +62,12 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import BudgetError, GeometryError, MeshingError, VerificationError
+from ..errors import BudgetError, GeometryError, MeshingError
 from ..metrics import delta_vertices
 from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import repair
-from .verify import validity_problems
+from .verify import raise_problems, validity_problems
 
 __all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "HAUSD"]
 
@@ -519,9 +519,8 @@ def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0
         if not probs:
             break
         log.info("mask: Hausdorff distance %.3g voxels: %s; again with less", hv, probs[0])
-    if check and probs:
-        raise VerificationError("tetrahedral mesh verification failed: " + probs[0]
-                                + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
+    if check:
+        raise_problems(probs)
     res.info["time_total"] = time.perf_counter() - t0
     log.info("mask mesh: %d points, %d tetrahedra, %.2f s", len(res.points), len(res.tets),
              res.info["time_total"])

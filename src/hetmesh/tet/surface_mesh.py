@@ -31,7 +31,7 @@ import time
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError, OptionError, VerificationError
+from ..errors import BudgetError, MeshingError, OptionError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from .faces import boundary_faces
@@ -47,7 +47,7 @@ from .general import (
 from .mesher import CHORD, TetResult
 from .refine import repair
 from .surface import SurfaceSolid, distance_to_triangles, distance_within
-from .verify import validity_problems
+from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
            "EXTRA"]
@@ -183,11 +183,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold), info)
     if check:
-        probs = surface_problems(res, solid, field, chord)
-        if probs:
-            raise VerificationError("tetrahedral mesh verification failed: " + probs[0]
-                                    + (f" (and {len(probs) - 1} more)" if len(probs) > 1
-                                       else ""))
+        raise_problems(surface_problems(res, solid, field, chord))
     res.info["time_total"] = time.perf_counter() - t0
     log.info("surface mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, "
              "%.2f s", len(p), len(t), rounds, passes, res.info["time_total"])

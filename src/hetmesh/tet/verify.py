@@ -12,7 +12,7 @@ from ..errors import VerificationError
 from ..mesh import Mesh, simplex_measures
 from ..metrics import delta_vertices
 
-__all__ = ["verify_tets", "tet_problems", "validity_problems"]
+__all__ = ["verify_tets", "tet_problems", "validity_problems", "raise_problems"]
 
 
 def _tri_area(p: np.ndarray) -> np.ndarray:
@@ -101,6 +101,12 @@ def verify_tets(res, solid, field, chord_tol: float) -> None:
     delta = delta_vertices(field.composition(res.points), res.tets)
     probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid, delta,
                          res.threshold, chord_tol)
+    raise_problems(probs)
+
+
+def raise_problems(probs: list[str]) -> None:
+    """Raise :class:`VerificationError` naming the first of ``probs`` (and how many more),
+    if there are any."""
     if probs:
         raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}"
                                 + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
