@@ -495,21 +495,35 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
     mesher = PEERS[peer]
     t0 = time.perf_counter()
     grid = gradient_grid_of(model) if size is None else None
-    trace: list[dict] = []
-    results: dict[float, tuple[PeerMesh, MeshStats]] = {}
 
-    def attempt(s: float) -> bool:
+    def build(s: float):
         if size is None:
             sz = size_field(model, threshold, s, h_max=h_max, gradation=gradation,
                             gradient_grid=grid)
         else:
             sz = size(s)
         mesh = mesher(model.domain, sz, **options)
-        st = peer_statistics(model, mesh)
+        return mesh, peer_statistics(model, mesh)
+
+    return _scale_search(build, peer, peer, threshold, t0, s_start=s_start, factor=factor,
+                         tries=tries, bisect=bisect)
+
+
+def _scale_search(build, peer: str, label: str, threshold: float, t0: float, *,
+                  s_start: float, factor: float, tries: int, bisect: int) -> PeerResult:
+    """The search of :func:`search` (and of the 3-D one) over the scale s: ``build(s)`` gives
+    a peer's mesh and its statistics; a mesh passes when its delta_max is below
+    ``threshold``. ``label`` names the peer in the log and in the error."""
+    trace: list[dict] = []
+    results: dict[float, tuple] = {}
+
+    def attempt(s: float) -> bool:
+        mesh, st = build(s)
         ok = st.delta_max < threshold
         trace.append({"s": s, "elements": st.n_elements, "delta_max": st.delta_max,
                       "seconds": mesh.seconds, "pass": ok})
-        log.debug("%s s=%.4f: %d elements, delta_max %.4g", peer, s, st.n_elements, st.delta_max)
+        log.debug("%s s=%.4f: %d elements, delta_max %.4g", label, s, st.n_elements,
+                  st.delta_max)
         if ok:
             results[s] = (mesh, st)
         return ok
@@ -526,8 +540,8 @@ def search(peer: str, model, threshold: float, *, s_start: float = S_START,
         else:
             s_fail = s
     if s_pass is None:
-        raise MeshingError(f"{peer}: no scale s met delta_max < {threshold:g} in {len(trace)} "
-                           f"tries (last s = {s:.3g})")
+        raise MeshingError(f"{label}: no scale s met delta_max < {threshold:g} in "
+                           f"{len(trace)} tries (last s = {s:.3g})")
     for _ in range(bisect if s_fail is not None else 0):
         mid = math.sqrt(s_pass * s_fail)
         if attempt(mid):
@@ -684,43 +698,12 @@ def search3d(peer: str, model, threshold: float, *, s_start: float = S_START,
     section = _section_model(model)
     t0 = time.perf_counter()
     grid = gradient_grid_of(section, cells)
-    trace: list[dict] = []
-    results: dict[float, tuple[PeerMesh3D, MeshStats]] = {}
 
-    def attempt(s: float) -> bool:
+    def build(s: float):
         sz = size_field(section, threshold, s, gradation=gradation, gradient_grid=grid,
                         cells=cells)
         mesh = gmsh_mesh3d(model, sz, section=section, **options)
-        st = peer_statistics3d(model, mesh)
-        ok = st.delta_max < threshold
-        trace.append({"s": s, "elements": st.n_elements, "delta_max": st.delta_max,
-                      "seconds": mesh.seconds, "pass": ok})
-        log.debug("gmsh 3-D s=%.4f: %d tetrahedra, delta_max %.4g", s, st.n_elements,
-                  st.delta_max)
-        if ok:
-            results[s] = (mesh, st)
-        return ok
+        return mesh, peer_statistics3d(model, mesh)
 
-    s = s_start
-    s_pass, s_fail = (s, None) if attempt(s) else (None, s)
-    while len(trace) < tries and (s_pass is None or s_fail is None):
-        s = s * factor if s_pass is None else s / factor
-        if attempt(s):
-            s_pass = s
-            if len(trace) >= 2 and trace[-2]["pass"] and \
-                    trace[-2]["elements"] == trace[-1]["elements"]:
-                break
-        else:
-            s_fail = s
-    if s_pass is None:
-        raise MeshingError(f"gmsh 3-D: no scale s met delta_max < {threshold:g} in "
-                           f"{len(trace)} tries (last s = {s:.3g})")
-    for _ in range(bisect if s_fail is not None else 0):
-        mid = math.sqrt(s_pass * s_fail)
-        if attempt(mid):
-            s_pass = mid
-        else:
-            s_fail = mid
-    mesh, st = results[s_pass]
-    return PeerResult(peer=peer, threshold=threshold, s=s_pass, mesh=mesh, stats=st,
-                      seconds=mesh.seconds, search_seconds=time.perf_counter() - t0, trace=trace)
+    return _scale_search(build, peer, "gmsh 3-D", threshold, t0, s_start=s_start,
+                         factor=factor, tries=tries, bisect=bisect)
