@@ -15,8 +15,9 @@ import numpy as np
 from ...errors import GeometryError, MaterialError, ModelFileError
 from ...io.schema import describe
 
-__all__ = ["parse_image", "parse_image_model", "parse_constituents", "parse_value_map",
-           "scalar_values", "parse_phases", "check_phases", "label_values", "fill_phase"]
+__all__ = ["parse_image", "parse_image_model", "parse_constituents", "parse_sampling",
+           "parse_value_map", "scalar_values", "parse_phases", "check_phases", "label_values",
+           "fill_phase"]
 
 
 #: keys of ``[material] type = "image"``
@@ -210,6 +211,19 @@ def label_values(ctx, img) -> np.ndarray:
     return v.astype(np.int64)
 
 
+def parse_sampling(ctx, t) -> tuple[str, float]:
+    """``material.interpolation`` ("linear" or "cubic") and ``material.smoothing`` (>= 0,
+    model units) of an image material."""
+    interp = ctx.string(t, "material", "interpolation", default="linear")
+    if interp not in ("linear", "cubic"):
+        raise ctx.fail("material.interpolation", f"expected \"linear\" or \"cubic\", got "
+                                                 f"{interp!r}")
+    sigma = ctx.number(t.get("smoothing", 0.0), "material.smoothing")
+    if sigma < 0:
+        raise ctx.fail("material.smoothing", f"expected a number >= 0, got {sigma:g}")
+    return interp, sigma
+
+
 def parse_constituents(ctx, t) -> tuple[str, ...]:
     from ..analytic import check_constituents
 
@@ -328,13 +342,7 @@ def parse_image(ctx, table, domain, parameters=None, src=None, traced=None):
     t = ctx.table(table, "material", required=("type", "constituents"), optional=_IMAGE_KEYS)
     cons = parse_constituents(ctx, t)
     src = src if src is not None else _image_sources(ctx, t)
-    interp = ctx.string(t, "material", "interpolation", default="linear")
-    if interp not in ("linear", "cubic"):
-        raise ctx.fail("material.interpolation", f"expected \"linear\" or \"cubic\", got "
-                                                 f"{interp!r}")
-    sigma = ctx.number(t.get("smoothing", 0.0), "material.smoothing")
-    if sigma < 0:
-        raise ctx.fail("material.smoothing", f"expected a number >= 0, got {sigma:g}")
+    interp, sigma = parse_sampling(ctx, t)
     geo = src["geometry"]
     covers(geo, domain.bounds, geo.source)
     opts = dict(interpolation=interp, smoothing=sigma)

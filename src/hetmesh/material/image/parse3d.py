@@ -23,6 +23,7 @@ from .parse import (
     label_values,
     parse_constituents,
     parse_phases,
+    parse_sampling,
     parse_value_map,
     place_image,
     scalar_values,
@@ -168,13 +169,7 @@ def parse_volume(ctx, table, solid, src: dict):
     if "labels" not in src and "phases" in t:
         raise ctx.fail("material.phases", "phases need a label volume (material.labels)")
     cons = parse_constituents(ctx, t)
-    interp = ctx.string(t, "material", "interpolation", default="linear")
-    if interp not in ("linear", "cubic"):
-        raise ctx.fail("material.interpolation", f"expected \"linear\" or \"cubic\", got "
-                                                 f"{interp!r}")
-    sigma = ctx.number(t.get("smoothing", 0.0), "material.smoothing")
-    if sigma < 0:
-        raise ctx.fail("material.smoothing", f"expected a number >= 0, got {sigma:g}")
+    interp, sigma = parse_sampling(ctx, t)
     geo = src["geometry"]
     lo, hi = solid.bounds
     covers(geo, np.concatenate([lo, hi]), geo.source)
