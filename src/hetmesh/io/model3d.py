@@ -342,9 +342,6 @@ def _solid(ctx, value, top):
                 raise ModelFileError(f"{ctx.pre}missing key 'domain' (an extrusion sweeps "
                                      f"the 2D domain of the [domain] table along z)")
             dom = ctx.parse_domain(ctx, top["domain"])
-            if dom.interfaces:
-                raise ctx.fail("domain.interfaces", "interfaces are not supported in "
-                                                    "extrusions yet")
             solid = Prism(dom, 2, s0, s0 + length, where=ctx.where)
         elif kind == "surface":  # a closed triangulated surface file (tet/surface.py)
             t = ctx.table(value, key, required=("type", "file"), optional=("feature_angle",))
@@ -495,6 +492,10 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
             raise ctx.fail("material.type", "a solid of primitives or a surface takes an "
                                             "analytic material (formulas in x, y, z)")
     material, material2d = _material(ctx, top["material"], solid, parameters, top)
+    if isinstance(solid, Prism) and solid.section.interfaces and material2d is None:
+        raise ctx.fail("domain.interfaces", "interfaces in an extrusion need a composition "
+                                            "that does not depend on z (the swept 2D mesh "
+                                            "keeps them)")
     if check:
         samples = solid.sample(20)
         try:

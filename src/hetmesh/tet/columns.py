@@ -25,13 +25,29 @@ the sweep.
 >>> pts, tets, tri = column_tets(p2, t2, np.array([1, 2, 1]), 0.0, 1.0)
 >>> len(pts), len(tets), tri.tolist()
 (7, 4, [0, 0, 0, 0])
+
+An interface curve of the section (a seam, a material interface) is a chain of mesh edges;
+the strip swept by each of its edges ``(a, b)`` is triangulated alike by the cells on either
+side, so the interface's sweep is a surface of tetrahedron faces: those whose three vertices
+lie in the columns of ``a`` and ``b`` (:func:`strip_faces`), each shared by two tetrahedra
+(:func:`strip_problems`); :func:`swept_interfaces` gives them their faces' markers.
+
+>>> p2 = np.array([[0, 0], [1, 0], [0, 1.0], [1, 1]]); t2 = np.array([[0, 1, 2], [1, 3, 2]])
+>>> pts, tets, tri = column_tets(p2, t2, np.array([1, 1, 1, 1]), 0.0, 1.0)
+>>> col = np.repeat(np.arange(4), 2)
+>>> f, k = strip_faces(tets, col, np.array([[1, 2]]))
+>>> len(f), k.tolist(), strip_problems(tets, f)
+(2, [0, 0], [])
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["column_tets", "column_counts", "vertex_size"]
+from .quality import TET_FACES
+
+__all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", "strip_faces",
+           "strip_problems", "swept_interfaces"]
 
 
 def vertex_size(points2: np.ndarray, tris2: np.ndarray) -> np.ndarray:
@@ -98,3 +114,93 @@ def column_tets(points2: np.ndarray, tris2: np.ndarray, counts: np.ndarray, s0: 
     new = start[vid] + lvl
     tets = np.column_stack([front, new])
     return pts, tets, tri
+
+
+def section_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: np.ndarray,
+                       tol: float, chord: float) -> tuple[np.ndarray, np.ndarray]:
+    """The edges of a section's mesh that lie on its interface curves: ``(edges (E, 2),
+    curve (E,))``, ``curve`` the index in ``section.curves``. ``edges2 (K, 2)`` are the
+    mesh's constrained edges (its facets); an edge qualifies when it is inside the mesh (two
+    triangles hold it), both ends lie within ``tol`` of one interface curve and its midpoint
+    within ``chord + tol`` of it (a chord of an arc). Edges of embedded material
+    discontinuities, on no curve of ``section``, are not among them."""
+    curves = [i for i, c in enumerate(section.curves) if c.kind == "interface"]
+    e = np.sort(np.asarray(edges2, dtype=np.int64).reshape(-1, 2), axis=1)
+    empty = (np.zeros((0, 2), np.int64), np.zeros(0, np.int64))
+    if not curves or not len(e):
+        return empty
+    t = np.asarray(tris2, dtype=np.int64)
+    all_e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    n = np.int64(len(points2))
+    k_all, cnt = np.unique(all_e[:, 0] * n + all_e[:, 1], return_counts=True)
+    inner = np.isin(e[:, 0] * n + e[:, 1], k_all[cnt == 2])
+    e = e[inner]
+    a, b = points2[e[:, 0]], points2[e[:, 1]]
+    best = np.full(len(e), np.inf)
+    arg = np.full(len(e), -1, dtype=np.int64)
+    for i in curves:
+        c = section.curves[i].curve
+        d = np.maximum(c.distance(a), c.distance(b))
+        better = d < best
+        best[better], arg[better] = d[better], i
+    ok = best <= tol
+    mid = 0.5 * (a + b)
+    for i in np.unique(arg[ok]):
+        sel = ok & (arg == i)
+        ok[sel] = section.curves[int(i)].curve.distance(mid[sel]) <= chord + tol
+    return e[ok], arg[ok]
+
+
+def strip_faces(tets: np.ndarray, column: np.ndarray, edges: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The faces of ``tets`` on the strips swept by the section edges ``edges (E, 2)``: the
+    triangles whose three vertices lie in the columns of one edge's two ends (``column
+    (N,)``: the section vertex of every point). ``(faces (F, 3), edge (F,))``, every face
+    once, in the order of its first tetrahedron and oriented as a face of it."""
+    f = np.asarray(tets, dtype=np.int64)[:, TET_FACES].reshape(-1, 3)
+    e = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
+    if not len(e) or not len(f):
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    c = np.sort(np.asarray(column, dtype=np.int64)[f], axis=1)
+    two = (c[:, 0] != c[:, 2]) & ((c[:, 1] == c[:, 0]) | (c[:, 1] == c[:, 2]))
+    n = np.int64(max(int(c.max()), int(e.max())) + 1)
+    ekey = e[:, 0] * n + e[:, 1]
+    order = np.argsort(ekey, kind="stable")
+    pos = np.minimum(np.searchsorted(ekey[order], c[:, 0] * n + c[:, 2]), len(e) - 1)
+    rows = np.flatnonzero(two & (ekey[order][pos] == c[:, 0] * n + c[:, 2]))
+    _, first = np.unique(np.sort(f[rows], axis=1), axis=0, return_index=True)
+    keep = rows[np.sort(first)]
+    return f[keep], order[pos[keep]]
+
+
+def strip_problems(tets: np.ndarray, faces: np.ndarray) -> list[str]:
+    """One line if some interface triangles ``faces (F, 3)`` are not faces of exactly two
+    tetrahedra (an interface inside the mesh separates two of them), else nothing."""
+    if not len(faces):
+        return []
+    f = np.sort(np.asarray(tets, dtype=np.int64)[:, TET_FACES].reshape(-1, 3), axis=1)
+    g = np.sort(np.asarray(faces, dtype=np.int64), axis=1)
+    n = np.int64(max(int(f.max()), int(g.max())) + 1)
+    fk = np.sort((f[:, 0] * n + f[:, 1]) * n + f[:, 2])
+    gk = (g[:, 0] * n + g[:, 1]) * n + g[:, 2]
+    held = np.searchsorted(fk, gk, side="right") - np.searchsorted(fk, gk)
+    bad = held != 2
+    if not bad.any():
+        return []
+    i = int(np.flatnonzero(bad)[0])
+    return [f"{int(bad.sum())} interface triangles are not faces of two tetrahedra (e.g. "
+            f"triangle {faces[i].tolist()} is a face of {int(held[i])})"]
+
+
+def swept_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: np.ndarray,
+                     tets: np.ndarray, column: np.ndarray, tol: float, chord: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The interface triangles of a mesh swept from a section's mesh (``points2``,
+    ``tris2``, constrained edges ``edges2``; ``column (N,)`` the section vertex of every
+    point of ``tets``) and their face markers, ``3 +`` the curve's index in
+    ``section.curves`` (the markers of a swept solid's faces: two ends or caps, then one
+    per section curve): ``(faces (F, 3), markers (F,))``. ``tol`` and ``chord`` as in
+    :func:`section_interfaces`."""
+    e2, curve = section_interfaces(section, points2, tris2, edges2, tol, chord)
+    faces, k = strip_faces(tets, column, e2)
+    return faces, 3 + curve[k]

@@ -10,7 +10,12 @@ section's range of sizes). Each tetrahedron's vertices are copies of vertices of
 triangle (at several heights, the same compositions), so its delta is at most its
 triangle's: the 2D guarantee carries over exactly; its subregion is its triangle's, so no
 tetrahedron straddles a material discontinuity (the discontinuity curves become embedded
-surfaces).
+surfaces). The section's interface curves (``[domain] interfaces``), embedded in the 2D mesh,
+sweep into interface surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`),
+recorded with the boundary faces under their curves' names (markers ``3 +`` the curve's
+index in ``section.curves``, as the side faces), so every format writes them and the
+verification checks their areas; an interface needs the swept placement (a composition that
+does not vary along the axis): the repair would split its faces unrecorded.
 
 :func:`prism_tets` is the sweep through common layers (every triangular prism cut in three
 tetrahedra: on each side quadrilateral the diagonal from the lower-numbered bottom vertex to
@@ -34,10 +39,16 @@ import time
 
 import numpy as np
 
-from ..errors import BudgetError
+from ..errors import BudgetError, GeometryError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
-from .columns import column_counts, column_tets, vertex_size
+from .columns import (
+    column_counts,
+    column_tets,
+    strip_problems,
+    swept_interfaces,
+    vertex_size,
+)
 from .faces import boundary_faces
 from .mesher import BETA, TetResult
 from .refine import repair
@@ -165,6 +176,11 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
 
     t0 = time.perf_counter()
     sec = solid.section
+    if sec.interfaces and not swept:
+        pre = f"{solid.where}: " if solid.where else ""
+        raise GeometryError(f"{pre}domain.interfaces: interfaces in an extrusion need a "
+                            f"composition that does not vary along its axis (the swept 2D mesh "
+                            f"keeps them)")
     field2d = section_model.material
     kw = {}
     if chord_tol is not None:
@@ -203,6 +219,13 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
+    chord_abs = _chord_abs(kw.get("chord_tol", CHORD_TOL), sec)
+    inter = np.zeros((0, 3), np.int64)
+    if sec.interfaces:  # the interface curves' sweeps, after the boundary
+        inter, im = swept_interfaces(sec, p2, t2, m2.facets, tets, col,
+                                     1e-9 * solid.diameter, chord_abs)
+        faces = np.concatenate([faces, inter])
+        markers = np.concatenate([markers, im])
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold),
                     {"placement": "swept" if swept else "swept+repair",
@@ -212,10 +235,9 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         res.info["regions"] = regions.astype(np.int32)
     if comp is not None:
         res.info["composition"] = comp
-    chord_abs = _chord_abs(kw.get("chord_tol", CHORD_TOL), sec)
     if check:
         probs = tet_problems(points, tets, res.faces, res.face_markers, solid, delta,
-                             threshold, chord_abs)
+                             threshold, chord_abs) + strip_problems(tets, inter)
         if probs:
             from ..errors import VerificationError
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")

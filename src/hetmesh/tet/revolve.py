@@ -14,7 +14,10 @@ tolerance), and a vertex on the axis is a column of one point, so the cells at t
 filled by the moves of their other corners. When the composition does not depend on the
 angle (an axisymmetric field), every tetrahedron's vertices are copies of one triangle's:
 its delta is at most the triangle's, exactly; otherwise the violators are repaired by edge
-bisection.
+bisection. The profile's interface curves, embedded in the 2D mesh, sweep into interface
+surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`), recorded with the
+boundary faces under their curves' names; they need an axisymmetric composition (the repair
+would split their faces unrecorded).
 
 >>> from hetmesh.tri.geometry import Loop, make_domain
 >>> ring = Revolution(make_domain(Loop.polygon([(1, 0), (2, 0), (2, 1), (1, 1)], "p")))
@@ -35,7 +38,7 @@ import numpy as np
 from ..errors import GeometryError, VerificationError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
-from .columns import column_tets, vertex_size
+from .columns import column_tets, strip_problems, swept_interfaces, vertex_size
 from .extrude import COLUMN_RATIO, SectionField
 from .faces import boundary_faces
 from .mesher import TetResult
@@ -76,9 +79,6 @@ class Revolution:
             i = int(np.argmin(xs))
             raise GeometryError(f"{pre}the revolution profile crosses the axis (r = x < 0), "
                                 f"e.g. at ({xs[i]:.6g}, {ys[i]:.6g})")
-        if self.profile.interfaces:
-            raise GeometryError(f"{pre}interfaces in a revolved profile are not supported "
-                                f"yet")
 
     @property
     def full(self) -> bool:
@@ -119,7 +119,8 @@ class Revolution:
 
     @cached_property
     def face_names(self) -> tuple[str, ...]:
-        """``start``, ``end`` (partial turns only; else unused), then one per profile curve."""
+        """``start``, ``end`` (partial turns only; else unused), then one per profile curve
+        (an interface curve's surface lies inside the solid)."""
         return ("start", "end") + tuple(c.name for c in self.profile.curves)
 
     def classify_faces(self, tri_points: np.ndarray) -> np.ndarray:
@@ -215,6 +216,11 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     axisym = axisymmetric
     f2 = profile_model.material
     prof = solid.profile
+    if prof.interfaces and not axisym:
+        pre = f"{solid.where}: " if solid.where else ""
+        raise GeometryError(f"{pre}domain.interfaces: interfaces in a revolution need a "
+                            f"composition that does not vary with the angle (the swept 2D mesh "
+                            f"keeps them)")
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
     # across both deviates by at most the sum
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
@@ -267,6 +273,11 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = _classify(solid, points, faces, chord)
+    if prof.interfaces:  # the interface curves' sweeps, after the boundary
+        inter, im = swept_interfaces(prof, p2, t2, m2.facets, tets, prof_ids,
+                                     1e-9 * solid.diameter, kw["chord_tol"] * prof.diameter)
+        faces = np.concatenate([faces, inter])
+        markers = np.concatenate([markers, im])
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
                     tuple(solid.face_names), delta, float(threshold),
                     {"placement": "revolved" if axisym else "revolved+repair",
@@ -325,7 +336,7 @@ def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
         best = np.full(len(rest), np.inf)
         arg = np.zeros(len(rest), dtype=np.int64)
         for i, c in enumerate(solid.profile.curves):
-            if i in solid.axis_curves:
+            if i in solid.axis_curves or c.kind == "interface":
                 continue
             d = np.max([c.curve.distance(q[faces[rest, j]]) for j in range(3)], axis=0)
             better = d < best
@@ -338,9 +349,13 @@ def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
 def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str]:
     """Broken claims of a swept mesh of revolution: positive volumes, conformity, every
     point used, boundary triangles on the solid's faces with every edge's midpoint within
-    the chord tolerance of its face, the volume within the chord tolerance, delta."""
+    the chord tolerance of its face, interface triangles faces of two tetrahedra, each
+    edge's midpoint within the chord tolerance of its curve's surface, the volume within
+    the chord tolerance, delta."""
     p, t = res.points, res.tets
     out = validity_problems(p, t)
+    kinds = np.array(["", ""] + [c.kind for c in solid.profile.curves])
+    out += strip_problems(t, res.faces[kinds[res.face_markers.clip(1) - 1] == "interface"])
     v = simplex_measures(p, t)
     if (res.face_markers <= 0).any():
         out.append(f"{int((res.face_markers <= 0).sum())} boundary triangles on no face")

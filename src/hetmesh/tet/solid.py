@@ -2,11 +2,12 @@
 
 A :class:`Prism` is a 2D :class:`~hetmesh.geometry.Domain` (its *section*) extruded along a
 coordinate axis from ``s0`` to ``s1``: boxes, cylinders and the extrusions of any 2D model
-domain (outer loop, holes). Its faces are the two caps (``bottom`` at ``s0``, ``top`` at
-``s1``, or the names given) and one side face per curve of the section, named after the
-curve. Coordinates: the axis coordinate ``s`` and the section coordinates ``(u, v)`` in the
-cyclic order (axis z: ``(x, y)``; axis x: ``(y, z)``; axis y: ``(z, x)``), so the map is a
-rotation and keeps orientations.
+domain (outer loop, holes, interfaces). Its faces are the two caps (``bottom`` at ``s0``,
+``top`` at ``s1``, or the names given) and one face per curve of the section, named after
+the curve (an interface curve's lies inside the solid: the extrusion mesher embeds it).
+Coordinates: the axis coordinate ``s`` and the section coordinates ``(u, v)`` in the cyclic
+order (axis z: ``(x, y)``; axis x: ``(y, z)``; axis y: ``(z, x)``), so the map is a rotation
+and keeps orientations.
 
 >>> b = box((0, 0, 0), (1, 2, 3))
 >>> b.volume, b.face_names
@@ -76,9 +77,6 @@ class Prism:
             raise GeometryError(f"{pre}extrusion length must be positive, got "
                                 f"{_fmt(self.s1 - self.s0)} (from {_fmt(self.s0)} to "
                                 f"{_fmt(self.s1)})")
-        if self.section.interfaces:
-            raise GeometryError(f"{pre}interfaces in an extruded section are not supported "
-                                f"yet")
 
     # -- coordinates
     @property
@@ -127,8 +125,9 @@ class Prism:
 
     @cached_property
     def convex(self) -> bool:
-        """Whether the solid is convex (a convex section without holes)."""
-        if self.section.holes:
+        """Whether the solid is convex (a convex section without holes) and has no
+        interfaces (the layered placement of convex prisms does not embed them)."""
+        if self.section.holes or self.section.interfaces:
             return False
         poly = self.section.polygon()
         return bool(poly.convex_hull.area <= poly.area * (1 + 1e-9))

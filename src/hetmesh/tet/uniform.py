@@ -34,6 +34,7 @@ from ..kernel import Result
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
+from .columns import swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
 from .mesher import TetResult
@@ -125,7 +126,7 @@ def _sweep_prism(solid, p2, t2, h):
     pl, tets, _ = prism_tets(p2, t2, levels)
     points = solid.to3d(pl[:, :2], pl[:, 2])
     tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), nl)
-    return points, tets, tri_of, {"layers": nl}
+    return points, tets, tri_of, {"layers": nl, "column": np.arange(len(pl)) % len(p2)}
 
 
 def _angular_steps(solid, p2, h, chord) -> int:
@@ -157,7 +158,7 @@ def _sweep_revolution(solid, p2, t2, h, chord):
     points = solid.to3d(q[:, :2], q[:, 2])
     points[np.abs(q[:, 0]) <= 1e-12 * solid.profile.diameter, :2] = 0.0
     tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), n)[keep]
-    return points, inv.reshape(-1, 4), tri_of, {"angular_steps": n}
+    return points, inv.reshape(-1, 4), tri_of, {"angular_steps": n, "column": used % n2}
 
 
 def _delta(field, points, tets, regions):
@@ -205,6 +206,11 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     delta = _delta(model.material, points, tets, regions)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
+    column = info.pop("column")  # the section vertex of every point
+    if dom.interfaces:  # the interface curves' sweeps, after the boundary
+        inter, im = swept_interfaces(dom, p2, t2, m2.facets, tets, column,
+                                     1e-9 * solid.diameter, sec_rel * dom.diameter)
+        faces, markers = np.concatenate([faces, inter]), np.concatenate([markers, im])
     info.update({"placement": "uniform swept" if not revolved else "uniform revolved",
                  "size": float(h), "section_triangles": int(len(t2)), "estimate": est,
                  "chord_tol": chord, "section_chord_tol": sec_rel * dom.diameter})
