@@ -292,3 +292,18 @@ def test_an_extruded_seam_with_a_formula_is_embedded(tmp_path):
     on = (p[faces][..., 0] == 5.0).all(axis=1)
     assert as_set(rec) == as_set(faces[on]) and (held[on] == 2).all()
     assert area(p, rec) == pytest.approx(4.0 * 3.0, rel=1e-12)
+
+
+def test_uniform_sweeps_record_the_interfaces_too(tmp_path):
+    from hetmesh.tet.uniform import uniform_model
+
+    path = tmp_path / "seamed_ring.toml"
+    path.write_text(REVOLVED.format(formula="((sqrt(x**2 + y**2) - 20)/10)**2"))
+    for model, name, radius in [
+            (hetmesh.load_model(hetmesh.example_path("hft_ring_3d")), "A[0]", R_A),
+            (hetmesh.load_model(path), "bond[0]", 25.0)]:
+        res = uniform_model(model, THRESHOLD)
+        p, t = res.points, res.tets.astype(np.int64)
+        rec = res.faces[res.face_markers == res.face_names.index(name) + 1]
+        on, held = cylinder_faces(p, t, radius)
+        assert len(rec) and as_set(rec) == on and (held == 2).all()
