@@ -59,7 +59,7 @@ from ..metrics import signed_area2, triangle_areas2
 from ..parallel import block_concat
 from .workset import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
-__all__ = ["optimize", "independent_sets"]
+__all__ = ["optimize", "independent_sets", "valid_input", "priority_hash", "DeltaEvaluator"]
 
 log = logging.getLogger(__name__)
 
@@ -134,7 +134,7 @@ def _area2(X: np.ndarray) -> np.ndarray:
     return signed_area2(X[:, 0], X[:, 1], X[:, 2])
 
 
-def _hash(i: np.ndarray, salt: int = 0) -> np.ndarray:
+def priority_hash(i: np.ndarray, salt: int = 0) -> np.ndarray:
     """A fixed pseudo-random priority of node ids (deterministic, no rng state)."""
     x = (i.astype(np.uint64) + np.uint64(salt)) * np.uint64(0x9E3779B97F4A7C15)
     x ^= x >> np.uint64(31)
@@ -146,7 +146,7 @@ def _hash(i: np.ndarray, salt: int = 0) -> np.ndarray:
 def independent_sets(n: int, edges: np.ndarray, active: np.ndarray, salt: int = 0) -> list:
     """Split the ``active`` nodes into sets with no edge inside a set (Luby / Jones-Plassmann:
     a node joins when its priority beats every unassigned active neighbour)."""
-    pr = _hash(np.arange(n), salt)
+    pr = priority_hash(np.arange(n), salt)
     left = active.copy()
     a, b = edges[:, 0], edges[:, 1]
     sets = []
@@ -437,7 +437,7 @@ def _flip_round(ws: WorkSet, tris, comp, reg, ev: DeltaEvaluator, *, min_angle_d
         return np.zeros(0, np.int64)
     # one flip per triangle: each triangle keeps its best candidate edge
     gain = qnew[idx] - qold[idx]
-    pri = np.lexsort((_hash(idx), gain))  # ascending; rank = position
+    pri = np.lexsort((priority_hash(idx), gain))  # ascending; rank = position
     rank = np.empty(len(idx), np.int64)
     rank[pri] = np.arange(len(idx))
     best = np.full(m, -1, np.int64)
@@ -485,6 +485,14 @@ def _valid(P, tris, ckeys, keys) -> bool:
         return False
     pos = np.minimum(np.searchsorted(keys, ckeys), len(keys) - 1)
     return bool(np.all(keys[pos] == ckeys))
+
+
+def valid_input(ws: WorkSet, tris: np.ndarray) -> bool:
+    """Whether ``tris`` is a mesh the passes may work on: every triangle counter-clockwise and
+    every constraint edge of ``ws`` a mesh edge (otherwise it is not theirs to mend:
+    :func:`hetmesh.tri.finish.finish` reports it)."""
+    ckeys = np.unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
+    return _valid(ws.P, tris, ckeys, _half_edges(tris)[1])
 
 
 def _grow(tris, mask):

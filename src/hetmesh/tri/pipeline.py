@@ -35,6 +35,7 @@ from ..errors import BudgetError, MeshingError, OptionError
 from ..kernel import Result
 from ..metrics import MeshStats
 from ..options import DEFAULT_MAX_ELEMENTS, DEFAULT_ROW_SPACING, check_options, check_sampling
+from .coarsen import collapse
 from .discontinuity import embed_discontinuities
 from .finish import CHORD_TOL, MAX_EDGE_MARGIN, finish
 from .frame import local_field, local_frame
@@ -167,6 +168,8 @@ def _mesh_with(method: str, ctx: Context, frame, threshold: float, chord_tol: fl
     if optimize:
         t4 = time.perf_counter()
         with ctx.timed("optimize"):
+            tris, comp, delta = collapse(ws, ctx, tris, comp, delta, sampling=sampling,
+                                         min_angle_deg=min_angle)
             tris, comp, delta = optimize_mesh(ws, ctx, tris, comp, delta, sampling=sampling,
                                               min_angle_deg=min_angle)
             low = below_floor(ws, ctx, tris, min_quality, min_angle)
