@@ -14,6 +14,7 @@ from conftest import EXAMPLES_3D
 from hetmesh.cli import main
 from hetmesh.errors import BudgetError, OptionError
 from hetmesh.io.model import load_model
+from hetmesh.tet.implicit import CSGSolid
 from hetmesh.tet.uniform import uniform_model, uniform_tets_at
 from test_tet import check_tet_mesh
 
@@ -50,9 +51,10 @@ def _delta_independent(model, mesh):
 def test_every_3d_example_gets_a_verified_uniform_mesh(path):
     model = load_model(path)
     d0 = COARSE.get(model.name, 0.4)
-    if not hasattr(model.solid, "section") and not hasattr(model.solid, "profile"):
-        with pytest.raises(OptionError, match="solids of primitives"):
-            hetmesh.uniform(model, d0)  # a solid of primitives: refused in one line
+    primitives = isinstance(model.solid, CSGSolid)
+    if not (primitives or hasattr(model.solid, "section") or hasattr(model.solid, "profile")):
+        with pytest.raises(OptionError, match="triangulated surfaces or voxel masks"):
+            hetmesh.uniform(model, d0)  # a surface solid: refused in one line
         return
     r = hetmesh.uniform(model, d0)
     m = r.mesh
@@ -71,10 +73,32 @@ def test_every_3d_example_gets_a_verified_uniform_mesh(path):
     q = m.points[u[cnt == 1]]
     surface = 0.5 * np.linalg.norm(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]), axis=1).sum()
     chord = 2e-3 * model.solid.diameter
-    assert abs(m.measure - model.solid.volume) <= chord * surface + 1e-9 * model.solid.volume
+    exact = model.solid.exact_volume if primitives else model.solid.volume
+    if exact is not None:
+        assert abs(m.measure - exact) <= chord * surface + 1e-9 * exact
     # one size: the longest edges are a small multiple of the size used
     h = r.options["size"]
     assert _edges(m.points, m.cells).max() <= 2.0 * h
+
+
+def test_a_sphere_of_primitives_gets_a_verified_uniform_mesh():
+    """A solid of primitives (a hollow sphere): MMG's mesh at one size, checked from the
+    arrays (volumes, delta, the two spheres within the chord tolerance); the fewest elements
+    of the sizes tried that pass (here the chords on the curved faces set the mesh: the
+    search stops when a larger size no longer coarsens it)."""
+    model = _model("graded_sphere")
+    r = hetmesh.uniform(model, 0.4)
+    m = r.mesh
+    radii = [model.solid.base.radius] + [s.radius for s in model.solid.subtract]
+    check_tet_mesh(m.points, m.cells, lambda x: model.material.composition(x)[:, 1], 0.4)
+    d = np.linalg.norm(m.points - model.solid.base.center, axis=1)
+    chord = 2e-3 * model.solid.diameter
+    assert d.max() <= max(radii) + 1e-9 and d.min() >= min(radii) - chord
+    # the fewest elements of the sizes tried that pass; every size that failed is larger
+    hist = r.history
+    passed = [h for h in hist if h["pass"]]
+    assert len(m.cells) == min(h["elements"] for h in passed)
+    assert all(h["h"] > r.options["size"] for h in hist if h["pass"] is False)
 
 
 def test_the_search_ends_at_the_coarsest_passing_size():

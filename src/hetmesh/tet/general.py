@@ -52,7 +52,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
-           "SIZE_ROUNDS"]
+           "SIZE_ROUNDS", "uniform_solid_at"]
 
 log = logging.getLogger(__name__)
 
@@ -557,3 +557,41 @@ def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) 
         out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
                    f"{res.threshold:g}")
     return out
+
+
+def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
+                     chord_tol: float | None = None,
+                     max_elements: int | None = None) -> TetResult:
+    """The uniform baseline's mesh of a solid of primitives at size ``h``, not verified: the
+    same start as :func:`generate_solid` (the cut background grid), remeshed once by MMG to
+    the constant size ``h`` (capped on curved faces for the chord tolerance ``chord_tol``,
+    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces.
+    Nothing is refined for the material: ``delta`` over the vertices is measured,
+    ``threshold`` recorded but not required (:func:`hetmesh.tet.uniform.uniform_model`
+    searches ``h``)."""
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    est = 6.0 * np.sqrt(2.0) * solid.volume / h ** 3  # regular tetrahedra of edge h
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
+                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    lo, hi = solid.bounds
+    extent = float((hi - lo).max())
+    radii = [s.radius for s in solid.curved]
+    spacing = extent / MAX_CELLS
+    if radii:
+        spacing = max(spacing, min(extent / 6, min(radii) / CELLS_PER_RADIUS))
+    p, t = cut_solid(solid, spacing)
+    faces, markers = _boundary(solid, p, t, 0.5 * spacing)
+    size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
+    p, t, fm, rm, _ = mmg_remesh(p, t, faces, markers, size, 0.5 * chord)
+    faces, markers = _faces_after(solid, p, t, fm, rm, max(0.25 * h, 10 * chord))
+    p = project_safely(solid, p, t, faces, markers)
+    if max_elements is not None and len(t) > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+    comp = field.composition(p)
+    info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
+            "chord_tol": chord, "composition": comp}
+    return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
+                     (markers + 1).astype(np.int32), tuple(solid.face_names),
+                     delta_vertices(comp, t), float(threshold), info)

@@ -37,7 +37,10 @@ from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
 from .columns import swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
+from .general import solid_problems, uniform_solid_at
+from .implicit import CSGSolid
 from .mesher import TetResult
+from .verify import raise_problems
 
 __all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
            "SectionMesher", "estimate_uniform", "section_chord", "TETS_PER_H3"]
@@ -286,8 +289,10 @@ def _start_size(model, threshold: float) -> float:
     solid = model.solid
     p = solid.sample(16)
     g = np.linalg.norm(model.material.gradient(p), axis=2).max() if len(p) else 0.0
-    dom = solid.profile if _is_revolution(solid) else solid.section
-    cap = dom.diameter / 4
+    if isinstance(solid, CSGSolid):
+        cap = solid.diameter / 4
+    else:
+        cap = (solid.profile if _is_revolution(solid) else solid.section).diameter / 4
     return float(min(threshold / g, cap)) if g > 0 else float(cap)
 
 
@@ -313,12 +318,15 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     t0 = time.perf_counter()
     threshold = float(threshold)
     solid = model.solid
-    if not _is_revolution(solid) and not hasattr(solid, "section"):
+    remeshed = isinstance(solid, CSGSolid)
+    if not (remeshed or _is_revolution(solid) or hasattr(solid, "section")):
         raise OptionError(f"a uniform mesh of {model.name} is not available: the uniform "
-                          f"tetrahedral mesher takes prisms (boxes, cylinders, extrusions) "
-                          f"and solids of revolution, not solids of primitives or "
-                          f"triangulated surfaces")
-    sections = SectionMesher(model, threshold, section_chord(solid, chord_tol))
+                          f"tetrahedral mesher takes prisms (boxes, cylinders, extrusions), "
+                          f"solids of revolution and solids of primitives, not triangulated "
+                          f"surfaces or voxel masks")
+    sections = None if remeshed else SectionMesher(model, threshold,
+                                                   section_chord(solid, chord_tol))
+    chord_abs = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
     h = _start_size(model, threshold)
     best: TetResult | None = None
     best_count = 0
@@ -327,7 +335,10 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     swept = _is_swept(model)
     for i in range(tries):
         try:
-            if swept:
+            if remeshed:
+                res = uniform_solid_at(solid, model.material, h, threshold,
+                                       chord_tol=chord_abs, max_elements=max_elements)
+            elif swept:
                 res = _section_trial(model, h, threshold, sections, chord_tol, max_elements,
                                      min_angle)
             else:
@@ -351,6 +362,8 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
             log.info("uniform 3D: h = %.4g, %d tetrahedra, delta_max = %.4g (%s)", h,
                      n_el, dmax, "pass" if ok else "fail")
             if ok:
+                if remeshed and h_fail is None and best is not None and n_el >= best_count:
+                    break  # a larger size no longer coarsens: the chords set the mesh
                 if best is None or n_el < best_count:
                     best, best_count = res, n_el
                 h_pass = h if h_pass is None else max(h_pass, h)
@@ -373,7 +386,10 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
         best = uniform_tets_at(model, best.info["size"], threshold, sections=sections,
                                chord_tol=chord_tol, max_elements=max_elements,
                                min_angle=min_angle)
-    verify_uniform(best, solid)
+    if remeshed:
+        raise_problems(solid_problems(best, solid, None, chord_abs))
+    else:
+        verify_uniform(best, solid)
     best.info["composition"] = np.asarray(model.material.composition(best.points),
                                           dtype=np.float64)
     best.mesh = to_mesh(best, model.constituents)
