@@ -14,9 +14,16 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
    reaches the volume's border the surface is the border's face.
 2. *Size*: MMG remeshes the inside to ``delta_0 / |grad f|`` (as for solids of primitives,
    :mod:`hetmesh.tet.general`), the boundary within a Hausdorff distance of
-   :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds
-   and bisects the rest (:func:`hetmesh.tet.refine.repair`; with phases
-   :func:`hetmesh.tet.sampling.repair_sampled`).
+   :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds.
+   One more MMG pass optimises the mesh without touching its surface (``optim``, sizes
+   from the mesh itself; ``nosurf``: the boundary and the interfaces stay as they are);
+   the violators left are bisected (:func:`hetmesh.tet.refine.repair`; with phases
+   :func:`hetmesh.tet.sampling.repair_sampled`), and the tetrahedra whose smallest
+   dihedral angle is below :data:`POLISH_ANGLE` are polished (:func:`polish`): their
+   vertices move to better places, the points of the surface only within flat patches of
+   it, so the surface and every claim of the verification that rests on it stay. The
+   thin tetrahedra MMG leaves are at the surface: a triangle of the voxel contour (ridges
+   and corners a voxel apart) and an inner vertex close to its plane.
 3. *Faces*: the boundary triangles take the name of the zero region on their side: ``outer``
    (the zeros connected to the outside of the volume) or ``cavity[k]`` (an enclosed zero
    region, numbered in the order of its first voxel, k fastest x).
@@ -69,7 +76,7 @@ from .mesher import TetResult
 from .refine import repair
 from .verify import raise_problems, validity_problems
 
-__all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "HAUSD"]
+__all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "polish", "HAUSD"]
 
 log = logging.getLogger(__name__)
 
