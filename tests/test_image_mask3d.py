@@ -102,6 +102,41 @@ def check_mesh(r, mask, spacing=0.5, origin=0.25, threshold=None):
         assert d.max() < threshold
 
 
+def tet_quality(P, T) -> tuple[np.ndarray, np.ndarray]:
+    """Every tetrahedron's smallest dihedral angle (degrees: at each edge, the angle between
+    the other two vertices seen along it) and its radius ratio ``3 r_in / R_circ`` (the
+    inradius from the volume and the face areas, the circumradius from the circumcentre's
+    linear system)."""
+    x = P[T]
+    angles = []
+    for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+        k, m = (v for v in range(4) if v not in (i, j))
+        e = x[:, j] - x[:, i]
+        e = e / np.linalg.norm(e, axis=1, keepdims=True)
+        u, w = x[:, k] - x[:, i], x[:, m] - x[:, i]
+        u = u - (u * e).sum(1, keepdims=True) * e
+        w = w - (w * e).sum(1, keepdims=True) * e
+        c = (u * w).sum(1) / (np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1))
+        angles.append(np.degrees(np.arccos(np.clip(c, -1, 1))))
+    a, b, c = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]
+    vol = np.abs(np.einsum("ij,ij->i", a, np.cross(b, c))) / 6
+    area = sum(0.5 * np.linalg.norm(np.cross(x[:, q] - x[:, p], x[:, r] - x[:, p]), axis=1)
+               for p, q, r in ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)))
+    A = 2 * np.stack([a, b, c], axis=1)
+    rhs = np.stack([(a * a).sum(1), (b * b).sum(1), (c * c).sum(1)], axis=1)
+    centre = np.linalg.solve(A, rhs[..., None])[..., 0]
+    return np.min(angles, axis=0), 3 * (3 * vol / area) / np.linalg.norm(centre, axis=1)
+
+
+def assert_quality_targets(r):
+    """The project's 3D quality targets: smallest dihedral angle >= 10 degrees, its 1st
+    percentile >= 20 degrees, mean radius ratio >= 0.75."""
+    dmin, rr = tet_quality(r.points, r.tets.astype(np.int64))
+    assert dmin.min() >= 10.0, dmin.min()
+    assert np.percentile(dmin, 1.0) >= 20.0, np.percentile(dmin, 1.0)
+    assert rr.mean() >= 0.75, rr.mean()
+
+
 # ---------------------------------------------------------------- meshes
 def test_mask_solid_keeps_the_voxels_and_its_cavity(tmp_path):
     m = load_model(write_model(tmp_path))
@@ -121,6 +156,14 @@ def test_mask_solid_keeps_the_voxels_and_its_cavity(tmp_path):
     area = 0.5 * np.linalg.norm(np.cross(r.points[F[:, 1]] - r.points[F[:, 0]],
                                          r.points[F[:, 2]] - r.points[F[:, 0]]), axis=1).sum()
     assert abs(vol - s.volume) < 0.25 * area
+
+
+@pytest.mark.parametrize("threshold", [0.3, 0.1])
+def test_mask_mesh_meets_the_quality_targets(tmp_path, threshold):
+    m = load_model(write_model(tmp_path))
+    r = mesh_model(m, threshold)
+    check_mesh(r, part_mask(), threshold=threshold)
+    assert_quality_targets(r)
 
 
 def test_mask_mesh_is_deterministic(tmp_path):
@@ -211,3 +254,40 @@ def test_bad_masks_one_line_exit_2_nothing_written(tmp_path, capsys, solid, mess
     assert code == 2, err
     assert len(lines) == 1 and message in lines[0], err
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- the polish
+class _Ramp:
+    """A two-constituent material varying along x (the composition at any point)."""
+
+    def composition(self, points):
+        x = np.asarray(points, float)[:, 0] / 4
+        return np.column_stack([1 - x, x])
+
+
+def test_polish_lifts_slivers_and_keeps_the_surface():
+    from hetmesh.tet.general import kuhn_grid
+    from hetmesh.tet.masked import polish
+
+    g = np.array([0.0, 1.0, 2.0])
+    P, T = kuhn_grid(g, g, g)
+    centre = int(np.flatnonzero((P == 1.0).all(axis=1))[0])
+    P[centre] = [1.0, 1.0, 0.05]  # flattens the tetrahedra on the bottom face
+    before, _ = tet_quality(P, T)
+    assert before.min() < 5
+    field = _Ramp()
+    Q, comp = polish(P, T, np.zeros(len(T), np.int64), field.composition(P), field, 0.6)
+    after, _ = tet_quality(Q, T)
+    assert after.min() > 30
+    # positive volumes, delta below delta_0, the compositions those at the new points
+    a, b, c = (Q[T[:, k]] - Q[T[:, 0]] for k in (1, 2, 3))
+    assert (np.einsum("ij,ij->i", a, np.cross(b, c)) > 0).all()
+    np.testing.assert_allclose(comp, field.composition(Q))
+    assert (comp[T].max(axis=1) - comp[T].min(axis=1)).max() < 0.6
+    # the cube's surface: every point on it stays on the same faces of the cube
+    on = np.isclose(P, 0.0) | np.isclose(P, 2.0)
+    on[centre] = False
+    np.testing.assert_array_equal(np.isclose(Q, 0.0) | np.isclose(Q, 2.0), on)
+    # corners and edge points (where the surface bends) do not move
+    bent = on.sum(axis=1) >= 2
+    np.testing.assert_array_equal(Q[bent], P[bent])

@@ -14,9 +14,16 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
    reaches the volume's border the surface is the border's face.
 2. *Size*: MMG remeshes the inside to ``delta_0 / |grad f|`` (as for solids of primitives,
    :mod:`hetmesh.tet.general`), the boundary within a Hausdorff distance of
-   :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds
-   and bisects the rest (:func:`hetmesh.tet.refine.repair`; with phases
-   :func:`hetmesh.tet.sampling.repair_sampled`).
+   :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds.
+   One more MMG pass optimises the mesh without touching its surface (``optim``, sizes
+   from the mesh itself; ``nosurf``: the boundary and the interfaces stay as they are);
+   the violators left are bisected (:func:`hetmesh.tet.refine.repair`; with phases
+   :func:`hetmesh.tet.sampling.repair_sampled`), and the tetrahedra whose smallest
+   dihedral angle is below :data:`POLISH_ANGLE` are polished (:func:`polish`): their
+   vertices move to better places, the points of the surface only within flat patches of
+   it, so the surface and every claim of the verification that rests on it stay. The
+   thin tetrahedra MMG leaves are at the surface: a triangle of the voxel contour (ridges
+   and corners a voxel apart) and an inner vertex close to its plane.
 3. *Faces*: the boundary triangles take the name of the zero region on their side: ``outer``
    (the zeros connected to the outside of the volume) or ``cavity[k]`` (an enclosed zero
    region, numbered in the order of its first voxel, k fastest x).
@@ -69,13 +76,22 @@ from .mesher import TetResult
 from .refine import repair
 from .verify import raise_problems, validity_problems
 
-__all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "HAUSD"]
+__all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "polish", "HAUSD"]
 
 log = logging.getLogger(__name__)
 
 #: MMG's Hausdorff distance for the boundary, in voxels (the smallest spacing): tried in
 #: order until the boundary claims hold
 HAUSD = (0.3, 0.2, 0.1)
+#: the polish: the free vertices of the tetrahedra whose smallest dihedral angle is below
+#: POLISH_ANGLE degrees are moved, in up to POLISH_ROUNDS rounds, to the trial position
+#: (steps of POLISH_STEPS x their mean distance to their neighbours along 26 directions, or
+#: the neighbours' mean) that most raises the smallest dihedral angle around them
+POLISH_ANGLE = 20.0
+POLISH_ROUNDS = 30
+POLISH_STEPS = (0.04, 0.12, 0.3)
+_DIRS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], float) - 1.0
+_DIRS /= np.linalg.norm(_DIRS, axis=1, keepdims=True)
 #: size rounds before the bisection repair
 SIZE_ROUNDS = 6
 #: MMG's gradation
@@ -406,9 +422,11 @@ def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np
     return f[a], np.column_stack([phase[owner[a]], phase[owner[b]]])
 
 
-def _remesh(p, t, phase, size, hausd):
+def _remesh(p, t, phase, size, hausd, **options):
     """MMG's remeshing to ``size`` with the boundary and the phases' interfaces kept within
-    ``hausd``: ``(points, tets, phase, size MMG interpolated)``."""
+    ``hausd``: ``(points, tets, phase, size MMG interpolated)``. ``size`` None and
+    ``options`` (MMG's ``optim``, ``nosurf``): the optimisation pass, sizes taken from the
+    mesh itself (no size returned)."""
     from .general import orient_positive, quiet_mmg
 
     mmgpy = quiet_mmg()
@@ -422,14 +440,17 @@ def _remesh(p, t, phase, size, hausd):
     m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
                      np.ascontiguousarray(phase + 1, dtype=np.int32))
     m.set_triangles(np.ascontiguousarray(tri), np.ascontiguousarray(refs))
-    m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
-    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    if size is not None:
+        m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
+    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD, **options)
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
     tt, rr = m.get_tetrahedra_with_refs()
     t = orient_positive(p, np.asarray(tt, dtype=np.int64))
-    h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
+    h = None
+    if size is not None:
+        h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
     return p, t, np.asarray(rr, dtype=np.int64) - 1, h
 
 
@@ -459,13 +480,138 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         if not bad.any() or rounds == SIZE_ROUNDS:
             break
         size = next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min)
+    # the optimisation pass: swaps, moves and MMG's own size, the boundary and the
+    # interfaces kept as they are (nosurf)
+    p, t, phase, _ = _remesh(p, t, phase, None, hausd, optim=1, nosurf=1)
+    comp = field.composition(p)
+    log.info("mask: optimisation pass: %d tetrahedra", len(t))
     if solid.n_phases == 1:
         p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
                                            max_elements=max_elements)
-        return p, t, np.zeros(len(t), np.int64), comp, delta, rounds, passes
-    rep = repair_sampled(p, t, comp, field, threshold, sampled_delta(field, "vertices"),
-                         max_elements=max_elements, regions=phase)
-    return rep.points, rep.tets, rep.regions, rep.comp, rep.delta, rounds, rep.passes
+        phase = np.zeros(len(t), np.int64)
+    else:
+        rep = repair_sampled(p, t, comp, field, threshold, sampled_delta(field, "vertices"),
+                             max_elements=max_elements, regions=phase)
+        p, t, phase, comp, passes = rep.points, rep.tets, rep.regions, rep.comp, rep.passes
+    p, comp = polish(p, t, phase, comp, field, threshold)
+    delta = _delta(field, p, t, phase, comp)
+    return p, t, phase, comp, delta, rounds, passes
+
+
+def independent_vertices(tets: np.ndarray, cand: np.ndarray, rank: np.ndarray
+                         ) -> np.ndarray:
+    """The vertices ``cand`` that rank first (``rank`` per candidate: smaller first, then
+    the smaller id) among the candidates of every tetrahedron around them: no two of them
+    share a tetrahedron."""
+    prio = np.zeros(int(tets.max()) + 1, np.int64)
+    order = np.lexsort((cand, rank))
+    prio[cand[order]] = len(cand) - np.arange(len(cand))
+    tp = prio[tets]
+    tmax = tp.max(axis=1)
+    m, k = np.nonzero(tp > 0)
+    lose = np.zeros(len(prio), bool)
+    lost = tp[m, k] < tmax[m]
+    lose[tets[m[lost], k[lost]]] = True
+    return cand[~lose[cand]]
+
+
+def surface_normals(p, t, phase) -> np.ndarray:
+    """Per point, the unit normal of the plane of the boundary or interface triangles
+    around it if they all lie in one plane and separate the same two sides (the point
+    moves in that plane without changing the surface); zero for the points of no such
+    triangle (free to move anywhere); NaN for the others (which stay)."""
+    faces, _ = boundary_faces(t)
+    inter, sides = interface_faces(t, phase)
+    # interface triangles turned to face from the lower phase to the higher
+    inter = np.where((sides[:, 0] > sides[:, 1])[:, None], inter[:, ::-1], inter)
+    tri = np.concatenate([faces, inter]).astype(np.int64)
+    kind = np.r_[np.full(len(faces), -1), sides.min(axis=1) * (sides.max(initial=0) + 1)
+                 + sides.max(axis=1)].astype(np.int64)
+    n = np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    v, f = tri.ravel(), np.repeat(np.arange(len(tri)), 3)
+    first = np.full(len(p), -1, np.int64)
+    first[v[::-1]] = f[::-1]  # the first triangle of every surface point
+    on = first >= 0
+    ref = np.zeros((len(p), 3))
+    ref[on] = n[first[on]]
+    flat = np.ones(len(p), bool)
+    flat[v[(n[f] * ref[v]).sum(axis=1) < 1 - 1e-10]] = False
+    flat[v[kind[f] != kind[first[v]]]] = False
+    out = np.where((on & ~flat)[:, None], np.nan, ref)
+    return out
+
+
+def polish(p, t, phase, comp, field, threshold, *, angle: float = POLISH_ANGLE,
+           rounds: int = POLISH_ROUNDS):
+    """Move vertices of the tetrahedra whose smallest dihedral angle is below ``angle``:
+    in each round, a set of such vertices no two of which share a tetrahedron
+    (:func:`independent_vertices`, the worst first) each go to the trial position
+    (:data:`POLISH_STEPS` along :data:`_DIRS`, the mean of their neighbours, or where
+    they are) with the largest smallest dihedral angle over the tetrahedra around them,
+    every one of which keeps a positive volume and delta below ``threshold`` (each in its
+    own phase). Points of the boundary and of the interfaces move only in the plane of
+    their triangles where these are flat (:func:`surface_normals`), else not at all: the
+    surface is the same, and every voxel centre stays in the same phase. A vertex with no
+    better place is left alone from then on. ``(points, comp)``."""
+    from ..mesh import simplex_measures
+    from .quality import min_dihedral
+
+    p, comp = p.copy(), comp.copy()
+    t = np.asarray(t, np.int64)
+    normal = surface_normals(p, t, phase)
+    stuck = np.isnan(normal).any(axis=1)
+    normal = np.nan_to_num(normal)
+    for _ in range(rounds):
+        dm = min_dihedral(p, t)
+        bad = dm < angle
+        worst = np.full(len(p), np.inf)
+        np.minimum.at(worst, t[bad].ravel(), np.repeat(dm[bad], 4))
+        cand = np.flatnonzero(np.isfinite(worst) & ~stuck)
+        if not len(cand):
+            break
+        sel = independent_vertices(t, cand, worst[cand])
+        is_sel = np.full(len(p), -1, np.int64)
+        is_sel[sel] = np.arange(len(sel))
+        st = is_sel[t]
+        rows = np.flatnonzero((st >= 0).any(axis=1))
+        col = np.argmax(st[rows] >= 0, axis=1)
+        owner = st[rows, col]  # index into sel
+        # trial moves (S, K, 3): none, to the neighbours' mean, steps along _DIRS; those of
+        # a surface point projected into its plane
+        x = p[sel]
+        nsum = np.zeros((len(sel), 3))
+        ncnt = np.zeros(len(sel))
+        np.add.at(nsum, owner, p[t[rows]].sum(axis=1) - x[owner])
+        np.add.at(ncnt, owner, 3.0)
+        dist = np.zeros(len(sel))
+        np.add.at(dist, owner, np.linalg.norm(p[t[rows]] - x[owner][:, None], axis=2).sum(1))
+        steps = (np.asarray(POLISH_STEPS)[:, None, None] * _DIRS[None]).reshape(1, -1, 3)
+        move = np.concatenate([np.zeros((len(sel), 1, 3)), (nsum / ncnt[:, None] - x)[:, None],
+                               (dist / ncnt)[:, None, None] * steps], axis=1)
+        nv = normal[sel][:, None]
+        move -= (move * nv).sum(axis=2, keepdims=True) * nv
+        trial = x[:, None] + move
+        k_n = trial.shape[1]
+        n0 = len(p)
+        pv = np.concatenate([p, trial.reshape(-1, 3)])
+        cv = np.concatenate([comp, field.composition(trial.reshape(-1, 3))])
+        tv = np.repeat(t[rows], k_n, axis=0)
+        kk = np.tile(np.arange(k_n), len(rows))
+        tv[np.arange(len(tv)), np.repeat(col, k_n)] = n0 + np.repeat(owner, k_n) * k_n + kk
+        score = min_dihedral(pv, tv)
+        ok = simplex_measures(pv, tv) > 0
+        ok &= _delta(field, pv, tv, np.repeat(phase[rows], k_n), cv) < threshold
+        score = np.where(ok, score, -np.inf).reshape(len(rows), k_n)
+        star = np.full((len(sel), k_n), np.inf)
+        np.minimum.at(star, owner, score)
+        best = np.argmax(star, axis=1)
+        better = star[np.arange(len(sel)), best] > star[:, 0]
+        stuck[sel[~better]] = True
+        v, b = sel[better], best[better]
+        p[v] = trial[better, b]
+        comp[v] = cv[n0 + np.flatnonzero(better) * k_n + b]
+    return p, comp
 
 
 def estimate_masked(solid: VoxelSolid, field, threshold: float) -> float:
