@@ -8,7 +8,7 @@
 Every model of ``hetmesh.testing.robust_suite(n)`` (48 seeded random models: star, arc and
 L/U-shaped domains, holes, interfaces, far from the origin; tanh fronts, power laws with
 p < 1, S-FGM, Gaussians, sines, kinks) at each of its thresholds, and the repository's
-examples at delta_0 = 0.1 and 0.05, are meshed with ``hetmesh.generate`` (default method), each
+2D examples at delta_0 = 0.1 and 0.05, are meshed with ``hetmesh.generate`` (default method), each
 run in its own worker process with a wall-clock limit, and checked with
 ``hetmesh.testing.independent_check``. A run that raises, times out, dies or fails the check
 is a failure: a row of the tables, never a crash of the benchmark.
@@ -89,6 +89,8 @@ def build_cases(n: int, first_seed: int, quick: bool, examples: bool, only) -> l
                               threshold=t, tags=list(rm.kind), toml=rm.toml, path=None))
     if examples:
         for p in sorted(EXAMPLES.glob("*.toml")):
+            if "\n[solid]" in p.read_text(encoding="utf-8"):
+                continue  # a 3D model: the tetrahedral benchmarks (bench_tet.py) cover it
             for t in (EXAMPLE_THRESHOLDS[:1] if quick else EXAMPLE_THRESHOLDS):
                 cases.append(dict(id=f"{p.stem} {t:g}", name=p.stem, family="example", seed=None,
                                   threshold=t, tags=[], toml=None, path=str(p)))
