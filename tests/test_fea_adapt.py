@@ -310,6 +310,23 @@ def test_refinement_study_and_its_table(cylinder):
     text = "\n".join(render3d(sec))
     assert "(c) adaptive + refined" in text and "probe estimate" in text
     assert r["indicator"] == "goal" and r["start_chord_tol"] == CHORD
+    assert "uniform_start_chord" not in r and "(a') uniform" not in text
+    # a coarser start, and the uniform family again at its chord tolerance (like for like)
+    c = ad.refinement_study(cylinder, ref, s, threshold=0.4, chord_tol=CHORD,
+                            start_chord_tol=START_CHORD, uniform_elements=(800, 3000),
+                            steps=1, fraction=0.3)
+    assert c["meshes"][0]["elements"] < first["elements"]    # fewer chords on the arcs
+    assert len(c["uniform_start_chord"]) == 2
+    same = [m["elements"] for m in c["uniform_start_chord"]]
+    theirs = [m["elements"] for m in s.meshes if m["family"] == "uniform"]
+    assert same[0] < theirs[0]             # the coarse uniform mesh has fewer chords too
+    nd = c["needed"]["R"]
+    if nd["ratio_start_chord"] is not None:
+        assert nd["ratio_start_chord"] == pytest.approx(nd["refined"]
+                                                        / nd["uniform_start_chord"])
+    sec = Section3D(quick=True, studies={"graded_cylinder": s},
+                    refinements={"graded_cylinder": c})
+    assert "(a') uniform, chord 0.001" in "\n".join(render3d(sec))
 
 
 @pytest.fixture(scope="module")
@@ -387,7 +404,7 @@ def test_goal_oriented_refinement_keeps_the_probes_within_the_target(cylinder, c
     counts = [st["elements"] for st in a.steps]
     assert counts[0] == coarse_start.n_elements < counts[1] < counts[2]
     assert independent_problems(a.mesh, cylinder, 0.4) == []
-    with pytest.raises(OptionError, match="--adapt-indicator"):
+    with pytest.raises(OptionError, match="indicator: expected"):
         ad.adapt(coarse_start, cylinder, 0.4, tolerance=1e-3, indicator="dual")
 
 

@@ -391,7 +391,7 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
 
     check_adapt_options(tolerance, steps, fraction, max_elements, threshold)
     if indicator not in INDICATORS:
-        raise OptionError(f"--adapt-indicator: expected one of {', '.join(INDICATORS)}, got "
+        raise OptionError(f"indicator: expected one of {', '.join(INDICATORS)}, got "
                           f"{indicator!r}")
     cfg = config if config is not None else getattr(model, "fea", None)
     if indicator == "goal" and (cfg is None or not getattr(cfg, "probes", None)):
@@ -503,7 +503,8 @@ STUDY_REFINEMENT = {"full": {"fraction": 0.5, "steps": 8, "max_elements": 60_000
 def refinement_study(model, reference: dict, study, *, threshold: float, quick: bool = False,
                      chord_tol: float | None = None, start_chord_tol: float | None = None,
                      fraction: float | None = None, steps: int | None = None,
-                     max_elements: int | None = None, indicator: str | None = None) -> dict:
+                     max_elements: int | None = None, indicator: str | None = None,
+                     uniform_elements: Sequence[int] | None = None) -> dict:
     """The third family of the 3-D study: the material-adaptive mesh at ``threshold``
     (:func:`hetmesh.generate` with the chord tolerance ``start_chord_tol``, default
     ``chord_tol``, both relative) refined by :func:`adapt` step by step (marks by
@@ -511,17 +512,23 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
     against ``reference`` (as :func:`hetmesh.fea.probe_study.study3d`'s ``study``, whose
     uniform counts give the ratios). A coarser start is refined towards the exact surface:
     every new boundary vertex is put on it (:func:`snap_to_surface`); the refined meshes are
-    verified with the start's chord tolerance.
+    verified with the start's chord tolerance. With ``uniform_elements`` and a start chord
+    tolerance of its own, the uniform family is measured again at that chord tolerance
+    (:func:`hetmesh.fea.probe_study.study3d` with these counts), for a like-for-like ratio:
+    the chord tolerance also sets how many tetrahedra a uniform mesh has along the curved
+    faces.
 
     Returns ``{"threshold", "fraction", "steps", "max_elements", "indicator",
     "start_chord_tol", "reason", "seconds", "meshes": [{"family": "refined", "param": step,
     "elements", "von_mises", "estimate", "estimate_of", "errors", "max_error",
     "solve_seconds"}], "needed": {set: {"refined", "refined_exact", "uniform",
-    "uniform_exact", "adaptive", "ratio"}}}``; ``ratio`` is refined / uniform where the
-    uniform count is a crossing (else None).
+    "uniform_exact", "adaptive", "ratio", and with the like-for-like uniform family
+    "uniform_start_chord", "uniform_start_chord_exact", "ratio_start_chord"}}}``, and then
+    ``"uniform_start_chord": [{"elements", "errors"}]``; ``ratio`` is refined / uniform where
+    the uniform count is a crossing (else None).
     """
     from ..meshing import generate
-    from .probe_study import TOLERANCE, elements_needed, probe_sets
+    from .probe_study import TOLERANCE, elements_needed, probe_sets, study3d
 
     plan = dict(STUDY_REFINEMENT["quick" if quick else "full"])
     for k, v in (("fraction", fraction), ("steps", steps), ("max_elements", max_elements),
@@ -561,7 +568,19 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
             if n is not None and u["uniform"] and u["uniform_exact"]:
                 nd["ratio"] = n / u["uniform"]
         needed[s] = nd
-    return {"threshold": float(threshold), **plan,
-            "start_chord_tol": None if start_tol is None else float(start_tol),
-            "reason": a.reason, "meshes": meshes, "needed": needed, "primary": primary,
-            "seconds": time.perf_counter() - t0}
+    out = {"threshold": float(threshold), **plan,
+           "start_chord_tol": None if start_tol is None else float(start_tol),
+           "reason": a.reason, "meshes": meshes, "needed": needed, "primary": primary}
+    if uniform_elements and start_tol != chord_tol:
+        same = study3d(model, reference, uniform_elements=list(uniform_elements),
+                       thresholds=(), tolerance=tol, chord_tol=start_tol)
+        out["uniform_start_chord"] = [{"elements": m["elements"], "errors": m["errors"]}
+                                      for m in same.meshes if "error" not in m]
+        for s, nd in needed.items():
+            u = same.needed_by_set[s]
+            nd.update(uniform_start_chord=u["uniform"],
+                      uniform_start_chord_exact=u["uniform_exact"], ratio_start_chord=None)
+            if nd["refined"] is not None and u["uniform"] and u["uniform_exact"]:
+                nd["ratio_start_chord"] = nd["refined"] / u["uniform"]
+    out["seconds"] = time.perf_counter() - t0
+    return out

@@ -549,8 +549,17 @@ def _refinement_lines(section) -> list[str]:
             rows.append([k, cnt(nd["uniform"], nd["uniform_exact"]),
                          NA if nd["adaptive"] is None else num(int(round(nd["adaptive"]))),
                          cnt(nd["refined"], nd["refined_exact"]), ratio])
-        out += markdown_table(["probes", "(a) uniform", "(b) adaptive", "(c) adaptive + refined",
-                               "(c)/(a), target <= 0.5"], rows) + [""]
+            if "uniform_start_chord" in nd:
+                same = nd["ratio_start_chord"]
+                rows[-1] += [cnt(nd["uniform_start_chord"], nd["uniform_start_chord_exact"]),
+                             NA if same is None else (num(same, 3) if nd["refined_exact"]
+                                                      else f"<= {num(same, 3)}")]
+        head = ["probes", "(a) uniform", "(b) adaptive", "(c) adaptive + refined",
+                "(c)/(a), target <= 0.5"]
+        if any("uniform_start_chord" in nd for nd in r["needed"].values()):
+            head += [f"(a') uniform, chord {r['start_chord_tol']:g}", "(c)/(a')"]
+            rows = [row + [NA, NA] * (len(row) == 5) for row in rows]
+        out += markdown_table(head, rows) + [""]
     return out
 
 

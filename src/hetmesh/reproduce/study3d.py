@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from ..errors import HetmeshError
 
 __all__ = ["Case3D", "CASES3D", "MeshRun3D", "Section3D", "run3d", "CHORD_TOL",
-           "REFINE_START_CHORD_TOL"]
+           "REFINE_START_CHORD_TOL", "SAME_CHORD_UNIFORM_MAX"]
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +41,9 @@ CHORD_TOL = 2e-4
 #: surface; at CHORD_TOL the graded cylinder's starting mesh alone has 3,129 tetrahedra, more
 #: than half the uniform family's count (docs/fea.md, "The 3-D study with a third family")
 REFINE_START_CHORD_TOL = 1e-3
+#: the uniform family measured again at REFINE_START_CHORD_TOL (the like-for-like ratio of the
+#: refined family): the plan's counts up to this many tetrahedra
+SAME_CHORD_UNIFORM_MAX = 25_000
 
 
 @dataclass(frozen=True)
@@ -172,10 +175,14 @@ def refine_case(model, study, quick: bool, plan: dict) -> dict | None:
     d0s = plan.get("thresholds", ps.PLANS3D["quick" if quick else "full"].thresholds)
     if not d0s:
         return None
+    counts = plan.get("uniform_elements",
+                      ps.PLANS3D["quick" if quick else "full"].uniform_elements)
     try:
         return refinement_study(model, study.reference, study, threshold=max(d0s),
                                 quick=quick, chord_tol=CHORD_TOL,
-                                start_chord_tol=REFINE_START_CHORD_TOL)
+                                start_chord_tol=REFINE_START_CHORD_TOL,
+                                uniform_elements=[n for n in counts
+                                                  if n <= SAME_CHORD_UNIFORM_MAX])
     except HetmeshError as exc:
         log.warning("3-D refinement of %s failed: %s", model.name, exc)
         return {"error": str(exc).splitlines()[0]}
