@@ -14,7 +14,11 @@ For each: the adaptive mesh (:func:`hetmesh.generate`) and the uniform baseline
 quality; Gmsh's 3-D mesh with the graded size field as a peer when installed
 (:func:`hetmesh.peers.search3d`); and the FEA study
 (:func:`hetmesh.fea.probe_study.study3d`): the tetrahedra each family needs for 0.5 % at
-the probes. :func:`hetmesh.reproduce.report.render3d` renders the records.
+the probes; and its third family (:func:`refine_case`): the material-adaptive mesh,
+started with the coarser chord tolerance :data:`REFINE_START_CHORD_TOL`, refined by the
+probes' dual-weighted indicator, with the uniform family measured again at that chord
+tolerance for a like-for-like ratio. :func:`hetmesh.reproduce.report.render3d` renders the
+records.
 """
 
 from __future__ import annotations
@@ -167,7 +171,9 @@ def study_case(case: Case3D, model, quick: bool, progress=None, **plan):
 
 def refine_case(model, study, quick: bool, plan: dict) -> dict | None:
     """The study's third family (:func:`hetmesh.fea.adapt.refinement_study`) from the
-    material-adaptive mesh at the plan's largest threshold; ``{"error": message}`` if it
+    material-adaptive mesh at the plan's largest threshold and the chord tolerance
+    :data:`REFINE_START_CHORD_TOL`, with the uniform family again at that tolerance (the
+    plan's counts up to :data:`SAME_CHORD_UNIFORM_MAX`); ``{"error": message}`` if it
     fails, None if the plan has no threshold."""
     from ..fea import probe_study as ps
     from ..fea.adapt import refinement_study
