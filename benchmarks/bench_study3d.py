@@ -18,10 +18,13 @@ Runs :func:`hetmesh.reproduce.study3d.run3d` -- the same code as ``hetmesh repro
 - T3: the tetrahedra each family needs for 0.5 % at the probes, and adaptive / uniform
   (the target: at most 0.5);
 - T4 (unless ``--no-refine``): the third family, the material-adaptive mesh at the plan's
-  largest delta_0 refined by the solution (:func:`hetmesh.fea.adapt.refinement_study`:
-  Zienkiewicz-Zhu estimate, Doerfler marking, longest-edge bisection, re-verified), every
-  step's tetrahedra, ZZ estimate and probe errors, and the tetrahedra for 0.5 % by (a)
-  uniform, (b) adaptive, (c) adaptive + refined meshes with (c)/(a) against 0.5.
+  largest delta_0 (chord tolerance 1e-3) refined by the solution
+  (:func:`hetmesh.fea.adapt.refinement_study`: the probes' dual-weighted indicator,
+  :mod:`hetmesh.fea.goal`, Doerfler marking, longest-edge bisection, new boundary vertices
+  on the exact surface, re-verified), every step's tetrahedra, probe estimate and probe
+  errors, and the tetrahedra for 0.5 % by (a) uniform, (b) adaptive, (c) adaptive + refined
+  meshes with (c)/(a) against 0.5, and (a') the uniform family again at the refined
+  family's starting chord tolerance (counts up to 25,000) with the like-for-like (c)/(a').
 
 ``--examples D`` prints instead T0: every 3-D example meshed adaptively and uniformly at
 delta_0 = D (tetrahedra, ratio, the uniform size, smallest dihedral angles, wall times).

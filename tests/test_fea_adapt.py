@@ -13,10 +13,12 @@ import hetmesh
 from hetmesh.cli import main
 from hetmesh.errors import OptionError
 from hetmesh.fea import adapt as ad
+from hetmesh.fea import goal
 from hetmesh.fea.solid import Displacement, solve_tets
 
 E0, NU0 = 200e9, 0.3
 CHORD = 2e-4          # the 3-D study's chord tolerance (x the diameter)
+START_CHORD = 1e-3    # the chord tolerance of the refined family's start
 
 
 def homogeneous(x):
@@ -306,7 +308,104 @@ def test_refinement_study_and_its_table(cylinder):
     sec = Section3D(quick=True, studies={"graded_cylinder": s},
                     refinements={"graded_cylinder": r})
     text = "\n".join(render3d(sec))
-    assert "(c) adaptive + refined" in text and "ZZ estimate" in text
+    assert "(c) adaptive + refined" in text and "probe estimate" in text
+    assert r["indicator"] == "goal" and r["start_chord_tol"] == CHORD
+    assert "uniform_start_chord" not in r and "(a') uniform" not in text
+    # a coarser start, and the uniform family again at its chord tolerance (like for like)
+    c = ad.refinement_study(cylinder, ref, s, threshold=0.4, chord_tol=CHORD,
+                            start_chord_tol=START_CHORD, uniform_elements=(800, 3000),
+                            steps=1, fraction=0.3)
+    assert c["meshes"][0]["elements"] < first["elements"]    # fewer chords on the arcs
+    assert len(c["uniform_start_chord"]) == 2
+    same = [m["elements"] for m in c["uniform_start_chord"]]
+    theirs = [m["elements"] for m in s.meshes if m["family"] == "uniform"]
+    assert same[0] < theirs[0]             # the coarse uniform mesh has fewer chords too
+    nd = c["needed"]["R"]
+    if nd["ratio_start_chord"] is not None:
+        assert nd["ratio_start_chord"] == pytest.approx(nd["refined"]
+                                                        / nd["uniform_start_chord"])
+    sec = Section3D(quick=True, studies={"graded_cylinder": s},
+                    refinements={"graded_cylinder": c})
+    assert "(a') uniform, chord 0.001" in "\n".join(render3d(sec))
+
+
+@pytest.fixture(scope="module")
+def coarse_start(cylinder):
+    """The refined family's start in the 3-D study: chord tolerance 1e-3 (1,287 tets)."""
+    return hetmesh.generate(cylinder, 0.4, chord_tol=START_CHORD).mesh
+
+
+def test_von_mises_direction_is_the_relative_derivative():
+    s = np.array([120e6, -30e6, 10e6, 25e6, -5e6, 40e6])
+    n = goal.von_mises_direction(s)
+
+    def vm(v):
+        return math.sqrt(0.5 * ((v[0] - v[1]) ** 2 + (v[1] - v[2]) ** 2 + (v[2] - v[0]) ** 2)
+                         + 3 * (v[3] ** 2 + v[4] ** 2 + v[5] ** 2))
+
+    d = np.array([1e3, 3e3, -2e3, 4e3, 1e3, -3e3])
+    D = np.array([[d[0], d[3], d[5]], [d[3], d[1], d[4]], [d[5], d[4], d[2]]])
+    # n : d sigma is the relative change of von Mises to first order
+    assert float((n * D).sum()) == pytest.approx((vm(s + d) - vm(s)) / vm(s), rel=1e-3)
+    assert abs(np.trace(n)) < 1e-20 and np.allclose(n, n.T)
+    assert not goal.von_mises_direction(np.array([5.0, 5, 5, 0, 0, 0])).any()
+
+
+def test_dual_load_is_the_probe_functional(cylinder, coarse_start):
+    """The dual problem's load applied to the primal displacement is J(u_h): the sum over
+    the probes of the mollified n_i : sigma_h, each about 1 (relative von Mises), so about
+    the number of probes (P1, whose dofs are the vertices the result reports)."""
+    from dataclasses import replace
+
+    cfg = replace(cylinder.fea, order=1)
+    r = hetmesh.fea.solve(coarse_start, cylinder, config=cfg)
+    d = goal.dual_solution(coarse_start, cylinder, cfg, r.probes)
+    J = float(d.load @ np.asarray(r.displacement).ravel())
+    assert J == pytest.approx(3.0, rel=0.03)
+    assert set(d.rho) == {"R1", "R2", "R3"}
+    one = goal.dual_solution(coarse_start, cylinder, cfg, r.probes, names=["R2"])
+    assert float(one.load @ np.asarray(r.displacement).ravel()) == pytest.approx(1.0, rel=0.03)
+    with pytest.raises(hetmesh.errors.FEAError, match="R9"):
+        goal.dual_solution(coarse_start, cylinder, cfg, r.probes, names=["R9"])
+
+
+def test_goal_oriented_marks_go_to_the_probes(cylinder, coarse_start):
+    """With the dual weights the marks gather around R1..R3; ZZ's energy-norm marks spread
+    over the wall."""
+    r = hetmesh.fea.solve(coarse_start, cylinder)
+    eta_z, energy = goal.dual_indicator(goal.dual_solution(coarse_start, cylinder,
+                                                           cylinder.fea, r.probes))
+    assert energy > 0 and eta_z.shape == r.error_indicator.shape
+    P, T = np.asarray(coarse_start.points), np.asarray(coarse_start.cells)
+    probes = np.array(list(cylinder.fea.probes.values()))
+    dist = np.linalg.norm(P[T].mean(axis=1)[:, None] - probes[None], axis=2).min(axis=1)
+    near = dist < 3.0                      # a quarter of the elements
+    assert (eta_z[near] ** 2).sum() > 0.5 * (eta_z ** 2).sum()
+    by_goal = ad.doerfler_mark(goal.goal_indicator(r.error_indicator, eta_z), 0.3)
+    by_energy = ad.doerfler_mark(r.error_indicator, 0.3)
+    assert by_goal.any() and by_energy.any()
+    assert dist[by_goal].mean() < 0.5 * dist[by_energy].mean()
+
+
+def test_goal_oriented_refinement_keeps_the_probes_within_the_target(cylinder, coarse_start):
+    """From the coarser start the probe error is below 0.5 % and stays there as the
+    dual-weighted marks refine; the meshes pass the independent checks."""
+    from hetmesh.fea.probe_study import radial_reference
+
+    ref = radial_reference(cylinder)["von_mises"]
+    a = ad.adapt(coarse_start, cylinder, 0.4, tolerance=1e-6, steps=2, fraction=0.5,
+                 chord_tol=START_CHORD, indicator="goal")
+    assert a.indicator == "goal" and a.report()["indicator"] == "goal"
+    errs = [max(abs(st["von_mises"][k] - ref[k]) / ref[k] for k in ref) for st in a.steps]
+    assert all(e < 0.005 for e in errs), errs
+    assert all(st["estimate_of"] == "probes" for st in a.steps)
+    est = [st["estimate"] for st in a.steps]
+    assert est[-1] < 0.8 * est[0]
+    counts = [st["elements"] for st in a.steps]
+    assert counts[0] == coarse_start.n_elements < counts[1] < counts[2]
+    assert independent_problems(a.mesh, cylinder, 0.4) == []
+    with pytest.raises(OptionError, match="indicator: expected"):
+        ad.adapt(coarse_start, cylinder, 0.4, tolerance=1e-3, indicator="dual")
 
 
 def test_cli_adapt_needs_a_tetrahedral_mesh(tmp_path, capsys):

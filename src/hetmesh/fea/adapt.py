@@ -15,6 +15,9 @@ no elements. :func:`adapt` closes the loop the way Abaqus, COMSOL and scikit-fem
    ``eta_T^2 = int_T (sigma* - sigma_h) : C^-1 (sigma* - sigma_h)``, ``C^-1`` the compliance
    of the mixed material at every quadrature point; the global relative estimate is ZZ's
    ``eta / sqrt(||sigma_h||^2 + eta^2)`` (``||s||^2 = int s : C^-1 s``);
+   or, with ``indicator="goal"``, the probes' dual-weighted indicator
+   ``eta_T(u) eta_T(z)`` (:mod:`hetmesh.fea.goal`: ``z`` solves the dual problem of the
+   probes' relative von Mises functional), whose sum estimates the relative probe error;
 3. **mark** by Doerfler's bulk criterion (:func:`doerfler_mark`; Doerfler 1996, "A convergent
    adaptive algorithm for Poisson's equation"): the fewest elements whose ``eta_T^2`` add up
    to ``fraction`` of the total;
@@ -39,7 +42,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,6 +50,7 @@ import numpy as np
 
 from ..errors import FEAError, OptionError, VerificationError
 from .estimate import compliance_energy, relative_estimate, zz_indicator
+from .goal import DEFAULT_RADIUS, dual_indicator, dual_solution, goal_estimate, goal_indicator
 
 __all__ = ["zz_indicator", "compliance_energy", "doerfler_mark", "snap_to_surface",
            "refine_marked", "mesh_faces", "adapt", "Adapted", "check_adapt_options",
@@ -59,6 +63,9 @@ log = logging.getLogger(__name__)
 DEFAULT_FRACTION = 0.5
 #: refinement steps (solves after the first) unless told
 DEFAULT_STEPS = 8
+#: what the marks follow: ZZ's energy-norm indicator, or the probes' dual-weighted one
+#: (:mod:`hetmesh.fea.goal`)
+INDICATORS = ("energy", "goal")
 
 
 # ---------------------------------------------------------------------------- mark
@@ -268,11 +275,15 @@ class Adapted:
         :func:`hetmesh.generate` writes them).
     steps : list of dict
         Per solve: ``step`` (0 the given mesh), ``elements``, ``points``, ``estimate`` (ZZ's
-        relative error), ``marked``, ``delta_max``, ``von_mises`` (probe -> Pa),
+        relative error, or with the goal-oriented indicator its probe estimate; then also
+        ``energy_estimate`` and ``dual_seconds``), ``estimate_of`` (``"energy"`` or
+        ``"probes"``), ``marked``, ``delta_max``, ``von_mises`` (probe -> Pa),
         ``solve_seconds``, ``refine_seconds``.
     reason : str
         Why it stopped: ``"tolerance"``, ``"steps"`` or ``"max_elements"``.
     threshold, tolerance, fraction : float
+    indicator : str
+        ``"energy"`` or ``"goal"``.
     """
 
     result: Any
@@ -283,11 +294,13 @@ class Adapted:
     tolerance: float
     fraction: float
     seconds: float = math.nan
+    indicator: str = "energy"
     info: Mapping[str, Any] = field(default_factory=dict)
 
     def report(self) -> dict[str, Any]:
         """JSON-ready: the settings, why it stopped and the steps."""
         return {"tolerance": self.tolerance, "fraction": self.fraction,
+                "indicator": self.indicator,
                 "threshold": self.threshold, "reason": self.reason,
                 "steps": [dict(s) for s in self.steps], "seconds": self.seconds}
 
@@ -329,7 +342,8 @@ def refined_mesh(ref: Refined, constituents, names) -> Any:
 
 def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAULT_STEPS,
           fraction: float = DEFAULT_FRACTION, max_elements: int | None = None,
-          chord_tol: float | None = None, config=None,
+          chord_tol: float | None = None, indicator: str = "energy",
+          goal_probes: Sequence[str] | None = None, goal_radius: float | None = None, config=None,
           progress: Callable[[dict], None] | None = None) -> Adapted:
     """Solve, estimate, mark, refine, repeat (see the module docstring) on a tetrahedral
     mesh of ``model`` that meets ``delta_0 = threshold`` at its vertices.
@@ -354,6 +368,13 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     chord_tol : float, optional
         The verification's chord tolerance, relative to the solid's diameter (default the
         mesher's, 0.002).
+    indicator : "energy" or "goal"
+        What the marks and the stop follow: ZZ's energy-norm indicator and relative
+        estimate, or the probes' dual-weighted indicator and its estimate of the relative
+        von Mises error at the probes (:mod:`hetmesh.fea.goal`; one more solve per step).
+    goal_probes : names of the ``[fea]`` probes the goal-oriented indicator aims at (default
+        all); goal_radius : the probe functional's mollifier radius, x the diameter
+        (default :data:`hetmesh.fea.goal.DEFAULT_RADIUS`)
     progress : callable, optional
         Called with every step's record.
 
@@ -369,6 +390,13 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     from .analysis import solve
 
     check_adapt_options(tolerance, steps, fraction, max_elements, threshold)
+    if indicator not in INDICATORS:
+        raise OptionError(f"indicator: expected one of {', '.join(INDICATORS)}, got "
+                          f"{indicator!r}")
+    cfg = config if config is not None else getattr(model, "fea", None)
+    if indicator == "goal" and (cfg is None or not getattr(cfg, "probes", None)):
+        raise FEAError(f"model {getattr(model, 'name', '')!r}: the goal-oriented indicator "
+                       f"needs probes in the [fea] table")
     if getattr(mesh, "dim", None) != 3:
         raise MeshDataError("solution-adaptive refinement needs a tetrahedral (3-D) mesh")
     solid, field_ = getattr(model, "solid", None), model.material
@@ -407,11 +435,24 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
         est = relative_estimate(eta, r.energy)
         rec = {"step": step, "elements": int(cur_mesh.n_elements),
                "points": int(cur_mesh.n_points), "estimate": est,
+               "estimate_of": "energy",
                "delta_max": float(current.delta.max()),
                "von_mises": {k: float(v["von_mises"]) for k, v in r.probes.items()},
                "solve_seconds": solve_s, "refine_seconds": refine_seconds, "marked": 0}
         records.append(rec)
-        log.info("adapt step %d: %d tetrahedra, ZZ estimate %.4g", step, rec["elements"], est)
+        mark_eta = eta
+        if indicator == "goal":
+            t0 = time.perf_counter()
+            dual = dual_solution(cur_mesh, model, cfg, r.probes, names=goal_probes,
+                                 radius=DEFAULT_RADIUS if goal_radius is None
+                                 else goal_radius)
+            eta_z, _ = dual_indicator(dual)
+            mark_eta = goal_indicator(eta, eta_z)
+            rec["energy_estimate"] = est
+            est = rec["estimate"] = goal_estimate(eta, eta_z)
+            rec["estimate_of"] = "probes"
+            rec["dual_seconds"] = time.perf_counter() - t0
+        log.info("adapt step %d: %d tetrahedra, estimate %.4g", step, rec["elements"], est)
         result = r
         if est <= tolerance:
             reason = "tolerance"
@@ -422,7 +463,7 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
             if progress is not None:
                 progress(rec)
             break
-        marked = doerfler_mark(eta, fraction)
+        marked = doerfler_mark(mark_eta, fraction)
         rec["marked"] = int(marked.sum())
         if progress is not None:
             progress(rec)
@@ -444,36 +485,54 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     result = replace(result, mesh=out_mesh)
     return Adapted(result=result, mesh=cur_mesh, steps=records, reason=reason,
                    threshold=float(threshold), tolerance=float(tolerance),
-                   fraction=float(fraction), seconds=time.perf_counter() - t_start)
+                   fraction=float(fraction), seconds=time.perf_counter() - t_start,
+                   indicator=indicator)
 
 
 # ---------------------------------------------------------------------------- the study
 
 #: the refinement family of the 3-D study: Doerfler fraction, refinements, tetrahedra budget
-STUDY_REFINEMENT = {"full": {"fraction": 0.5, "steps": 8, "max_elements": 60_000},
-                    "quick": {"fraction": 0.5, "steps": 5, "max_elements": 20_000}}
+#: and the indicator the marks follow (the probes' dual-weighted one: the study asks for the
+#: stress at the probes, not for the energy norm)
+STUDY_REFINEMENT = {"full": {"fraction": 0.5, "steps": 8, "max_elements": 60_000,
+                             "indicator": "goal"},
+                    "quick": {"fraction": 0.5, "steps": 5, "max_elements": 20_000,
+                              "indicator": "goal"}}
 
 
 def refinement_study(model, reference: dict, study, *, threshold: float, quick: bool = False,
-                     chord_tol: float | None = None, fraction: float | None = None,
-                     steps: int | None = None, max_elements: int | None = None) -> dict:
+                     chord_tol: float | None = None, start_chord_tol: float | None = None,
+                     fraction: float | None = None, steps: int | None = None,
+                     max_elements: int | None = None, indicator: str | None = None,
+                     uniform_elements: Sequence[int] | None = None) -> dict:
     """The third family of the 3-D study: the material-adaptive mesh at ``threshold``
-    (:func:`hetmesh.generate` with ``chord_tol``, relative) refined by :func:`adapt` step by
-    step, every step's mesh one member, with the probe errors against ``reference`` (as
-    :func:`hetmesh.fea.probe_study.study3d`'s ``study``, whose uniform counts give the
-    ratios).
+    (:func:`hetmesh.generate` with the chord tolerance ``start_chord_tol``, default
+    ``chord_tol``, both relative) refined by :func:`adapt` step by step (marks by
+    ``indicator``, default the plan's), every step's mesh one member, with the probe errors
+    against ``reference`` (as :func:`hetmesh.fea.probe_study.study3d`'s ``study``, whose
+    uniform counts give the ratios). A coarser start is refined towards the exact surface:
+    every new boundary vertex is put on it (:func:`snap_to_surface`); the refined meshes are
+    verified with the start's chord tolerance. With ``uniform_elements`` and a start chord
+    tolerance of its own, the uniform family is measured again at that chord tolerance
+    (:func:`hetmesh.fea.probe_study.study3d` with these counts), for a like-for-like ratio:
+    the chord tolerance also sets how many tetrahedra a uniform mesh has along the curved
+    faces.
 
-    Returns ``{"threshold", "fraction", "steps", "max_elements", "reason", "seconds",
-    "meshes": [{"family": "refined", "param": step, "elements", "von_mises", "estimate",
-    "errors", "max_error", "solve_seconds"}], "needed": {set: {"refined", "refined_exact",
-    "uniform", "uniform_exact", "adaptive", "ratio"}}}``; ``ratio`` is refined / uniform
-    where the uniform count is a crossing (else None).
+    Returns ``{"threshold", "fraction", "steps", "max_elements", "indicator",
+    "start_chord_tol", "reason", "seconds", "meshes": [{"family": "refined", "param": step,
+    "elements", "von_mises", "estimate", "estimate_of", "errors", "max_error",
+    "solve_seconds"}], "needed": {set: {"refined", "refined_exact", "uniform",
+    "uniform_exact", "adaptive", "ratio", and with the like-for-like uniform family
+    "uniform_start_chord", "uniform_start_chord_exact", "ratio_start_chord"}}}``, and then
+    ``"uniform_start_chord": [{"elements", "errors"}]``; ``ratio`` is refined / uniform where
+    the uniform count is a crossing (else None).
     """
     from ..meshing import generate
-    from .probe_study import TOLERANCE, elements_needed, probe_sets
+    from .probe_study import TOLERANCE, elements_needed, probe_sets, study3d
 
     plan = dict(STUDY_REFINEMENT["quick" if quick else "full"])
-    for k, v in (("fraction", fraction), ("steps", steps), ("max_elements", max_elements)):
+    for k, v in (("fraction", fraction), ("steps", steps), ("max_elements", max_elements),
+                 ("indicator", indicator)):
         if v is not None:
             plan[k] = v
     t0 = time.perf_counter()
@@ -481,10 +540,12 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
     names = list(model.fea.probes)
     sets = probe_sets(names)
     primary = study.primary if study is not None else ("P" if "P" in sets else next(iter(sets)))
-    start = generate(model, threshold, chord_tol=chord_tol).mesh
+    start_tol = chord_tol if start_chord_tol is None else start_chord_tol
+    verify_tol = None if start_tol is None else max(start_tol, chord_tol or 0.0)
+    start = generate(model, threshold, chord_tol=start_tol).mesh
     a = adapt(start, model, threshold, tolerance=1e-9, steps=plan["steps"],
               fraction=plan["fraction"], max_elements=plan["max_elements"],
-              chord_tol=chord_tol)
+              chord_tol=verify_tol, indicator=plan["indicator"])
     tol = TOLERANCE if study is None else study.tolerance
     meshes = []
     for st in a.steps:
@@ -492,8 +553,8 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
                 for s, ns in sets.items()}
         meshes.append({"family": "refined", "param": st["step"], "elements": st["elements"],
                        "von_mises": st["von_mises"], "estimate": st["estimate"],
-                       "errors": errs, "max_error": errs[primary],
-                       "solve_seconds": st["solve_seconds"]})
+                       "estimate_of": st["estimate_of"], "errors": errs,
+                       "max_error": errs[primary], "solve_seconds": st["solve_seconds"]})
     needed = {}
     for s in sets:
         n, exact = elements_needed([m["elements"] for m in meshes],
@@ -507,5 +568,19 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
             if n is not None and u["uniform"] and u["uniform_exact"]:
                 nd["ratio"] = n / u["uniform"]
         needed[s] = nd
-    return {"threshold": float(threshold), **plan, "reason": a.reason, "meshes": meshes,
-            "needed": needed, "primary": primary, "seconds": time.perf_counter() - t0}
+    out = {"threshold": float(threshold), **plan,
+           "start_chord_tol": None if start_tol is None else float(start_tol),
+           "reason": a.reason, "meshes": meshes, "needed": needed, "primary": primary}
+    if uniform_elements and start_tol != chord_tol:
+        same = study3d(model, reference, uniform_elements=list(uniform_elements),
+                       thresholds=(), tolerance=tol, chord_tol=start_tol)
+        out["uniform_start_chord"] = [{"elements": m["elements"], "errors": m["errors"]}
+                                      for m in same.meshes if "error" not in m]
+        for s, nd in needed.items():
+            u = same.needed_by_set[s]
+            nd.update(uniform_start_chord=u["uniform"],
+                      uniform_start_chord_exact=u["uniform_exact"], ratio_start_chord=None)
+            if nd["refined"] is not None and u["uniform"] and u["uniform_exact"]:
+                nd["ratio_start_chord"] = nd["refined"] / u["uniform"]
+    out["seconds"] = time.perf_counter() - t0
+    return out

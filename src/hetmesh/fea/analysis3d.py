@@ -27,7 +27,8 @@ from .config3d import FEAConfig3D, Selection
 from .mixing import mix
 from .solid import STRESS_NAMES_3D, Displacement, solve_tets
 
-__all__ = ["FEAResult3D", "Part3D", "solve_mesh3d", "face_vertices", "selection_mask"]
+__all__ = ["FEAResult3D", "Part3D", "solve_mesh3d", "face_vertices", "selection_mask",
+           "Conditions3D", "mesh_conditions"]
 
 log = logging.getLogger(__name__)
 
@@ -142,10 +143,22 @@ def selection_mask(sel: Selection, faces: Mapping[str, np.ndarray], P: np.ndarra
     return m
 
 
-def solve_mesh3d(mesh, model, cfg: FEAConfig3D) -> FEAResult3D:
-    """Conduction and thermoelasticity on a tetrahedral mesh (see the module docstring);
-    ``model`` gives ``material`` (a field on ``(N, 3)`` points), ``name`` and optionally
-    ``solid``."""
+@dataclass(frozen=True, eq=False)
+class Conditions3D:
+    """What :func:`hetmesh.fea.solid.solve_tets` needs besides the mesh: the mixed material
+    (a callable on points), the temperature, displacement and pressure conditions as vertex
+    selections, and the piece of every element."""
+
+    material: Any
+    temperature: list
+    displacement: list
+    pressure: list
+    groups: np.ndarray
+
+
+def mesh_conditions(mesh, model, cfg: FEAConfig3D) -> Conditions3D:
+    """The ``[fea]`` table ``cfg`` on a tetrahedral mesh of ``model``: :class:`Conditions3D`
+    (used by :func:`solve_mesh3d` and by the dual solves of :mod:`hetmesh.fea.goal`)."""
     field_ = model.material
     if len(cfg.properties) != len(field_.constituents):
         raise FEAError(f"the [fea] properties are for {len(cfg.properties)} constituents, the "
@@ -176,10 +189,19 @@ def solve_mesh3d(mesh, model, cfg: FEAConfig3D) -> FEAResult3D:
     if has_subregions(field_):
         sub = element_subregions(field_, P, T)
         groups = groups * (int(sub.max()) + 1) + sub
-    r = solve_tets(P, T, material, order=cfg.order, temperature=temps, displacement=disp,
-                   pressure=press, probes=cfg.probes,
+    return Conditions3D(material, temps, disp, press, groups)
+
+
+def solve_mesh3d(mesh, model, cfg: FEAConfig3D) -> FEAResult3D:
+    """Conduction and thermoelasticity on a tetrahedral mesh (see the module docstring);
+    ``model`` gives ``material`` (a field on ``(N, 3)`` points), ``name`` and optionally
+    ``solid``."""
+    c = mesh_conditions(mesh, model, cfg)
+    P, T = np.asarray(mesh.points), np.asarray(mesh.cells)
+    r = solve_tets(P, T, c.material, order=cfg.order, temperature=c.temperature,
+                   displacement=c.displacement, pressure=c.pressure, probes=cfg.probes,
                    reference_temperature=cfg.reference_temperature,
-                   length_scale=cfg.length_scale, groups=groups, solver=cfg.solver)
+                   length_scale=cfg.length_scale, groups=c.groups, solver=cfg.solver)
     out = mesh.with_data(
         point_data={"temperature": r.temperature, "displacement": r.displacement,
                     **{k: r.stress[:, i] for i, k in enumerate(STRESS_NAMES_3D)},

@@ -54,7 +54,7 @@ from .recovery3d import (
 __all__ = ["STRESS_NAMES_3D", "TetSpace", "tet_space", "node_pattern", "conduction_matrix",
            "elasticity_matrix", "thermal_load", "pressure_load", "surface_dofs",
            "boundary_faces", "stresses_3d", "von_mises_3d", "rigid_rank_3d", "SolidResult",
-           "solve_tets", "Displacement"]
+           "solve_tets", "Displacement", "quadrature_properties"]
 
 log = logging.getLogger(__name__)
 
@@ -391,7 +391,7 @@ def _solve_tets(P, T, material, *, order, temperature, displacement, pressure, p
     _check_conditions(P, T, temperature, displacement)
     origin = 0.5 * (P.min(axis=0) + P.max(axis=0))
     space = tet_space((P - origin) * length_scale, T, order)
-    props = _properties(space, material, origin, length_scale)
+    props = quadrature_properties(space, material, origin, length_scale)
     timings["material"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
@@ -447,7 +447,7 @@ def _check_conditions(P, T, temperature, displacement) -> None:
     _check_rigid(parts, T, P, fixed_v)
 
 
-def _properties(space: TetSpace, material, origin, length_scale) -> dict[str, np.ndarray]:
+def quadrature_properties(space: TetSpace, material, origin, length_scale) -> dict[str, np.ndarray]:
     """The mixed properties ``(M, Q)`` at every quadrature point (model coordinates), with
     the Lame constants ``lam``, ``mu`` and the thermal modulus ``beta`` of the solid."""
     M = len(space.dofs)

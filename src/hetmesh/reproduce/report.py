@@ -516,7 +516,9 @@ def _refinement_lines(section) -> list[str]:
     (:func:`hetmesh.fea.adapt.refinement_study`)."""
     out = ["### 3-D: material-adaptive + solution-adaptive refinement", "",
            "`hetmesh.fea.adapt`: the adaptive mesh at the plan's largest δ0 solved, its "
-           "elements' errors estimated by Zienkiewicz-Zhu stress recovery, the elements "
+           "elements' errors estimated by Zienkiewicz-Zhu stress recovery (with the "
+           "indicator `goal`: weighted by the ZZ error of the dual solution for the probes' "
+           "von Mises stresses, `hetmesh.fea.goal`), the elements "
            "carrying half of the estimate (Dörfler marking) bisected along their longest "
            "edge, new boundary vertices put on the exact surface, the mesh re-verified "
            "(δ_max < δ0), solved again; every step one mesh of the family.", ""]
@@ -528,9 +530,13 @@ def _refinement_lines(section) -> list[str]:
         rows = [[str(m["param"]), num(m["elements"]), num(100 * m["estimate"], 3)]
                 + [num(100 * m["errors"][k], 3) for k in sets] + [num(m["solve_seconds"], 1)]
                 for m in r["meshes"]]
-        out += [f"**{name}** (from δ0 = {r['threshold']:g}, fraction {r['fraction']:g}, "
+        goal = r.get("indicator", "energy") == "goal"
+        start = r.get("start_chord_tol")
+        out += [f"**{name}** (from δ0 = {r['threshold']:g}"
+                + ("" if start is None else f", chord tolerance {start:g}")
+                + f", indicator {r.get('indicator', 'energy')}, fraction {r['fraction']:g}, "
                 f"stopped: {r['reason']}, {r['seconds']:.0f} s).", ""]
-        out += markdown_table(["step", "tets", "ZZ estimate %"]
+        out += markdown_table(["step", "tets", "probe estimate %" if goal else "ZZ estimate %"]
                               + [f"max error {k} %" for k in sets] + ["solve s"], rows) + [""]
         rows = []
         for k, nd in r["needed"].items():
@@ -543,8 +549,17 @@ def _refinement_lines(section) -> list[str]:
             rows.append([k, cnt(nd["uniform"], nd["uniform_exact"]),
                          NA if nd["adaptive"] is None else num(int(round(nd["adaptive"]))),
                          cnt(nd["refined"], nd["refined_exact"]), ratio])
-        out += markdown_table(["probes", "(a) uniform", "(b) adaptive", "(c) adaptive + refined",
-                               "(c)/(a), target <= 0.5"], rows) + [""]
+            if "uniform_start_chord" in nd:
+                same = nd["ratio_start_chord"]
+                rows[-1] += [cnt(nd["uniform_start_chord"], nd["uniform_start_chord_exact"]),
+                             NA if same is None else (num(same, 3) if nd["refined_exact"]
+                                                      else f"<= {num(same, 3)}")]
+        head = ["probes", "(a) uniform", "(b) adaptive", "(c) adaptive + refined",
+                "(c)/(a), target <= 0.5"]
+        if any("uniform_start_chord" in nd for nd in r["needed"].values()):
+            head += [f"(a') uniform, chord {r['start_chord_tol']:g}", "(c)/(a')"]
+            rows = [row + [NA, NA] * (len(row) == 5) for row in rows]
+        out += markdown_table(head, rows) + [""]
     return out
 
 
