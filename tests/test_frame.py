@@ -64,7 +64,10 @@ def test_extreme_units_mesh(L):
     m = square(L)
     r = hetmesh.generate(m, 0.1)
     check_invariants(r, m, 0.1)
-    assert r.stats.n_elements == ref.stats.n_elements
+    # not a power of two: the local coordinates round differently, the smoothing carries
+    # that into the node positions, and the vertex removal, decided by the geometry, may
+    # take a node more or less (powers of two: bit for bit, above)
+    assert abs(r.stats.n_elements - ref.stats.n_elements) <= 0.01 * ref.stats.n_elements
     assert r.options["max_size"] == pytest.approx(m.domain.diameter / 8)
 
 

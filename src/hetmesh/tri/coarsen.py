@@ -53,6 +53,10 @@ log = logging.getLogger(__name__)
 
 #: nodes with more triangles around them are not removed (a fan of many is rarely good)
 MAX_DEGREE = 10
+#: the margin of every comparison of qualities, angles and gains: far above the rounding
+#: of coordinates scaled to the local frame, so the same model gives the same mesh in any
+#: units
+TIE = 1e-9
 
 
 def star_table(tris: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,9 +117,10 @@ def _proposals(P, tris, comp, reg, delta_ev, q, ang, cand, *, min_angle, q_keep,
     a_new_min = np.full(npair, np.inf)
     np.minimum.at(a_new_min, pi, an)
     gain = np.bincount(pi, qn, minlength=npair) - q_old_sum[ii] + 2.0 * q_mean
-    good &= q_new_min >= np.minimum(q_old_min[ii], q_keep)
-    good &= a_new_min >= np.minimum(a_old_min[ii], min_angle)
-    good &= gain >= 0.0
+    # margins well above rounding: a tie in exact arithmetic is a refusal at every scale
+    good &= q_new_min >= np.minimum(q_old_min[ii], q_keep) + TIE
+    good &= a_new_min >= np.minimum(a_old_min[ii], min_angle) + TIE
+    good &= gain >= TIE
     # delta, the costly test, only where the rest holds
     rg = None if reg is None else reg[table[ii[pi], mm]]
     s = np.flatnonzero(good[pi])
@@ -159,7 +164,8 @@ def _independent(n: int, tris: np.ndarray, prop: _Proposals) -> np.ndarray:
     """Which proposals to take together: those whose gain (ties: a fixed hash of the node,
     then the larger node id) beats every other proposal whose star shares a vertex with
     theirs, so that the taken nodes are at least three edges apart."""
-    pr = np.lexsort((prop.node, priority_hash(prop.node) % np.uint64(1 << 20), prop.gain))
+    gain = np.round(prop.gain / TIE) * TIE  # equal up to rounding: the hash decides
+    pr = np.lexsort((prop.node, priority_hash(prop.node) % np.uint64(1 << 20), gain))
     rank = np.empty(len(pr), np.int64)
     rank[pr] = np.arange(len(pr))  # a strict total order
     ok = prop.star >= 0
