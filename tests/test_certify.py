@@ -501,3 +501,19 @@ def test_a_field_constant_along_a_prism_bounds_its_tetrahedra_by_their_shadow():
         np.testing.assert_array_equal(b3.reshape(2, 30, 3), np.broadcast_to(
             b2[None, :, None], (2, 30, 3)))
     assert (b3 >= delta_dense(field, pts, tets, order=14) - 1e-12).all()
+
+
+def test_a_call_past_its_piece_budget_stops_with_upper_bounds(monkeypatch):
+    """The piece budget stops the subdivision early (one call's work is bounded); the
+    elements left open keep their looser bounds, still above the true variation."""
+    import hetmesh.certify as certify
+    f = AnalyticField({"b": "exp(-((x - 0.3)**2 + (y - 0.5)**2 + (z - 0.2)**2)/0.002)"},
+                      ["a", "b"], dim=3)
+    P, T = _random_tets(np.random.default_rng(4), 24)
+    full = certified_delta(f, P, T)
+    monkeypatch.setattr(certify, "MAX_PIECES", 200)  # a level may hold 200
+    monkeypatch.setattr(certify, "WORK_PER_ELEMENT", 2)
+    capped = certified_delta(f, P, T)
+    fine = delta_dense(f, P, T, order=30)
+    assert (full >= fine - 1e-12).all() and (capped >= fine - 1e-12).all()
+    assert (capped > full + 0.01).any()

@@ -4,6 +4,7 @@ the chosen sampling, checked again here with a finer lattice and the independent
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -189,3 +190,24 @@ def test_certified_sampling_of_an_extruded_feature_tree_ring_finishes_and_holds(
     assert true.max() < d0
     bound = certified_delta(model.material, M.points, M.cells, regions=regions)
     assert (bound >= true - 1e-9).all() and bound.max() < d0
+
+
+def test_a_sampled_repair_past_the_budget_names_the_worst_tetrahedron(tmp_path):
+    """The 2 mm ring at 0.4 needs 1,178 tetrahedra with certified sampling: a budget of
+    1,100 stops the repair with one line naming the worst tetrahedron left, inside the
+    solid, and the CLI writes nothing."""
+    text = hetmesh.example_path("hft_ring_3d").read_text(encoding="utf-8")
+    path = tmp_path / "ring_2mm.toml"
+    path.write_text(text.replace("\nlength = 10\n", "\nlength = 2\n"), encoding="utf-8")
+    out = tmp_path / "ring.vtu"
+    run = subprocess.run([sys.executable, "-m", "hetmesh", "mesh", str(path), "-d", "0.4",
+                          "--sampling", "certified", "--max-elements", "1100", "-o",
+                          str(out)], capture_output=True, text=True)
+    assert run.returncode == 2 and not out.exists()
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "element budget" in lines[0], run.stderr
+    m = re.search(r"the worst has delta ([0-9.]+) at \(([-0-9.e]+), ([-0-9.e]+), "
+                  r"([-0-9.e]+)\)", lines[0])
+    assert m is not None, lines[0]
+    delta, x, y, z = (float(g) for g in m.groups())
+    assert delta >= 0.4 and 7.0 < np.hypot(x, y) < 38.0 and 0.0 < z < 2.0

@@ -48,7 +48,9 @@ Each element is subdivided (at the edge midpoints: four children per triangle, e
 tetrahedron, four at its corners and four around a diagonal of the inner octahedron) where its
 enclosure is not yet within ``atol + rtol * L`` of ``L``, the variation witnessed by the
 samples (corners, edge midpoints and centroids of the pieces), or, given delta_0, until it
-is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels;
+is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels
+and a budget of pieces (:data:`MAX_PIECES` a level; :data:`WORK_PER_ELEMENT` times the
+elements, at least :data:`MAX_PIECES`, in all: a call's work is bounded, whatever the field);
 pieces whose enclosure already lies within that margin of the witnessed extremes (given
 delta_0: within delta_0 / 2 of their middle) are not split further. The result is the
 enclosure's ``max - min``, so it is never below the true delta(T) of the element; an element
@@ -69,7 +71,7 @@ import numpy as np
 
 __all__ = ["certified_delta", "certifiable", "split_simplices", "radial_range",
            "CertificationUnavailable", "LIPSCHITZ_SAFETY", "TREE_BOUND", "RTOL", "ATOL",
-           "MAX_DEPTH"]
+           "MAX_DEPTH", "MAX_PIECES", "WORK_PER_ELEMENT"]
 
 log = logging.getLogger(__name__)
 
@@ -83,6 +85,10 @@ ATOL = 1e-4
 MAX_DEPTH = 14
 #: the most pieces enclosed in one pass; past it the remaining elements keep their bounds
 MAX_PIECES = 1 << 21
+#: the most pieces enclosed in one call, per element (and at least :data:`MAX_PIECES`);
+#: past it the open elements keep their bounds, so one call's work stays linear in its
+#: elements (the examples' certified meshes use at most about 620 an element)
+WORK_PER_ELEMENT = 1024
 #: feature trees: the sampled gradient norm is multiplied by this to bound the Lipschitz
 #: constant of a piece
 LIPSCHITZ_SAFETY = 2.0
@@ -528,7 +534,9 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
     band_hi = np.full_like(smax, np.inf)  # given delta_0: the band pieces are frozen in,
     band_lo = np.full_like(smin, -np.inf)  # the intersection of all bands so far
     bound = np.full(m_el, np.inf)
+    work = 0  # pieces enclosed so far
     for depth in range(max_depth + 1):
+        work += len(pieces)
         reg = None if own is None else own[owner]
         lo, hi = enc.enclose(pieces, reg)
         live, starts = np.unique(owner, return_index=True)  # owner is sorted
@@ -557,7 +565,8 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
         done = np.zeros(m_el, bool)
         done[live[settled]] = True
         keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
-        if nchild * int((~keep).sum()) > MAX_PIECES:
+        n_next = nchild * int((~keep).sum())
+        if n_next > MAX_PIECES or work + n_next > max(MAX_PIECES, WORK_PER_ELEMENT * m_el):
             log.debug("certify: piece budget reached at depth %d", depth)
             break
         fk = ~done[owner] & keep  # pieces of open elements that need no further split
@@ -574,5 +583,6 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
         lv, st = np.unique(owner, return_index=True)
         smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
         smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))
-    log.debug("certify: %d elements, bound max %.4g", m_el, bound.max())
+    log.debug("certify: %d elements, %d pieces enclosed, bound max %.4g", m_el, work,
+              bound.max())
     return bound
