@@ -190,6 +190,14 @@ def test_certified_sampling_of_an_extruded_feature_tree_ring_finishes_and_holds(
     assert true.max() < d0
     bound = certified_delta(model.material, M.points, M.cells, regions=regions)
     assert (bound >= true - 1e-9).all() and bound.max() < d0
+    # hetmesh stats bounds every tetrahedron of the written mesh in its own subregion too
+    out = M.write(tmp_path / "ring.vtu")
+    st = subprocess.run([sys.executable, "-m", "hetmesh", "stats", str(out), "-m", str(path),
+                         "--sampling", "certified", "-d", str(d0), "--json"],
+                        capture_output=True, text=True)
+    assert st.returncode == 0, st.stderr
+    js = json.loads(st.stdout)
+    assert js["n_over_threshold"] == 0 and true.max() <= js["delta_max"] < d0
 
 
 def test_a_sampled_repair_past_the_budget_names_the_worst_tetrahedron(tmp_path):
