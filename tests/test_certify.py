@@ -482,3 +482,38 @@ def test_revolved_box_radius_range_holds_every_point_of_the_box():
     corners = np.hypot(np.where(np.abs(lo[:, :2]) > np.abs(hi[:, :2]), lo[:, :2], hi[:, :2])[:, 0],
                        np.where(np.abs(lo[:, :2]) > np.abs(hi[:, :2]), lo[:, :2], hi[:, :2])[:, 1])
     np.testing.assert_allclose(rhi, corners, rtol=1e-12)
+
+
+def test_a_field_constant_along_a_prism_bounds_its_tetrahedra_by_their_shadow():
+    """An extruded field's tetrahedra are bounded on their shadows on the section: those of
+    a swept prism (and of its layers) get exactly the bound of their section triangle."""
+    from hetmesh.tet.extrude import SectionField, prism_tets
+    prism, _ = _prism_and_revolution()
+    f2 = AnalyticField({"b": "exp(-((x - 0.9)**2 + (y - 0.1)**2)/0.003)"}, ["a", "b"])
+    rng = np.random.default_rng(9)
+    tri = rng.uniform(0.0, 1.0, (30, 3, 2))
+    P2, T2 = tri.reshape(-1, 2), np.arange(90).reshape(30, 3)
+    pts, tets, _ = prism_tets(P2, T2, np.array([0.0, 0.4, 1.0]))
+    field = SectionField(f2, prism)
+    for threshold in (None, 0.3):
+        b3 = certified_delta(field, pts, tets, threshold=threshold)
+        b2 = certified_delta(f2, P2, T2, threshold=threshold)
+        np.testing.assert_array_equal(b3.reshape(2, 30, 3), np.broadcast_to(
+            b2[None, :, None], (2, 30, 3)))
+    assert (b3 >= delta_dense(field, pts, tets, order=14) - 1e-12).all()
+
+
+def test_a_call_past_its_piece_budget_stops_with_upper_bounds(monkeypatch):
+    """The piece budget stops the subdivision early (one call's work is bounded); the
+    elements left open keep their looser bounds, still above the true variation."""
+    import hetmesh.certify as certify
+    f = AnalyticField({"b": "exp(-((x - 0.3)**2 + (y - 0.5)**2 + (z - 0.2)**2)/0.002)"},
+                      ["a", "b"], dim=3)
+    P, T = _random_tets(np.random.default_rng(4), 24)
+    full = certified_delta(f, P, T)
+    monkeypatch.setattr(certify, "MAX_PIECES", 200)  # a level may hold 200
+    monkeypatch.setattr(certify, "WORK_PER_ELEMENT", 2)
+    capped = certified_delta(f, P, T)
+    fine = delta_dense(f, P, T, order=30)
+    assert (full >= fine - 1e-12).all() and (capped >= fine - 1e-12).all()
+    assert (capped > full + 0.01).any()

@@ -4,6 +4,7 @@ the chosen sampling, checked again here with a finer lattice and the independent
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -120,3 +121,101 @@ def test_certified_sampling_on_a_solid_of_primitives():
     check_tet_mesh(M.points, M.cells, lambda p: np.zeros(len(p)), 0.3)
     assert certified_delta(model.material, M.points, M.cells, threshold=0.3).max() < 0.3
     assert set(M.marker_names.values()) == {"inner", "outer", "xmin", "ymin", "zmin"}
+
+
+
+def _ring_ceramic(r: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """The ceramic fraction of hft_ring at radius ``r`` in the inner subregion (C to A:
+    1 - 0.6 W, W = (d_b / (d_int + d_b))**3) or the outer one (A to B: 0.4 W, squared),
+    the distances to the circles being |r - R|."""
+    d_int = np.abs(r - 28.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w_in = (np.abs(r - 8.0) / (d_int + np.abs(r - 8.0))) ** 3
+        w_out = (np.abs(38.0 - r) / (d_int + np.abs(38.0 - r))) ** 2
+    return np.where(inner, 1.0 - 0.6 * w_in, 0.4 * w_out)
+
+
+def _ring_ceramic_range(r_lo: np.ndarray, r_hi: np.ndarray, inner: np.ndarray
+                        ) -> np.ndarray:
+    """The true variation of :func:`_ring_ceramic` over radii ``[r_lo, r_hi]``: it is
+    monotone between the radii 8, 28 and 38, so its extremes are at the ends and at those
+    radii inside the range."""
+    vals = [_ring_ceramic(r_lo, inner), _ring_ceramic(r_hi, inner)]
+    for brk in (8.0, 28.0, 38.0):
+        at = (r_lo < brk) & (brk < r_hi)
+        vals.append(np.where(at, _ring_ceramic(np.full_like(r_lo, brk), inner), vals[0]))
+    v = np.stack(vals)
+    return v.max(axis=0) - v.min(axis=0)
+
+
+def test_certified_sampling_of_an_extruded_feature_tree_ring_finishes_and_holds(tmp_path):
+    """hft_ring_3d (two subregions, the interface circle A as a cylindrical surface), 2 mm
+    long instead of 10, at delta_0 = 0.4: the certified bound of a tetrahedron is that of
+    its shadow on the section (it once subdivided the tetrahedra in 3D, eight children a
+    level, and the 10 mm ring at 0.3 ran for more than 15 minutes). Checked against the
+    ring's closed form: every tetrahedron's true variation, from the radii its shadow
+    spans, is below delta_0 and below its certified bound."""
+    text = hetmesh.example_path("hft_ring_3d").read_text(encoding="utf-8")
+    assert "\nlength = 10\n" in text
+    path = tmp_path / "ring_2mm.toml"
+    path.write_text(text.replace("\nlength = 10\n", "\nlength = 2\n"), encoding="utf-8")
+    model = hetmesh.load_model(path)
+    d0 = 0.4
+    r = hetmesh.generate(model, d0, sampling="certified")
+    M = r.mesh
+    check_tet_mesh(M.points, M.cells, lambda p: np.zeros(len(p)), d0)
+    corners = M.points[M.cells]
+    q = corners[:, :, :2]  # (T, 4, 2) the shadows' corners
+    r_hi = np.hypot(q[..., 0], q[..., 1]).max(axis=1)
+    # the shadow's (convex hull of four points, the axis outside) nearest point to the
+    # axis: on a segment between two of them
+    dist = []
+    for i, j in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
+        a, e = q[:, i], q[:, j] - q[:, i]
+        t = np.clip(-(a * e).sum(axis=1) / np.maximum((e * e).sum(axis=1), 1e-300), 0, 1)
+        dist.append(np.hypot(*(a + t[:, None] * e).T))
+    r_lo = np.min(dist, axis=0)
+    assert r_lo.min() > 7.0 and r_hi.max() < 38.0 + 1e-9  # chords sag inside
+    # no tetrahedron straddles the interface cylinder (vertices on it, chords inside it)
+    inner = np.hypot(*corners.mean(axis=1)[:, :2].T) < 28.0
+    assert (r_hi[inner] <= 28.0 * (1 + 1e-12)).all() and (r_lo[~inner] > 27.5).all()
+    regions = np.asarray(M.regions)
+    assert len(np.unique(regions[inner])) == 1 and len(np.unique(regions[~inner])) == 1
+    # the closed form is the model's field (at the vertices, each in its subregion)
+    v = corners.reshape(-1, 3)
+    c = model.material2d.composition(v[:, :2], region=np.repeat(regions, 4))[:, 0]
+    np.testing.assert_allclose(_ring_ceramic(np.hypot(v[:, 0], v[:, 1]),
+                                             np.repeat(inner, 4)), c, atol=1e-12)
+    true = _ring_ceramic_range(r_lo, r_hi, inner)
+    assert true.max() < d0
+    bound = certified_delta(model.material, M.points, M.cells, regions=regions)
+    assert (bound >= true - 1e-9).all() and bound.max() < d0
+    # hetmesh stats bounds every tetrahedron of the written mesh in its own subregion too
+    out = M.write(tmp_path / "ring.vtu")
+    st = subprocess.run([sys.executable, "-m", "hetmesh", "stats", str(out), "-m", str(path),
+                         "--sampling", "certified", "-d", str(d0), "--json"],
+                        capture_output=True, text=True)
+    assert st.returncode == 0, st.stderr
+    js = json.loads(st.stdout)
+    assert js["n_over_threshold"] == 0 and true.max() <= js["delta_max"] < d0
+
+
+def test_a_sampled_repair_past_the_budget_names_the_worst_tetrahedron(tmp_path):
+    """The 2 mm ring at 0.4 needs 1,178 tetrahedra with certified sampling: a budget of
+    1,100 stops the repair with one line naming the worst tetrahedron left, inside the
+    solid, and the CLI writes nothing."""
+    text = hetmesh.example_path("hft_ring_3d").read_text(encoding="utf-8")
+    path = tmp_path / "ring_2mm.toml"
+    path.write_text(text.replace("\nlength = 10\n", "\nlength = 2\n"), encoding="utf-8")
+    out = tmp_path / "ring.vtu"
+    run = subprocess.run([sys.executable, "-m", "hetmesh", "mesh", str(path), "-d", "0.4",
+                          "--sampling", "certified", "--max-elements", "1100", "-o",
+                          str(out)], capture_output=True, text=True)
+    assert run.returncode == 2 and not out.exists()
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "element budget" in lines[0], run.stderr
+    m = re.search(r"the worst has delta ([0-9.]+) at \(([-0-9.e]+), ([-0-9.e]+), "
+                  r"([-0-9.e]+)\)", lines[0])
+    assert m is not None, lines[0]
+    delta, x, y, z = (float(g) for g in m.groups())
+    assert delta >= 0.4 and 7.0 < np.hypot(x, y) < 38.0 and 0.0 < z < 2.0

@@ -33,8 +33,12 @@ samples. :func:`certified_delta` bounds it from above instead:
   for every tree, for comparisons).
 * **Tetrahedra**: the same, on 3D boxes. A formula in ``x, y, z`` is enclosed as above. A
   2D field seen through a prism's section (an extruded model,
-  :class:`~hetmesh.tet.extrude.SectionField`) is enclosed by its 2D enclosure on the box's
-  section coordinates; through a revolution (:class:`~hetmesh.tet.revolve.RevolvedField`),
+  :class:`~hetmesh.tet.extrude.SectionField`) is constant along the axis, so a
+  tetrahedron's variation is that of the 2D field over its shadow on the section: the
+  shadow is covered by triangles (one for a tetrahedron of a swept prism, else four) that
+  are bounded as 2D elements, each distinct shadow once (subdividing the tetrahedron
+  itself, eight children a level, would spend most of its pieces along the axis, where
+  nothing varies); through a revolution (:class:`~hetmesh.tet.revolve.RevolvedField`),
   on the 2D box ``(r, z)`` whose ``r`` runs from the distance of the box's ``(x, y)``
   rectangle to the axis to that of its farthest corner.
 * Anything else (a Python callable, :class:`~hetmesh.material.CallableField`) has no tree
@@ -44,7 +48,9 @@ Each element is subdivided (at the edge midpoints: four children per triangle, e
 tetrahedron, four at its corners and four around a diagonal of the inner octahedron) where its
 enclosure is not yet within ``atol + rtol * L`` of ``L``, the variation witnessed by the
 samples (corners, edge midpoints and centroids of the pieces), or, given delta_0, until it
-is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels;
+is decided (bound below delta_0, or samples at or above it), up to ``max_depth`` levels
+and a budget of pieces (:data:`MAX_PIECES` a level; :data:`WORK_PER_ELEMENT` times the
+elements, at least :data:`MAX_PIECES`, in all: a call's work is bounded, whatever the field);
 pieces whose enclosure already lies within that margin of the witnessed extremes (given
 delta_0: within delta_0 / 2 of their middle) are not split further. The result is the
 enclosure's ``max - min``, so it is never below the true delta(T) of the element; an element
@@ -65,7 +71,7 @@ import numpy as np
 
 __all__ = ["certified_delta", "certifiable", "split_simplices", "radial_range",
            "CertificationUnavailable", "LIPSCHITZ_SAFETY", "TREE_BOUND", "RTOL", "ATOL",
-           "MAX_DEPTH"]
+           "MAX_DEPTH", "MAX_PIECES", "WORK_PER_ELEMENT"]
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +85,10 @@ ATOL = 1e-4
 MAX_DEPTH = 14
 #: the most pieces enclosed in one pass; past it the remaining elements keep their bounds
 MAX_PIECES = 1 << 21
+#: the most pieces enclosed in one call, per element (and at least :data:`MAX_PIECES`);
+#: past it the open elements keep their bounds, so one call's work stays linear in its
+#: elements (the examples' certified meshes use at most about 620 an element)
+WORK_PER_ELEMENT = 1024
 #: feature trees: the sampled gradient norm is multiplied by this to bound the Lipschitz
 #: constant of a piece
 LIPSCHITZ_SAFETY = 2.0
@@ -219,17 +229,42 @@ class _TreeEnclosure:
 
 
 class _SectionEnclosure:
-    """Enclosures of a 3D field that is a 2D field of a prism's section coordinates
-    ``(u, v)`` (an extruded model): the 3D box's ``(u, v)`` faces are a 2D box, enclosed
-    by the 2D field's own enclosure."""
+    """A 3D field that is a 2D field of a prism's section coordinates ``(u, v)`` (an
+    extruded model), constant along the axis: a tetrahedron's variation is that of the 2D
+    field over its shadow on the section, which :meth:`project` covers with triangles, and
+    those are bounded as 2D elements (``inner``, the 2D field's own enclosure)."""
 
     def __init__(self, inner, uv: tuple[int, int]):
         self.inner = inner
         self.uv = list(uv)
 
-    def enclose(self, corners: np.ndarray, region: np.ndarray | None):
-        lo, hi = _box(corners, np.zeros(3))
-        return self.inner.enclose_box(lo[:, self.uv], hi[:, self.uv], region)
+    def project(self, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(triangles (M, 4, 3, 2), single (M,) bool)``: four triangles of the section
+        whose union is the shadow of each tetrahedron ``(M, 4, 3)``, the convex hull of its
+        four projected corners, each triangle's corners in lexicographic order. That hull
+        is the union of the four triangles of three of them (Caratheodory: every point of
+        the hull of four points in the plane lies in a triangle of three); where two
+        projected corners coincide exactly (a tetrahedron of a swept prism, or one bisected
+        from it) the triangle of the other three and one of the pair is the whole hull,
+        and it fills all four places (``single``).
+
+        >>> c = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 5.0]]])
+        >>> t, one = _SectionEnclosure(None, (0, 1)).project(c)
+        >>> t[0, 0].tolist(), bool(one[0]), bool((t == t[:, :1]).all())
+        ([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]], True, True)
+        """
+        q = corners[:, :, self.uv]  # (M, 4, 2)
+        m = len(q)
+        drop = np.full(m, -1)  # a corner whose twin stands for it, else -1
+        for i, j in _TET_EDGES[::-1]:  # the first pair wins
+            drop[(q[:, i] == q[:, j]).all(axis=1)] = j
+        without = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])  # corner k left out
+        single = drop >= 0
+        faces = np.where(single[:, None, None], without[np.maximum(drop, 0)][:, None],
+                         without[None])  # (M, 4, 3)
+        tri = q[np.arange(m)[:, None, None], faces]  # (M, 4, 3, 2)
+        rank = np.lexsort((tri[..., 1], tri[..., 0]), axis=-1)  # corners by (u, v)
+        return np.take_along_axis(tri, rank[..., None], axis=2), single
 
 
 class _RevolvedEnclosure:
@@ -402,7 +437,11 @@ def certified_delta(field, points: np.ndarray, triangles: np.ndarray, *,
     # the elements in the base field's coordinates (frame undone; the box pads rounding)
     corners = points[triangles] * scale + offset
     own = None if regions is None else np.asarray(regions, dtype=np.int64)
-    return _bound(base, enc, corners, own, rtol, atol, max_depth, threshold)
+    if isinstance(enc, _SectionEnclosure):  # constant along the axis: bound the shadows
+        return _shadow_bound(base.field2d, enc, corners, own, rtol, atol, max_depth,
+                             threshold)
+    return _bound(base, enc, corners, np.arange(len(corners)), own, rtol, atol, max_depth,
+                  threshold)
 
 
 def _samples(base, corners: np.ndarray, region: np.ndarray | None,
@@ -457,20 +496,47 @@ def _group(values: np.ndarray, starts: np.ndarray, ufunc) -> np.ndarray:
     return ufunc.reduceat(values, starts, axis=0)
 
 
-def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndarray:
-    m_el = len(corners)
+def _shadow_bound(field2d, enc, corners, own, rtol, atol, max_depth, threshold
+                  ) -> np.ndarray:
+    """:func:`_bound` of tetrahedra ``corners`` of a field constant along a prism's axis:
+    of their shadows on the section (:meth:`_SectionEnclosure.project`), each distinct
+    shadow (with its subregion) once; the tetrahedra of one prism, and the halves of a
+    tetrahedron bisected along the axis, share theirs."""
+    tri, single = enc.project(corners)
+    m = len(tri)
+    key = tri.reshape(m, -1)
+    if own is not None:
+        key = np.column_stack([key, own])
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    count = np.where(single[first], 1, 4)
+    owner = np.repeat(np.arange(len(first)), count)
+    slot = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
+    pieces = tri[first[owner], slot]
+    reg = None if own is None else own[first]
+    return _bound(field2d, enc.inner, pieces, owner, reg, rtol, atol, max_depth,
+                  threshold)[inv.reshape(-1)]
+
+
+def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> np.ndarray:
+    """The bound of :func:`certified_delta` for elements covered by the pieces ``corners``
+    (``(K, d + 1, d)``, each a subset of element ``owner[k]``, ``owner`` sorted and every
+    element present) whose union is the element, or its image in ``base``'s coordinates."""
+    m_el = int(owner[-1]) + 1
     dim = corners.shape[2]
     nchild = 2 ** dim  # children per split piece
-    owner = np.arange(m_el)
     pieces = corners
-    s = _samples(base, pieces, own)
-    smax, smin = np.fmax.reduce(s, axis=1), np.fmin.reduce(s, axis=1)  # witnessed (M, m)
+    s = _samples(base, pieces, None if own is None else own[owner])
+    starts = np.unique(owner, return_index=True)[1]
+    smax = _group(np.fmax.reduce(s, axis=1), starts, np.fmax)  # witnessed (M, m)
+    smin = _group(np.fmin.reduce(s, axis=1), starts, np.fmin)
     frozen_hi = np.full_like(smax, -np.inf)
     frozen_lo = np.full_like(smin, np.inf)
     band_hi = np.full_like(smax, np.inf)  # given delta_0: the band pieces are frozen in,
     band_lo = np.full_like(smin, -np.inf)  # the intersection of all bands so far
     bound = np.full(m_el, np.inf)
+    work = 0  # pieces enclosed so far
     for depth in range(max_depth + 1):
+        work += len(pieces)
         reg = None if own is None else own[owner]
         lo, hi = enc.enclose(pieces, reg)
         live, starts = np.unique(owner, return_index=True)  # owner is sorted
@@ -482,6 +548,8 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         settled = ub - seen <= atol + rtol * seen
         if threshold is not None:  # decided: proven below, or witnessed at or above
             settled |= (ub < threshold) | (seen >= threshold)
+        log.debug("certify: depth %d, %d pieces, %d open elements", depth, len(pieces),
+                  int((~settled).sum()))
         if depth == max_depth or settled.all():
             break
         margin = np.zeros(m_el)
@@ -497,7 +565,8 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         done = np.zeros(m_el, bool)
         done[live[settled]] = True
         keep = done[owner] | ((hi <= top) & (lo >= bottom)).all(axis=1)
-        if nchild * int((~keep).sum()) > MAX_PIECES:
+        n_next = nchild * int((~keep).sum())
+        if n_next > MAX_PIECES or work + n_next > max(MAX_PIECES, WORK_PER_ELEMENT * m_el):
             log.debug("certify: piece budget reached at depth %d", depth)
             break
         fk = ~done[owner] & keep  # pieces of open elements that need no further split
@@ -514,5 +583,6 @@ def _bound(base, enc, corners, own, rtol, atol, max_depth, threshold) -> np.ndar
         lv, st = np.unique(owner, return_index=True)
         smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
         smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))
-    log.debug("certify: %d elements, bound max %.4g", m_el, bound.max())
+    log.debug("certify: %d elements, %d pieces enclosed, bound max %.4g", m_el, work,
+              bound.max())
     return bound

@@ -233,9 +233,16 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
     delta = delta_vertices(comp, tets)
     if sampling != "vertices":  # dense lattice, certified bound, or every voxel centre
         from ..delta import element_delta
+        from ..material.field import element_subregions, has_subregions
         from ..options import check_sampling
         check_sampling(model.material, sampling, names={"sampling": "--sampling"})
-        delta = element_delta(model.material, points, tets, sampling, composition=comp)
+        # each tetrahedron in its own subregion (of its centroid), as the mesher samples it
+        split = getattr(model.material, "field2d", model.material)
+        regions = element_subregions(model.material, points, tets) \
+            if has_subregions(split) and callable(getattr(model.material, "region", None)) \
+            else None
+        delta = element_delta(model.material, points, tets, sampling, composition=comp,
+                              regions=regions)
     stats = {"n_points": int(len(points)), "n_elements": int(len(tets)),
              "delta_max": float(delta.max()), "delta_avg": float(delta.mean()),
              "volume": float(np.abs(v).sum()), "solid_volume": float(model.solid.volume),

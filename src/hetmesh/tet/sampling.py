@@ -25,13 +25,13 @@ from typing import NamedTuple
 import numpy as np
 
 from ..delta import element_delta
-from ..errors import MeshingError
+from ..errors import BudgetError, MeshingError
 from ..options import check_sampling
 from ..refinement import check_budget, check_progress
 from .refine import MAX_PASSES, bisect_edges, select_edges
 
 __all__ = ["sampled_delta", "repair_sampled", "bisect_faces", "resample", "Repaired",
-           "TET_SAMPLINGS", "result_problems"]
+           "TET_SAMPLINGS", "result_problems", "worst_violator"]
 
 log = logging.getLogger(__name__)
 
@@ -94,9 +94,15 @@ def repair_sampled(points: np.ndarray, tets: np.ndarray, comp: np.ndarray, field
     while (bad := delta >= threshold).any():
         if passes >= MAX_PASSES:
             raise MeshingError(f"sampled delta repair did not converge in {MAX_PASSES} "
-                               f"passes ({int(bad.sum())} tetrahedra left)")
-        if max_elements is not None:
-            check_budget(len(tets), max_elements)
+                               f"passes ({int(bad.sum())} tetrahedra left; "
+                               f"{worst_violator(points, tets, delta, bad)})")
+        if max_elements is not None and len(tets) > max_elements:
+            try:
+                check_budget(len(tets), max_elements)
+            except BudgetError as err:
+                raise BudgetError(f"{err} ({int(bad.sum())} tetrahedra left at delta >= "
+                                  f"{threshold:g}; "
+                                  f"{worst_violator(points, tets, delta, bad)})") from None
         mark = np.zeros(len(points), dtype=bool)
         mark[tets[bad]] = True
         patch = mark[tets].any(axis=1)
@@ -117,6 +123,23 @@ def repair_sampled(points: np.ndarray, tets: np.ndarray, comp: np.ndarray, field
         delta = np.concatenate([delta[~patch], delta_of(points, made, comp, made_reg)])
         passes += 1
     return Repaired(points, tets, comp, delta, passes, regions, faces, markers)
+
+
+def worst_violator(points: np.ndarray, tets: np.ndarray, delta: np.ndarray,
+                   bad: np.ndarray) -> str:
+    """Where the repair is stuck, for its error message: the violating tetrahedron with the
+    largest delta, its centroid and its longest edge.
+
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> worst_violator(p, np.array([[0, 1, 2, 3]]), np.array([0.5]), np.array([True]))
+    'the worst has delta 0.5 at (0.25, 0.25, 0.25), longest edge 1.41'
+    """
+    k = int(np.argmax(np.where(bad, delta, -np.inf)))
+    c = points[tets[k]]
+    x, y, z = c.mean(axis=0)
+    edge = max(float(np.linalg.norm(c[i] - c[j])) for i in range(4) for j in range(i))
+    return (f"the worst has delta {delta[k]:.4g} at ({x:.6g}, {y:.6g}, {z:.6g}), "
+            f"longest edge {edge:.3g}")
 
 
 def bisect_faces(faces: np.ndarray, markers: np.ndarray, split: np.ndarray, n0: int
