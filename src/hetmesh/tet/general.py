@@ -52,7 +52,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
-           "SIZE_ROUNDS", "uniform_solid_at"]
+           "SIZE_ROUNDS", "uniform_solid_at", "background_spacing"]
 
 log = logging.getLogger(__name__)
 
@@ -400,6 +400,19 @@ def estimate_solid(solid, field, threshold: float) -> float:
     return 2.0 * float(per.sum() * np.prod(h)) + 100.0
 
 
+def background_spacing(solid: CSGSolid) -> float:
+    """The spacing of the background grid the solid is cut from: its largest extent over
+    :data:`MAX_CELLS`, and at least :data:`CELLS_PER_RADIUS` cells across its smallest
+    curved radius (at most a sixth of the extent)."""
+    lo, hi = solid.bounds
+    extent = float((hi - lo).max())
+    radii = [s.radius for s in solid.curved]
+    spacing = extent / MAX_CELLS
+    if radii:
+        spacing = max(spacing, min(extent / 6, min(radii) / CELLS_PER_RADIUS))
+    return spacing
+
+
 def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                    chord_tol: float | None = None, max_elements: int | None = None,
                    max_size: float | None = None, check: bool = True) -> TetResult:
@@ -412,13 +425,9 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
                           f"but the budget is {max_elements}")
+    spacing = background_spacing(solid)
     lo, hi = solid.bounds
-    extent = float((hi - lo).max())
-    radii = [s.radius for s in solid.curved]
-    spacing = extent / MAX_CELLS
-    if radii:
-        spacing = max(spacing, min(extent / 6, min(radii) / CELLS_PER_RADIUS))
-    h_max = extent / 4
+    h_max = float((hi - lo).max()) / 4
     if max_size is not None:
         h_max = min(h_max, float(max_size))
     h_min = 1e-4 * solid.diameter
@@ -574,12 +583,7 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
                           f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
-    lo, hi = solid.bounds
-    extent = float((hi - lo).max())
-    radii = [s.radius for s in solid.curved]
-    spacing = extent / MAX_CELLS
-    if radii:
-        spacing = max(spacing, min(extent / 6, min(radii) / CELLS_PER_RADIUS))
+    spacing = background_spacing(solid)
     p, t = cut_solid(solid, spacing)
     faces, markers = _boundary(solid, p, t, 0.5 * spacing)
     size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
