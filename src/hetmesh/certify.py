@@ -69,6 +69,8 @@ import warnings
 
 import numpy as np
 
+from .topology import unique
+
 __all__ = ["certified_delta", "certifiable", "split_simplices", "radial_range",
            "CertificationUnavailable", "LIPSCHITZ_SAFETY", "TREE_BOUND", "RTOL", "ATOL",
            "MAX_DEPTH", "MAX_PIECES", "WORK_PER_ELEMENT"]
@@ -507,7 +509,7 @@ def _shadow_bound(field2d, enc, corners, own, rtol, atol, max_depth, threshold
     key = tri.reshape(m, -1)
     if own is not None:
         key = np.column_stack([key, own])
-    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    _, first, inv = unique(key, axis=0, return_index=True, return_inverse=True)
     count = np.where(single[first], 1, 4)
     owner = np.repeat(np.arange(len(first)), count)
     slot = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
@@ -526,7 +528,7 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
     nchild = 2 ** dim  # children per split piece
     pieces = corners
     s = _samples(base, pieces, None if own is None else own[owner])
-    starts = np.unique(owner, return_index=True)[1]
+    starts = unique(owner, return_index=True)[1]
     smax = _group(np.fmax.reduce(s, axis=1), starts, np.fmax)  # witnessed (M, m)
     smin = _group(np.fmin.reduce(s, axis=1), starts, np.fmin)
     frozen_hi = np.full_like(smax, -np.inf)
@@ -539,7 +541,7 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
         work += len(pieces)
         reg = None if own is None else own[owner]
         lo, hi = enc.enclose(pieces, reg)
-        live, starts = np.unique(owner, return_index=True)  # owner is sorted
+        live, starts = unique(owner, return_index=True)  # owner is sorted
         HI = np.maximum(np.maximum(frozen_hi[live], _group(hi, starts, np.maximum)), smax[live])
         LO = np.minimum(np.minimum(frozen_lo[live], _group(lo, starts, np.minimum)), smin[live])
         ub = (HI - LO).max(axis=1)
@@ -572,7 +574,7 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
         fk = ~done[owner] & keep  # pieces of open elements that need no further split
         if fk.any():
             o = owner[fk]
-            lv, st = np.unique(o, return_index=True)
+            lv, st = unique(o, return_index=True)
             frozen_hi[lv] = np.maximum(frozen_hi[lv], _group(hi[fk], st, np.maximum))
             frozen_lo[lv] = np.minimum(frozen_lo[lv], _group(lo[fk], st, np.minimum))
         if keep.all():  # nothing left to split: the open elements keep their bounds
@@ -580,7 +582,7 @@ def _bound(base, enc, corners, owner, own, rtol, atol, max_depth, threshold) -> 
         pieces = split_simplices(pieces[~keep])
         owner = np.repeat(owner[~keep], nchild)
         s = _samples(base, pieces, None if own is None else own[owner], first=dim + 1)
-        lv, st = np.unique(owner, return_index=True)
+        lv, st = unique(owner, return_index=True)
         smax[lv] = np.fmax(smax[lv], _group(np.fmax.reduce(s, axis=1), st, np.fmax))
         smin[lv] = np.fmin(smin[lv], _group(np.fmin.reduce(s, axis=1), st, np.fmin))
     log.debug("certify: %d elements, %d pieces enclosed, bound max %.4g", m_el, work,

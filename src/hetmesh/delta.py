@@ -13,6 +13,7 @@ import numpy as np
 from .certify import certified_delta
 from .metrics import delta_dense, delta_vertices
 from .options import check_sampling
+from .topology import unique
 
 __all__ = ["element_delta"]
 
@@ -56,7 +57,7 @@ def _delta_own_region(field, points, triangles, comp, regions, delta) -> np.ndar
     e, k = np.nonzero(vreg[triangles] != regions[:, None])
     if len(e) == 0:
         return delta
-    rows, inv = np.unique(e, return_inverse=True)
+    rows, inv = unique(e, return_inverse=True)
     c = comp if comp.ndim == 2 else comp[:, None]
     v = c[triangles[rows]].copy()  # (R, 3, m)
     v[inv, k] = field.composition(points[triangles[e, k]], region=regions[e])

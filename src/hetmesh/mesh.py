@@ -20,7 +20,7 @@ import numpy as np
 
 from .errors import MeshDataError
 from .metrics import tet_volumes6, triangle_areas2
-from .topology import any_corner, component_labels, edge_keys, edge_order, points_near
+from .topology import any_corner, component_labels, edge_keys, edge_order, points_near, unique
 
 __all__ = ["Mesh", "CELL_TYPES", "cell_faces", "face_table", "simplex_measures", "edge_keys",
            "edge_order", "any_corner", "points_near", "component_labels"]
@@ -421,6 +421,6 @@ def _has_repeats(p: np.ndarray) -> bool:
     tie = np.flatnonzero(x[1:] == x[:-1])
     if len(tie) == 0:
         return False
-    q = p[np.unique(np.concatenate([order[tie], order[tie + 1]]))]
+    q = p[unique(np.concatenate([order[tie], order[tie + 1]]))]
     qs = q[np.lexsort((q[:, 1], q[:, 0]))]
     return bool(np.any(np.all(qs[1:] == qs[:-1], axis=1)))

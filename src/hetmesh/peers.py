@@ -63,6 +63,7 @@ from .density import background_points, gradient_norm, size_at
 from .errors import HetmeshError, MeshingError, OptionError
 from .metrics import MeshStats, signed_area2
 from .options import DEFAULT_CHORD_TOL
+from .topology import unique
 
 __all__ = ["PEERS", "PeerMesh", "PeerResult", "PeerUnavailable", "available", "size_field",
            "gmsh_mesh", "triangle_mesh", "peer_statistics", "search",
@@ -382,7 +383,7 @@ def _gmsh_grid_field(gmsh, domain, size, cells: int) -> None:
 
 def _compact(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop the nodes no triangle uses (Gmsh meshes arc centres as 0-d entities)."""
-    used = np.unique(triangles)
+    used = unique(triangles)
     remap = np.full(len(points), -1, np.int64)
     remap[used] = np.arange(len(used))
     return np.ascontiguousarray(points[used], float), remap[triangles].astype(np.int32)
@@ -646,7 +647,7 @@ def gmsh_mesh3d(model, size: SizeField, *, section=None, threads: int = 1,
         gmsh.finalize()
     seconds = time.perf_counter() - t0
     tets = _cells_by_index(tags, enodes, 4)
-    used, inv = np.unique(tets, return_inverse=True)
+    used, inv = unique(tets, return_inverse=True)
     p = xyz.reshape(-1, 3)[used]
     points = solid.to3d(p[:, :2], p[:, 2] + solid.s0)
     return PeerMesh3D(points, inv.reshape(-1, 4), seconds)

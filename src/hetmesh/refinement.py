@@ -19,6 +19,7 @@ from .material.field import element_subregions, has_subregions
 from .mesh import edge_keys
 from .metrics import TET_EDGES
 from .parallel import block_concat
+from .topology import unique
 
 __all__ = ["SIMPLEX_EDGES", "cell_delta", "composition_at", "carried", "carry",
            "largest_jump_edges", "edge_lengths", "check_budget", "check_progress",
@@ -112,7 +113,7 @@ def largest_jump_edges(cells: np.ndarray, composition: np.ndarray, lengths: np.n
     second_v = np.array([j for _, j in pairs])[kk]
     rows = np.arange(len(cells))
     a, b = cells[rows, first_v], cells[rows, second_v]
-    _, first = np.unique(edge_keys(a, b), return_index=True)
+    _, first = unique(edge_keys(a, b), return_index=True)
     return a[first], b[first]
 
 

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FEAError, OptionError, VerificationError
+from ..topology import unique
 from .estimate import compliance_energy, relative_estimate, zz_indicator
 from .goal import DEFAULT_RADIUS, dual_indicator, dual_solution, goal_estimate, goal_indicator
 
@@ -130,7 +131,7 @@ def snap_to_surface(solid, points: np.ndarray, ids: np.ndarray, faces: np.ndarra
     Solids of primitives: Gauss-Newton onto the faces' surfaces
     (:func:`hetmesh.tet.general.project`).
     """
-    ids = np.unique(np.asarray(ids, dtype=np.int64))
+    ids = unique(np.asarray(ids, dtype=np.int64))
     p = np.array(points, dtype=np.float64, copy=True)
     if not len(ids):
         return p

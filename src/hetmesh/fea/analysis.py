@@ -41,6 +41,7 @@ from scipy.sparse.linalg import cg, splu
 from ..errors import FEAError
 from ..mesh import Mesh
 from ..metrics import signed_area2
+from ..topology import unique
 from .config import ON_BOUNDARY, FEAConfig, rigid_rank
 from .mixing import lame, mix, thermal_modulus
 
@@ -136,7 +137,7 @@ def _curve_batch(domain, names):
 def _curve_nodes(domain, mesh: Mesh, names, tol: float) -> np.ndarray:
     """Ids of the mesh nodes on the curves called ``names`` (curve or loop names)."""
     batch, infos = _curve_batch(domain, names)
-    cand = np.unique(mesh.boundary_edges) if all(i.kind != "interface" for i in infos) \
+    cand = unique(mesh.boundary_edges) if all(i.kind != "interface" for i in infos) \
         else np.arange(mesh.n_points)
     return cand[batch.distance(mesh.points[cand]) <= tol]
 
@@ -392,9 +393,9 @@ def pieces(t: np.ndarray, n: int, groups: np.ndarray) -> tuple[np.ndarray, np.nd
     it, so fields recovered on the copies are continuous within a piece and may jump across
     piece boundaries (material discontinuities, closed interfaces).
     """
-    _, g = np.unique(groups, return_inverse=True)
+    _, g = unique(groups, return_inverse=True)
     key = t.astype(np.int64) * (int(g.max()) + 1) + g[:, None]
-    uniq, inv = np.unique(key.ravel(), return_inverse=True)
+    uniq, inv = unique(key.ravel(), return_inverse=True)
     return inv.reshape(t.shape), uniq // (int(g.max()) + 1)
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FEAError
+from ..topology import unique
 from .blocks import CHUNK, sum_into
 
 if TYPE_CHECKING:
@@ -50,10 +51,10 @@ def von_mises_3d(s: np.ndarray) -> np.ndarray:
 
 def vertex_copies(t: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Vertex copies per piece: ``(element copy ids (M, 4), vertex of each copy (D,))``."""
-    _, g = np.unique(groups, return_inverse=True)
+    _, g = unique(groups, return_inverse=True)
     G = int(g.max()) + 1
     key = t.astype(np.int64) * G + g[:, None]
-    uniq, inv = np.unique(key.ravel(), return_inverse=True)
+    uniq, inv = unique(key.ravel(), return_inverse=True)
     return inv.reshape(t.shape), uniq // G
 
 

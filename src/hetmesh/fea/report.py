@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..io.jsondoc import jsonable
+from ..topology import unique
 
 __all__ = ["report_document", "write_report", "von_mises_figure", "plot_von_mises",
            "tet_section", "section_figure"]
@@ -128,7 +129,7 @@ def tet_section(P: np.ndarray, T: np.ndarray, values: np.ndarray, axis: int, lev
     ids = base + order                   # global ids into the flattened (C * 6) arrays
     tris = [ids[:, [0, 1, 2]], ids[cnt == 4][:, [0, 2, 3]]]
     tri = np.vstack(tris)
-    used, inv = np.unique(tri.ravel(), return_inverse=True)
+    used, inv = unique(tri.ravel(), return_inverse=True)
     return (pts.reshape(-1, 2)[used], inv.reshape(-1, 3), vals.ravel()[used])
 
 

@@ -39,6 +39,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import FEAError
+from ..topology import unique
 from .blocks import CHUNK, sum_into
 from .estimate import zz_indicator
 from .linsolve import blas_threads, rigid_modes, solve_spd
@@ -243,12 +244,12 @@ def surface_dofs(space: TetSpace, mask: np.ndarray) -> np.ndarray:
             tri = m.facets[:, bf]
             pairs = np.sort(np.hstack([tri[[0, 1]], tri[[1, 2]], tri[[0, 2]]]), axis=0)
             n = len(mask)
-            bkeys = np.unique(pairs[0].astype(np.int64) * n + pairs[1])
+            bkeys = unique(pairs[0].astype(np.int64) * n + pairs[1])
             ek = np.sort(e[:, both], axis=0)
             ekeys = ek[0].astype(np.int64) * n + ek[1]
             on = np.isin(ekeys, bkeys)
             out.append(space.basis.edge_dofs[0, both[on]])
-    return np.unique(np.concatenate(out))
+    return unique(np.concatenate(out))
 
 
 def pressure_load(space: TetSpace, facets: np.ndarray, p: float) -> np.ndarray:

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, TextIO
 import numpy as np
 
 from ..errors import OutputError
+from ..topology import unique
 from . import textio
 from .groups import curve_groups
 from .textio import check_ids
@@ -174,7 +175,7 @@ def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str],
         for mk in group.markers:
             sel = mesh.edge_markers == mk
             for s in range(3):
-                ids = np.unique(tri[sel][side[sel] == s])
+                ids = unique(tri[sel][side[sel] == s])
                 if ids.size:
                     faces.append(f"_M{mk}_S{s + 1}")
                     f.write(f"*ELSET, ELSET={faces[-1]}, INTERNAL\n")
@@ -188,7 +189,7 @@ def _write_edges(f: TextIO, mesh: Mesh, path: Path, names: list[str],
             ok = sel & (tri >= 0)
             nodes = np.concatenate([nodes, mid[tri[ok], side[ok]]])
         f.write(f"*NSET, NSET={name}\n")
-        write_id_list(f, np.unique(nodes) + 1)
+        write_id_list(f, unique(nodes) + 1)
 
 
 def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", order: int = 1,
@@ -210,7 +211,7 @@ def write_inp_mesh(f: TextIO, mesh: Mesh, path: Path, *, plane: str = "strain", 
     f.write(f"*ELEMENT, TYPE={kind}, ELSET=EALL\n")
     row = "%d" + ", %d" * cells.shape[1] + "\n"
     textio.write_rows(f, row, np.column_stack([np.arange(1, len(cells) + 1), cells]))
-    regions = np.unique(mesh.regions)
+    regions = unique(mesh.regions)
     for r in regions:
         f.write(f"*ELSET, ELSET=REGION_{r}\n")
         write_id_list(f, np.flatnonzero(mesh.regions == r) + 1)

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, TextIO
 import numpy as np
 
 from ..errors import OutputError
+from ..topology import unique
 from . import textio
 from .abaqus import (
     DISTRIBUTION,
@@ -108,7 +109,7 @@ def quadratic_nodes3d(points: np.ndarray, tets: np.ndarray
     pairs = np.stack([np.sort(tets[:, list(e)], axis=1) for e in TET_EDGES], axis=1)
     n = np.int64(len(points))
     keys = pairs[..., 0].astype(np.int64) * n + pairs[..., 1]
-    uniq, inv = np.unique(keys.ravel(), return_inverse=True)
+    uniq, inv = unique(keys.ravel(), return_inverse=True)
     edges = np.column_stack([uniq // n, uniq % n])
     mid = inv.reshape(keys.shape) + len(points)
     return 0.5 * (points[edges[:, 0]] + points[edges[:, 1]]), mid, edges
@@ -164,7 +165,7 @@ def write_inp_mesh3d(f: TextIO, mesh: Mesh, path: Path, *, order: int = 1, headi
     row = "%d" + ", %d" * cells.shape[1] + "\n"  # 5 or 11 entries: one line each
     textio.write_rows(f, row, np.column_stack([np.arange(1, len(cells) + 1), cells]))
     regions = np.asarray(mesh.regions)
-    for r in np.unique(regions):
+    for r in unique(regions):
         f.write(f"*ELSET, ELSET=REGION_{r}\n")
         write_id_list(f, np.flatnonzero(regions == r) + 1)
     facets = np.asarray(mesh.facets, np.int64)
@@ -178,7 +179,7 @@ def write_inp_mesh3d(f: TextIO, mesh: Mesh, path: Path, *, order: int = 1, headi
         parts = []
         for m in group:
             for k in range(1, 5):
-                ids = np.unique(owner[(markers == m) & (side == k)])
+                ids = unique(owner[(markers == m) & (side == k)])
                 if ids.size:
                     parts.append(f"_F{m}_S{k}")
                     f.write(f"*ELSET, ELSET={parts[-1]}, INTERNAL\n")
@@ -197,7 +198,7 @@ def write_inp_mesh3d(f: TextIO, mesh: Mesh, path: Path, *, order: int = 1, headi
                 on.append(mid[owner[ok][has], i])
             nodes = np.concatenate([nodes] + on)
         f.write(f"*NSET, NSET={name}\n")
-        write_id_list(f, np.unique(nodes) + 1)
+        write_id_list(f, unique(nodes) + 1)
     return points, mid, medges
 
 
@@ -220,7 +221,7 @@ def _condition_nodes(mask: np.ndarray, boundary: np.ndarray, medges: np.ndarray 
     both = mask[medges[:, 0]] & mask[medges[:, 1]]
     tri = np.sort(boundary, axis=1)
     pairs = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]).astype(np.int64)
-    bkeys = np.unique(pairs[:, 0] * n + pairs[:, 1])
+    bkeys = unique(pairs[:, 0] * n + pairs[:, 1])
     ekeys = medges[:, 0] * n + medges[:, 1]
     return np.concatenate([nodes, n + np.flatnonzero(both & np.isin(ekeys, bkeys))])
 

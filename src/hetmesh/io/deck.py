@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import FEAError, OptionError
 from ..mesh import Mesh
+from ..topology import unique
 from . import abaqus
 from .atomic import atomic_write
 from .material import MaterialBins, bin_material, element_material, material_config, with_material
@@ -94,7 +95,7 @@ def condition_nodes(mesh: Mesh, model, points: np.ndarray, mid: np.ndarray | Non
         if mid is None or not names:
             return np.asarray(nodes)
         f = curve_facets(model.domain, mesh.points, facets, nodes, names, tol)
-        return np.unique(np.concatenate([nodes, mids[f]]))
+        return unique(np.concatenate([nodes, mids[f]]))
 
     temps = [(with_mid(n, bc.curves), v) for (n, v), bc in
              zip(temperature_nodes(mesh, model.domain, cfg), cfg.temperature)]
@@ -202,10 +203,10 @@ def name_from_model(mesh: Mesh, model) -> Mesh:
     changes = {}
     if len(mesh.edges) and not mesh.marker_names:
         curves = embed_discontinuities(model).domain.curves
-        markers = np.unique(mesh.edge_markers)
+        markers = unique(mesh.edge_markers)
         if markers.min() >= 1 and markers.max() <= len(curves):
             for m in markers.tolist():
-                nodes = np.unique(mesh.edges[mesh.edge_markers == m])
+                nodes = unique(mesh.edges[mesh.edge_markers == m])
                 c = curves[m - 1].curve
                 p = mesh.points[nodes]
                 if np.hypot(*(c.point(c.project(p)) - p).T).max() > tol:

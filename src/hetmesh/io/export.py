@@ -38,6 +38,7 @@ import meshio
 import numpy as np
 
 from ..errors import OutputError
+from ..topology import unique
 from . import abaqus, gmsh_msh, xdmf
 from .atomic import atomic_path, atomic_write  # atomic_write re-exported (docs/internals.md)
 from .textio import float_pad, region_tag_offset
@@ -283,7 +284,7 @@ def _tet_arrays(m: meshio.Mesh) -> dict:
                   if int(dim) == 2 and int(tag) > 100}
         phys = _gather(m, "gmsh:physical", tri)
         if phys is not None and markers is not None:  # every marker named by its group
-            for mk, ph in np.unique(np.column_stack([markers, phys]), axis=0).tolist():
+            for mk, ph in unique(np.column_stack([markers, phys]), axis=0).tolist():
                 if int(ph) in by_tag:
                     names[int(mk)] = by_tag[int(ph)]
         else:
@@ -311,7 +312,7 @@ def _read_regions(m: meshio.Mesh, tri: list[int], n: int) -> np.ndarray:
     if phys is not None:
         names = _physical_names(m, 2)
         lut = {t: int(s[7:]) for t, s in names.items() if re.fullmatch(r"region_-?\d+", s)}
-        tags, inverse = np.unique(phys.astype(np.int64), return_inverse=True)
+        tags, inverse = unique(phys.astype(np.int64), return_inverse=True)
         return np.array([lut.get(int(t), int(t)) for t in tags], np.int32)[inverse.ravel()]
     ref = _gather(m, "medit:ref", tri)
     if ref is not None:
@@ -382,7 +383,7 @@ def _read_edges(m: meshio.Mesh, tri: list[int], triangles: np.ndarray, path: Pat
     phys = _gather(m, "gmsh:physical", lines)
     if phys is not None:
         by_tag = _physical_names(m, 1)
-        names = {int(mk): by_tag[int(t)] for mk, t in zip(*np.unique(
+        names = {int(mk): by_tag[int(t)] for mk, t in zip(*unique(
             np.column_stack([markers, phys]), axis=0).T) if int(t) in by_tag}
         names = {k: v for k, v in names.items() if not re.fullmatch(r"marker_\d+", v)}
     return edges, markers.astype(np.int32), names

@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, TextIO
 
 import numpy as np
 
-from ..topology import edge_keys
+from ..topology import edge_keys, unique
 from . import textio
 from .groups import curve_ends, curve_groups, node_entities, point_entities
 from .textio import check_ids, float_pad, region_tag_offset
@@ -105,7 +105,7 @@ def _surface_curves(mesh: Mesh, regions: np.ndarray) -> list[np.ndarray]:
                      np.concatenate([t[:, 1], t[:, 2], t[:, 0]]))
     reg = np.tile(mesh.regions, 3)
     ek = edge_keys(mesh.edges[:, 0], mesh.edges[:, 1])
-    return [np.unique(mesh.edge_markers[np.isin(ek, side[reg == r])]) for r in regions]
+    return [unique(mesh.edge_markers[np.isin(ek, side[reg == r])]) for r in regions]
 
 
 def _write_entities(f: TextIO, mesh: Mesh, points: np.ndarray, regions: np.ndarray) -> None:
@@ -148,7 +148,7 @@ def _runs(keys: np.ndarray) -> list[tuple[int, int]]:
 def write_msh41(mesh: Mesh, path: Path, fmt=None) -> None:
     """Write ``mesh`` as an ASCII Gmsh 4.1 file (see the module docstring)."""
     check_ids(mesh, path, "Gmsh", markers=True)
-    regions = np.unique(mesh.regions)
+    regions = unique(mesh.regions)
     points = point_entities(mesh)
     m, k, n = mesh.n_elements, len(mesh.edges), mesh.n_points
     dim, tag = node_entities(mesh, points, regions)
@@ -170,7 +170,7 @@ def write_msh41(mesh: Mesh, path: Path, fmt=None) -> None:
             textio.write_rows(f, "%r %r 0\n", mesh.points[ids])
         f.write("$EndNodes\n")
         # point elements only on the physical (named) points, as Gmsh saves them
-        named = np.unique(np.fromiter(mesh.named_points.values(), np.int64,
+        named = unique(np.fromiter(mesh.named_points.values(), np.int64,
                                       len(mesh.named_points)))
         npe = len(named)
         blocks = npe + len(edge_runs) + len(tri_runs)
@@ -204,7 +204,7 @@ def write_msh41(mesh: Mesh, path: Path, fmt=None) -> None:
 def write_msh22(mesh: Mesh, path: Path, fmt=None) -> None:
     """Write ``mesh`` as an ASCII Gmsh 2.2 file (see the module docstring)."""
     check_ids(mesh, path, "Gmsh", markers=True)
-    regions, r_entity = np.unique(mesh.regions, return_inverse=True)
+    regions, r_entity = unique(mesh.regions, return_inverse=True)
     groups = {mk: g.tag for g in curve_groups(mesh) for mk in g.markers}
     points = point_entities(mesh)
     m, k, p = mesh.n_elements, len(mesh.edges), mesh.points

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..topology import unique
+
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
 
@@ -53,7 +55,7 @@ def curve_groups(mesh: Mesh) -> list[CurveGroup]:
     [('a', 3, (3, 5)), ('b', 4, (4,))]
     """
     groups: dict[str, list[int]] = {}
-    for m in np.unique(mesh.edge_markers).tolist():
+    for m in unique(mesh.edge_markers).tolist():
         groups.setdefault(mesh.marker_names.get(int(m), f"marker_{m}"), []).append(int(m))
     out = [CurveGroup(name, min(ms), tuple(sorted(ms))) for name, ms in groups.items()]
     return sorted(out, key=lambda g: g.tag)
@@ -64,9 +66,9 @@ def curve_ends(mesh: Mesh) -> dict[int, tuple[int, int] | None]:
     a closed chain. The first end is the lower node id when the chain's direction cannot
     be told (it never can from the edges alone)."""
     out: dict[int, tuple[int, int] | None] = {}
-    for m in np.unique(mesh.edge_markers).tolist():
+    for m in unique(mesh.edge_markers).tolist():
         e = mesh.edges[mesh.edge_markers == m]
-        nodes, count = np.unique(e.ravel(), return_counts=True)
+        nodes, count = unique(e.ravel(), return_counts=True)
         ends = nodes[count == 1]
         out[int(m)] = (int(ends[0]), int(ends[-1])) if len(ends) else None
     return out
@@ -77,7 +79,7 @@ def point_entities(mesh: Mesh) -> np.ndarray:
     point, sorted (a Gmsh point entity each, tag = position + 1)."""
     ends = [n for pair in curve_ends(mesh).values() if pair for n in pair]
     named = list(mesh.named_points.values())
-    return np.unique(np.array(ends + named, np.int64))
+    return unique(np.array(ends + named, np.int64))
 
 
 def node_entities(mesh: Mesh, points: np.ndarray, regions: np.ndarray

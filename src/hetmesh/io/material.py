@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import FEAError, OptionError
+from ..topology import unique
 
 if TYPE_CHECKING:  # the writers take any mesh with Mesh's attributes
     from ..mesh import Mesh
@@ -139,7 +140,7 @@ def bin_material(material: ElementMaterial, width: float, config, constituents) 
     if not (0 < width <= 1):
         raise OptionError(f"the composition bin width must be in (0, 1], got {width:g}")
     key = np.floor(material.mean / width).astype(np.int64)
-    _, index, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    _, index, counts = unique(key, axis=0, return_inverse=True, return_counts=True)
     index = index.ravel()
     comp = np.zeros((len(counts), material.mean.shape[1]))
     np.add.at(comp, index, material.mean)

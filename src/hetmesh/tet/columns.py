@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..topology import unique
 from .quality import TET_FACES
 
 __all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", "strip_faces",
@@ -53,7 +54,7 @@ __all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", 
 def vertex_size(points2: np.ndarray, tris2: np.ndarray) -> np.ndarray:
     """The mean length of the edges at each vertex of a triangulation ``(N,)``."""
     e = np.concatenate([tris2[:, [0, 1]], tris2[:, [1, 2]], tris2[:, [2, 0]]])
-    e = np.unique(np.sort(e, axis=1), axis=0)
+    e = unique(np.sort(e, axis=1), axis=0)
     ln = np.linalg.norm(points2[e[:, 0]] - points2[e[:, 1]], axis=1)
     n = len(points2)
     s = np.bincount(e.ravel(), weights=np.repeat(ln, 2), minlength=n)
@@ -132,7 +133,7 @@ def section_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: 
     t = np.asarray(tris2, dtype=np.int64)
     all_e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     n = np.int64(len(points2))
-    k_all, cnt = np.unique(all_e[:, 0] * n + all_e[:, 1], return_counts=True)
+    k_all, cnt = unique(all_e[:, 0] * n + all_e[:, 1], return_counts=True)
     inner = np.isin(e[:, 0] * n + e[:, 1], k_all[cnt == 2])
     e = e[inner]
     a, b = points2[e[:, 0]], points2[e[:, 1]]
@@ -145,7 +146,7 @@ def section_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: 
         best[better], arg[better] = d[better], i
     ok = best <= tol
     mid = 0.5 * (a + b)
-    for i in np.unique(arg[ok]):
+    for i in unique(arg[ok]):
         sel = ok & (arg == i)
         ok[sel] = section.curves[int(i)].curve.distance(mid[sel]) <= chord + tol
     return e[ok], arg[ok]
@@ -168,7 +169,7 @@ def strip_faces(tets: np.ndarray, column: np.ndarray, edges: np.ndarray
     order = np.argsort(ekey, kind="stable")
     pos = np.minimum(np.searchsorted(ekey[order], c[:, 0] * n + c[:, 2]), len(e) - 1)
     rows = np.flatnonzero(two & (ekey[order][pos] == c[:, 0] * n + c[:, 2]))
-    _, first = np.unique(np.sort(f[rows], axis=1), axis=0, return_index=True)
+    _, first = unique(np.sort(f[rows], axis=1), axis=0, return_index=True)
     keep = rows[np.sort(first)]
     return f[keep], order[pos[keep]]
 

@@ -21,6 +21,8 @@ import io
 
 import numpy as np
 
+from ..topology import unique
+
 __all__ = ["write_tet_file", "FACE_TAG"]
 
 #: physical tag of a face in .msh files: FACE_TAG + its marker
@@ -44,21 +46,21 @@ def _meshio_3d(mesh, fmt: str):
     reg = np.asarray(mesh.regions, dtype=np.int64)
     groups = curve_groups(mesh)
     group_of = {m: g for g in groups for m in g.markers}
-    many = len(np.unique(reg)) > 1
+    many = len(unique(reg)) > 1
     cells, phys, geom, order = [], [], [], []
-    for r in np.unique(reg):
+    for r in unique(reg):
         sel = np.flatnonzero(reg == r)
         order.append(sel)
         cells.append(("tetra", tets[sel]))
         phys.append(np.full(len(sel), r + 1, dtype=np.int64))
         geom.append(phys[-1])
-    for m in np.unique(fm):
+    for m in unique(fm):
         k = int((fm == m).sum())
         cells.append(("triangle", faces[fm == m]))
         phys.append(np.full(k, group_of[int(m)].tag + FACE_TAG, dtype=np.int64))
         geom.append(np.full(k, m, dtype=np.int64))
     field_data = {}
-    for r in np.unique(reg):
+    for r in unique(reg):
         field_data[f"region_{r}" if many else "solid"] = np.array([r + 1, 3])
     for g in groups:
         field_data[g.name] = np.array([g.tag + FACE_TAG, 2])

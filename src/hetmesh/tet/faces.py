@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..topology import unique
 from .quality import TET_FACES
 
 __all__ = ["boundary_faces"]
@@ -26,9 +27,9 @@ def boundary_faces(tets: np.ndarray, *, owners: bool = False):
     n = int(key.max()) + 1 if len(key) else 1
     if n < 2_000_000:  # one int64 per face: much faster than unique rows
         key = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]
-        _, first, counts = np.unique(key, return_index=True, return_counts=True)
+        _, first, counts = unique(key, return_index=True, return_counts=True)
     else:
-        _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+        _, first, counts = unique(key, axis=0, return_index=True, return_counts=True)
     once = np.flatnonzero(counts == 1)
     rows = np.sort(first[once])
     if owners:

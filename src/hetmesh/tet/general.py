@@ -44,6 +44,7 @@ import numpy as np
 from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
+from ..topology import unique
 from .faces import boundary_faces
 from .implicit import CSGSolid
 from .mesher import CHORD, TetResult
@@ -104,7 +105,7 @@ def grid_lines(solid: CSGSolid, spacing: float) -> list[np.ndarray]:
             for s in prim.surfaces:
                 if s.kind == "plane" and s.axis == a and lo[a] + tol < s.value < hi[a] - tol:
                     cuts.append(s.value)
-        cuts = np.unique(np.array(cuts))
+        cuts = unique(np.array(cuts))
         cuts = cuts[np.r_[True, np.diff(cuts) > tol]]
         lines = [cuts[:1]]
         for x0, x1 in zip(cuts[:-1], cuts[1:]):
@@ -164,13 +165,13 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
             if s.curved:
                 keep &= ~(s.g(p)[t] > margin).all(axis=1)
     t = t[keep]
-    used = np.unique(t)
+    used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     p, t = p[used], remap[t]
     refs = np.ones(len(t), dtype=np.int64)
     for i, s in enumerate(curved):
-        codes = np.unique(refs)
+        codes = unique(refs)
         m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
         m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
                          np.ascontiguousarray(refs, dtype=np.int32))
@@ -188,7 +189,7 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
         raise MeshingError("too many curved surfaces for the level-set references")
     inside = _membership(solid, p, t, refs, curved)
     t = t[inside]
-    used = np.unique(t)
+    used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     return p[used], orient_positive(p[used], remap[t])
@@ -278,7 +279,7 @@ def keep_positive(old: np.ndarray, new: np.ndarray, tets: np.ndarray, moved: np.
         bad = simplex_measures(q, tets) <= 0
         if not bad.any():
             break
-        back = np.unique(tets[bad])
+        back = unique(tets[bad])
         back = back[moved[back]]
         if not len(back):
             break
@@ -324,7 +325,7 @@ def cap_curved(solid, size, faces, markers, chord):
     size = size.copy()
     for fi, f in enumerate(solid.faces):
         if f.surface.curved:
-            ids = np.unique(faces[markers == fi])
+            ids = unique(faces[markers == fi])
             size[ids] = np.minimum(size[ids], math.sqrt(6.0 * f.surface.radius * chord))
     return size
 

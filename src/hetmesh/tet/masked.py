@@ -71,6 +71,7 @@ import numpy as np
 
 from ..errors import BudgetError, GeometryError, MeshingError
 from ..metrics import delta_vertices
+from ..topology import unique
 from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import repair
@@ -150,7 +151,7 @@ class VoxelSolid:
             if lab.shape != a.shape:
                 raise GeometryError(f"{self.source}: labels of shape {lab.shape}, mask of "
                                     f"shape {a.shape}")
-            missing = set(np.unique(lab[a]).tolist()) - set(self.phases)
+            missing = set(unique(lab[a]).tolist()) - set(self.phases)
             if missing:
                 raise GeometryError(f"{self.source}: labels {sorted(missing)} inside the "
                                     f"solid have no phase")
@@ -337,7 +338,7 @@ class VoxelSolid:
 # -- 1. the cuts --------------------------------------------------------------------------
 
 def _compact(p, t):
-    used = np.unique(t)
+    used = unique(t)
     remap = np.full(len(p), -1, np.int64)
     remap[used] = np.arange(len(used))
     return p[used], remap[t]
@@ -350,7 +351,7 @@ def _cut(mmgpy, p, t, refs, phi, split: dict, what: str):
     m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
                      np.ascontiguousarray(refs, dtype=np.int32))
     mats = []
-    for r in np.unique(refs).tolist():
+    for r in unique(refs).tolist():
         lo, hi = split.get(r, (r, r))
         mats.append(dict(ref=int(r), split=int(r in split), ref_minus=int(lo),
                          ref_plus=int(hi)))

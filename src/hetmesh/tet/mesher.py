@@ -34,6 +34,7 @@ from scipy.spatial import Delaunay
 
 from ..errors import BudgetError, GeometryError, MeshingError, OptionError
 from ..mesh import simplex_measures
+from ..topology import unique
 from .faces import boundary_faces
 from .field3d import scalar_column
 from .place import BOUNDARY_GAP, arc_count, column_roots, level_values, section_points
@@ -145,7 +146,7 @@ def _planes(F1, s0: float, s1: float, levels: np.ndarray, n: int = 4097) -> np.n
         d = v - lev
         idx = np.flatnonzero(d[:-1] * d[1:] < 0)
         idx = np.r_[idx, np.flatnonzero(d == 0)]
-        for i in np.unique(idx):
+        for i in unique(idx):
             if d[i] == 0:
                 out.append(ss[i])
                 continue
@@ -158,7 +159,7 @@ def _planes(F1, s0: float, s1: float, levels: np.ndarray, n: int = 4097) -> np.n
                 else:
                     b = m
             out.append(0.5 * (a + b))
-    s = np.unique(np.array(out))
+    s = unique(np.array(out))
     tol = 1e-9 * (s1 - s0)
     keep = np.r_[True, np.diff(s) > tol]
     s = s[keep]
@@ -272,7 +273,7 @@ def _local_delaunay(p_old: np.ndarray, p_new: np.ndarray, tets: np.ndarray,
     dist, _ = cKDTree(p_new[moved]).query(cc)
     conflict = is_moved[tets].any(axis=1) | (dist < r * (1 - 1e-9))
     cav = tets[conflict]
-    verts = np.unique(np.r_[cav.ravel(), moved])
+    verts = unique(np.r_[cav.ravel(), moved])
     local = _delaunay(p_new[verts], axis)
     if not len(local):
         return None
@@ -420,7 +421,7 @@ def _layers_curved(solid, field, threshold, rng, chord_tol, h_max, samples):
         out.append(solid.to3d(q, np.full(len(q), sc)))
     pts = np.concatenate(out)
     # caps' points may coincide with level points on a cap: keep the first copy
-    _, first = np.unique(np.round(pts / (1e-10 * solid.diameter)), axis=0, return_index=True)
+    _, first = unique(np.round(pts / (1e-10 * solid.diameter)), axis=0, return_index=True)
     pts = pts[np.sort(first)]
     return pts, df
 

@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import MeshingError
 from ..metrics import delta_vertices
 from ..refinement import check_budget, check_progress
+from ..topology import unique
 from .quality import TET_EDGES
 
 #: repair passes before giving up
@@ -35,7 +36,7 @@ def unique_edges(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     e = np.sort(tets[:, TET_EDGES].reshape(-1, 2), axis=1).astype(np.int64)
     n = int(e.max()) + 1 if len(e) else 1
     key = e[:, 0] * n + e[:, 1]
-    uk, inv = np.unique(key, return_inverse=True)
+    uk, inv = unique(key, return_inverse=True)
     edges = np.column_stack([uk // n, uk % n])
     return edges, inv.reshape(-1, 6)
 
@@ -52,7 +53,7 @@ def select_edges(tets: np.ndarray, comp: np.ndarray, bad: np.ndarray
         return np.empty((0, 2), dtype=np.int64)
     local = jump[te[rows]]  # (B, 6)
     best = te[rows, np.argmax(local, axis=1)]
-    cand = np.unique(best)
+    cand = unique(best)
     # priority: larger jump first, then smaller id (rank of (-jump, id))
     order = np.lexsort((cand, -jump[cand]))
     prio = np.full(len(edges), -1, dtype=np.int64)

@@ -38,6 +38,7 @@ import numpy as np
 from ..errors import GeometryError, VerificationError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
+from ..topology import unique
 from .columns import column_tets, strip_problems, swept_interfaces, vertex_size
 from .extrude import COLUMN_RATIO, SectionField
 from .faces import boundary_faces
@@ -245,7 +246,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
         top = start[1:] - 1
         ids[top[counts > 0]] = start[:-1][counts > 0]
     tets = ids[tets]
-    used, inv = np.unique(tets, return_inverse=True)
+    used, inv = unique(tets, return_inverse=True)
     q = pl[used]
     points = solid.to3d(q[:, :2], q[:, 2])
     on_axis_pts = np.abs(q[:, 0]) <= 1e-12 * prof.diameter

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..mesh import simplex_measures
 from ..metrics import tet_quality
+from ..topology import unique
 from .faces import boundary_faces
 from .quality import min_dihedral
 from .refine import unique_edges
@@ -97,7 +98,7 @@ def smooth(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
     n = len(pts)
     faces, _ = boundary_faces(tets)
     free = np.ones(n, dtype=bool)
-    free[np.unique(faces)] = False
+    free[unique(faces)] = False
     if fixed is not None:
         free &= ~fixed
     if not free.any():

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeometryError
+from ..topology import unique
 
 __all__ = ["SurfaceSolid", "read_surface", "check_surface", "ray_parity", "distance_within",
            "distance_to_triangles", "closest_on_triangles", "SURFACE_FACE"]
@@ -73,7 +74,7 @@ def read_surface(path, name: str | None = None) -> tuple[np.ndarray, np.ndarray]
         raise GeometryError(f"{name}: the points must be finite (x, y, z)")
     if F.min() < 0 or F.max() >= len(V):
         raise GeometryError(f"{name}: a triangle refers to a point that is not in the file")
-    U, inv = np.unique(V, axis=0, return_inverse=True)
+    U, inv = unique(V, axis=0, return_inverse=True)
     return U, inv.reshape(-1)[F]
 
 
@@ -107,7 +108,7 @@ def check_surface(V: np.ndarray, F: np.ndarray, name: str) -> np.ndarray:
     e = _edges(F)
     n = len(V)
     und = np.sort(e, axis=1)
-    uk, cnt = np.unique(und[:, 0] * n + und[:, 1], return_counts=True)
+    uk, cnt = unique(und[:, 0] * n + und[:, 1], return_counts=True)
     if (cnt != 2).any():
         j = int(np.argmax(cnt != 2))
         a, b, c = V[uk[j] // n], V[uk[j] % n], int(cnt[j])
@@ -115,7 +116,7 @@ def check_surface(V: np.ndarray, F: np.ndarray, name: str) -> np.ndarray:
         raise GeometryError(f"{name}: the surface is not watertight: {what}: the edge from "
                             f"{_xyz(a)} to {_xyz(b)} is in {c} triangle{'s' * (c != 1)}, "
                             f"not 2")
-    ud, dcnt = np.unique(e[:, 0] * n + e[:, 1], return_counts=True)
+    ud, dcnt = unique(e[:, 0] * n + e[:, 1], return_counts=True)
     if (dcnt > 1).any():
         j = int(np.argmax(dcnt > 1))
         raise GeometryError(f"{name}: the surface is not consistently oriented: two "
@@ -480,7 +481,7 @@ class SurfaceSolid:
         if len(F) < 4:
             raise GeometryError(f"{name}: a closed surface needs at least 4 triangles, got "
                                 f"{len(F)}")
-        used = np.unique(F)
+        used = unique(F)
         remap = np.full(len(V), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
         V, F = V[used], remap[F]

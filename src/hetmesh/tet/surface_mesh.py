@@ -34,6 +34,7 @@ import numpy as np
 from ..errors import BudgetError, MeshingError, OptionError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
+from ..topology import unique
 from .faces import boundary_faces
 from .general import (
     HGRAD,
@@ -86,12 +87,12 @@ def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
         gmsh.model.add("hetmesh_surface")
         lab, regions = solid.shells
         tags = {}
-        for k in np.unique(lab):  # one discrete surface per shell, its own points
+        for k in unique(lab):  # one discrete surface per shell, its own points
             s = gmsh.model.addDiscreteEntity(2)
-            ids = np.unique(F[lab == k])
+            ids = unique(F[lab == k])
             gmsh.model.mesh.addNodes(2, s, ids + 1, V[ids].ravel())
             tags[int(k)] = s
-        for k in np.unique(lab):
+        for k in unique(lab):
             gmsh.model.mesh.addElementsByType(tags[int(k)], 2, [], (F[lab == k] + 1).ravel())
         for outer, cavities in regions:
             loops = [gmsh.model.geo.addSurfaceLoop([tags[j]]) for j in [outer, *cavities]]
@@ -112,7 +113,7 @@ def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
     index[tags] = np.arange(len(tags))
     t = index[enodes.astype(np.int64)].reshape(-1, 4)
     p = xyz.reshape(-1, 3).astype(np.float64)
-    used = np.unique(t)
+    used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     return p[used], orient_positive(p[used], remap[t])

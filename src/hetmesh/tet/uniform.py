@@ -33,6 +33,7 @@ from ..errors import BudgetError, OptionError, VerificationError
 from ..kernel import Result
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
+from ..topology import unique
 from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
 from .columns import swept_interfaces
 from .extrude import prism_tets
@@ -156,7 +157,7 @@ def _sweep_revolution(solid, p2, t2, h, chord):
     tets = ids[tets]
     keep = (np.diff(np.sort(tets, axis=1), axis=1) > 0).all(axis=1)
     tets = tets[keep]
-    used, inv = np.unique(tets, return_inverse=True)
+    used, inv = unique(tets, return_inverse=True)
     q = pl[used]
     points = solid.to3d(q[:, :2], q[:, 2])
     points[np.abs(q[:, 0]) <= 1e-12 * solid.profile.diameter, :2] = 0.0

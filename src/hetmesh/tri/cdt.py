@@ -26,6 +26,7 @@ from scipy.spatial import cKDTree
 from ..errors import MeshingError
 from ..mesh import any_corner, component_labels, edge_keys, points_near
 from ..metrics import triangle_areas2
+from ..topology import unique
 
 __all__ = ["constrained_delaunay", "patch"]
 
@@ -124,7 +125,7 @@ def _odd_depth(v: np.ndarray, nbr: np.ndarray, edges: np.ndarray, n: int) -> np.
     bn = nbr[band].astype(np.int64)
     pos = np.full(m, nb_, np.int64)  # triangles off the band are R
     pos[band] = np.arange(nb_)
-    ckeys = np.unique(edge_keys(edges[:, 0].astype(np.int64) + SUPER,
+    ckeys = unique(edge_keys(edges[:, 0].astype(np.int64) + SUPER,
                                 edges[:, 1].astype(np.int64) + SUPER))
     src, dst, cons = [], [], []
     for k in range(3):
@@ -185,7 +186,7 @@ def _inside_components(pts, tris, nbr, boundary_edges, inside) -> np.ndarray:
 
 
 def _cut_keys(boundary_edges) -> np.ndarray:
-    return np.unique(edge_keys(boundary_edges[:, 0], boundary_edges[:, 1]))
+    return unique(edge_keys(boundary_edges[:, 0], boundary_edges[:, 1]))
 
 
 def _classify(pts, tris, label, n, area, inside) -> np.ndarray:
@@ -367,12 +368,12 @@ def _nearest_index(points: np.ndarray, query: np.ndarray) -> np.ndarray | None:
 def _window(points, tris, inr, new, ekeys, rkeys, akeys, aboundary) -> np.ndarray | None:
     """One try of :func:`patch` with the window ``inr`` (mask over ``tris``)."""
     rt = tris[inr].astype(np.int64)
-    wv = np.unique(np.concatenate([rt.ravel(), new]))
+    wv = unique(np.concatenate([rt.ravel(), new]))
     # R's edges: inner ones twice, its outline once
     ha = rt[:, [0, 1, 2]].ravel()
     hb = rt[:, [1, 2, 0]].ravel()
     hk = edge_keys(ha, hb)
-    uk, cnt = np.unique(hk, return_counts=True)
+    uk, cnt = unique(hk, return_counts=True)
     outline = uk[cnt == 1]
     # the outline after the changes: removed domain edges out, their pieces in
     loop = np.union1d(np.setdiff1d(outline, rkeys), akeys[aboundary])
@@ -400,11 +401,11 @@ def _window(points, tris, inr, new, ekeys, rkeys, akeys, aboundary) -> np.ndarra
     if keep is None:
         return None
     wt = raw["vertices"][keep].astype(np.int64) - SUPER
-    if len(np.unique(wt)) != len(wv):  # a window point left out
+    if len(unique(wt)) != len(wv):  # a window point left out
         return None
     g = wv[wt]
     gk = edge_keys(g[:, [0, 1, 2]].ravel(), g[:, [1, 2, 0]].ravel())
-    guk, gcnt = np.unique(gk, return_counts=True)
+    guk, gcnt = unique(gk, return_counts=True)
     if not np.array_equal(guk[gcnt == 1], loop) or (gcnt > 2).any():
         return None
     if not _outline_delaunay(points, tris, inr, g, loop, ekeys):

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..metrics import circumcenters, triangle_areas2
 from ..parallel import block_map, blocks
+from ..topology import unique
 
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 
@@ -76,7 +77,7 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     cen = None  # the centroids are no longer needed
     # the cells' sums over the points the triangles use (all points for a global step)
     if 3 * m < n:
-        used, inv = np.unique(t, return_inverse=True)
+        used, inv = unique(t, return_inverse=True)
         ids = inv.reshape(t.shape)
     else:
         used, ids = None, t
@@ -168,7 +169,7 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
         fail = [f for group in fail for f in group if len(f)]
         if not fail:
             break
-        hold = np.unique(np.concatenate(fail).ravel())
+        hold = unique(np.concatenate(fail).ravel())
         new[hold] = p[hold]
     return new
 
@@ -221,7 +222,7 @@ def slide_on_curves(targets: np.ndarray, vertex_curve: np.ndarray, vertex_t: np.
     """
     pts = targets.copy()
     t_new = vertex_t.copy()
-    for c in np.unique(vertex_curve[vertex_curve >= 0]):
+    for c in unique(vertex_curve[vertex_curve >= 0]):
         sel = np.flatnonzero(vertex_curve == c)
         curve = curves[c]
         tt = curve.project(targets[sel])

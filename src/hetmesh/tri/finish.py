@@ -18,6 +18,7 @@ from ..material.field import element_subregions, has_subregions
 from ..mesh import Mesh
 from ..metrics import MeshStats, delta_dense, quality_and_angle, statistics
 from ..options import DEFAULT_CHORD_TOL
+from ..topology import unique
 from .corners import corner_exempt, sharp_corners
 from .discontinuity import FIT_TOL, crossing_elements
 from .refine import too_long
@@ -102,7 +103,7 @@ def finish(ws: WorkSet, ctx: Context, tris, comp, delta, frame, *, threshold, mi
     on = ws.vcurve >= 0
     if on.any():
         off = 0.0
-        for c in np.unique(ws.vcurve[on]):
+        for c in unique(ws.vcurve[on]):
             s = np.flatnonzero(ws.vcurve == c)
             off = max(off, float(np.hypot(*(ctx.curves[c].point(ws.vt[s]) - P[s]).T).max()))
         if off > ON_CURVE_TOL * ctx.domain.diameter:

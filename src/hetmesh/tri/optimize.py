@@ -57,6 +57,7 @@ from ..material.field import element_subregions, has_subregions
 from ..mesh import any_corner, edge_keys, edge_order
 from ..metrics import signed_area2, triangle_areas2
 from ..parallel import block_concat
+from ..topology import unique
 from .workset import FIXED, FREE, Context, WorkSet, chord_window, curve_bounds, row_tangent
 
 __all__ = ["optimize", "independent_sets", "valid_input", "priority_hash", "DeltaEvaluator"]
@@ -337,7 +338,7 @@ class _Constraints:
             vc = ws.vcurve[idx[io]]
             cur = ws.vt[idx[io]]
             span = self.hi - self.lo
-            for c in np.unique(vc):
+            for c in unique(vc):
                 k = io[vc == c]
                 sel = vc == c
                 tt = ctx.curves[c].project(raw[:, k].reshape(-1, 2)).reshape(K, -1)
@@ -491,7 +492,7 @@ def valid_input(ws: WorkSet, tris: np.ndarray) -> bool:
     """Whether ``tris`` is a mesh the passes may work on: every triangle counter-clockwise and
     every constraint edge of ``ws`` a mesh edge (otherwise it is not theirs to mend:
     :func:`hetmesh.tri.finish.finish` reports it)."""
-    ckeys = np.unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
+    ckeys = unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
     return _valid(ws.P, tris, ckeys, _half_edges(tris)[1])
 
 
@@ -516,7 +517,7 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
     ``sweeps`` rounds each of ``flips`` flip rounds and one smoothing sweep.
     """
     ev = DeltaEvaluator(ctx, sampling)
-    ckeys = np.unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
+    ckeys = unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
     if comp is None or delta is None:
         comp, delta, _ = ev.full(ws.P, tris)
     half = _half_edges(tris)

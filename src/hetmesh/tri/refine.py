@@ -30,6 +30,7 @@ from ..refinement import (
     largest_jump_edges,
     round_record,
 )
+from ..topology import unique
 from .corners import corner_exempt, sharp_corners, shell_split
 from .workset import (
     Context,
@@ -275,7 +276,7 @@ def _insert_refinement_points(ws: WorkSet, ctx: Context, tris, comp, viol, badq,
         cand.append(cc[inside])
         cand_min.append(0.3 * r[inside])
         cand_clash.append(r[inside])
-    sc = np.unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
+    sc = unique(np.concatenate(split_c)) if split_c else np.zeros(0, np.int64)
     new_c = split_constraint_edges(ws, ctx, sc, where=shell_split(ws, ctx, sharp))
     if cand:
         pts = np.concatenate(cand)

@@ -32,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..mesh import edge_keys
+from ..topology import unique
 from .geometry.curves import CurveBatch
 
 __all__ = ["chord_sagitta", "chord_problems", "chord_areas", "coverage_problems",
@@ -92,7 +93,7 @@ def chord_problems(batch: CurveBatch, curve: np.ndarray, t: np.ndarray, tol: flo
     sag = chord_sagitta(batch, curve, t)
     bad = ~(sag <= tol * (1.0 + CHORD_SLACK))  # nan parameters fail too
     out = []
-    for c in np.unique(curve[bad]):
+    for c in unique(curve[bad]):
         on = curve == c
         worst = float(np.nanmax(sag[on & bad])) if np.any(on & bad & ~np.isnan(sag)) else np.nan
         name = names[c] if names is not None else f"curve {c}"
@@ -137,8 +138,8 @@ def coverage_problems(mesh_boundary: np.ndarray, domain_boundary: np.ndarray, ar
     list of str
         Empty if the boundary edges are exactly the domain's and the area matches.
     """
-    want = np.unique(edge_keys(domain_boundary[:, 0], domain_boundary[:, 1]))
-    have = np.unique(edge_keys(mesh_boundary[:, 0], mesh_boundary[:, 1]))
+    want = unique(edge_keys(domain_boundary[:, 0], domain_boundary[:, 1]))
+    have = unique(edge_keys(mesh_boundary[:, 0], mesh_boundary[:, 1]))
     out = []
     if (n := int((~np.isin(have, want)).sum())):
         out.append(f"{n} mesh boundary edges are not on the domain's boundary (a hole in "
@@ -185,7 +186,7 @@ def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
     """
     points = np.asarray(points, dtype=float)
     triangles = np.asarray(triangles, dtype=np.int64)
-    used = np.unique(triangles)
+    used = unique(triangles)
     bad = used[~np.isfinite(points[used]).all(axis=1)]
     if len(bad):
         return [f"{len(bad)} node{'s' if len(bad) > 1 else ''} with non-finite coordinates "
@@ -194,9 +195,9 @@ def mesh_model_problems(points: np.ndarray, triangles: np.ndarray, domain, *,
         return []
     diam = float(domain.diameter)
     a, b = triangles[:, [0, 1, 2]].ravel(), triangles[:, [1, 2, 0]].ravel()
-    keys, counts = np.unique(edge_keys(a, b), return_counts=True)
+    keys, counts = unique(edge_keys(a, b), return_counts=True)
     once = np.isin(edge_keys(a, b), keys[counts == 1])
-    nodes = np.unique(np.concatenate([a[once], b[once]]))
+    nodes = unique(np.concatenate([a[once], b[once]]))
     if len(nodes):
         dist = np.asarray(domain.distance_to_boundary(points[nodes], interfaces=False))
         i = int(np.argmax(dist))

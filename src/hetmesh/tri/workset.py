@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 from .. import density as dens
 from ..material.field import field_dim
 from ..parallel import BLOCK, block_concat
-from ..topology import any_corner, points_near
+from ..topology import any_corner, points_near, unique
 from . import cvt
 from .cdt import constrained_delaunay, patch
 
@@ -313,14 +313,14 @@ def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray,
                            where=None) -> np.ndarray:
     """Split constraint edges ``idx`` on their curve, at the parameter midpoint or at
     ``where(idx, et) -> t`` (``et`` the ends' parameters); returns the new vertex ids."""
-    idx = np.unique(idx)
+    idx = unique(idx)
     if idx.size == 0:
         return np.zeros(0, np.int64)
     et = edge_params(ws, ctx)[idx]
     tm = 0.5 * (et[:, 0] + et[:, 1]) if where is None else where(idx, et)
     c = ws.ecurve[idx]
     newp = np.empty((len(idx), 2))
-    for cid in np.unique(c):
+    for cid in unique(c):
         s = c == cid
         newp[s] = ctx.curves[cid].point(tm[s])
     n0 = ws.n
@@ -385,7 +385,7 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     # point traced many times over (rows that collapse onto one point of a noisy field)
     # would hide its earlier copies from it. Copies are among the near ones (distance 0).
     if len(near) > 1:
-        _, first = np.unique(cand[near], axis=0, return_index=True)
+        _, first = unique(cand[near], axis=0, return_index=True)
         if len(first) < len(near):
             copy = np.ones(len(cand), bool)
             copy[near] = False
@@ -523,7 +523,7 @@ def _lloyd_step(ws: WorkSet, ctx: Context, tris: np.ndarray, active: np.ndarray 
         P, pinned, vcurve, level, vt = ws.P, ws.pinned, ws.vcurve, ws.level, ws.vt
     else:
         sub = tris[any_corner(active, tris)]
-        U, loc = np.unique(sub, return_inverse=True)  # the points these triangles use
+        U, loc = unique(sub, return_inverse=True)  # the points these triangles use
         sub = loc.reshape(sub.shape)
         P, pinned, vcurve, level, vt = ws.P[U], ws.pinned[U], ws.vcurve[U], ws.level[U], ws.vt[U]
     cent, mass = cvt.cell_centroids(P, sub, ctx.rho)
@@ -544,7 +544,7 @@ def _lloyd_step(ws: WorkSet, ctx: Context, tris: np.ndarray, active: np.ndarray 
         clip = oncurve & ((tnew < t_min) | (tnew > t_max))
         if clip.any():  # a chord would exceed the tolerance: slide only as far as allowed
             tnew = np.where(clip, np.clip(tnew, t_min, t_max), tnew)
-            for c in np.unique(vcurve[clip]):
+            for c in unique(vcurve[clip]):
                 s = np.flatnonzero(clip & (vcurve == c))
                 slid[s] = ctx.curves[c].point(tnew[s])
         target = np.where(oncurve[:, None], slid, target)

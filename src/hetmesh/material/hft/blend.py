@@ -9,6 +9,7 @@ import numpy as np
 
 from ...errors import ModelFileError
 from ...expr import compile_expr
+from ...topology import unique
 from . import enclose as _enc
 from .features import FeatureEval
 
@@ -141,7 +142,7 @@ class BlendFeature:
         else:
             widx = self.weight_of_region[np.asarray(region, dtype=np.int64)]
             w = (np.empty(n), np.empty(n))
-            for k in np.unique(widx):
+            for k in unique(widx):
                 idx = np.flatnonzero(widx == k)
                 lo, hi = self._enclose_weight(
                     int(k), {v: (d[0][idx], d[1][idx]) for v, d in dist.items()})

@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ...errors import MaterialError, ModelFileError
+from ...topology import unique
 from ...tri.geometry import Arc, Segment
 from ...tri.geometry.curves import TWO_PI
 from . import enclose as _enc
@@ -484,7 +485,7 @@ def inside_predicate(curves: Sequence, fid: str = "") -> Callable[[np.ndarray], 
     if ends:
         scale = max(1.0, float(np.ptp(np.array(ends), axis=0).max()))
         pts = np.round(np.array(ends) / (1e-9 * scale)).astype(np.int64)
-        _, counts = np.unique(pts, axis=0, return_counts=True)
+        _, counts = unique(pts, axis=0, return_counts=True)
         if np.any(counts % 2):
             raise ModelFileError(f"feature {fid!r}: 'inside'/'outside' needs a closed curve, "
                                  f"but its curves do not form closed loops")

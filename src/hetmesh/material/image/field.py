@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ...errors import MaterialError
+from ...topology import unique
 from ..field import as_points
 from .maps import ValueMap
 from .read import Image, image_error
@@ -333,7 +334,7 @@ class LabelField:
         for k, ph in enumerate(self.phases):
             sel = np.flatnonzero(own == k)
             if isinstance(ph, ImageField) and len(sel):
-                used, tri = np.unique(T[sel], return_inverse=True)
+                used, tri = unique(T[sel], return_inverse=True)
                 d = element_pixel_delta(ph.shifted(self._offset), P[used],
                                         tri.reshape(-1, T.shape[1]))
                 delta[sel] = np.maximum(delta[sel], d)

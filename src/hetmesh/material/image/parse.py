@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import GeometryError, MaterialError, ModelFileError
 from ...io.schema import describe
+from ...topology import unique
 
 __all__ = ["parse_image", "parse_image_model", "parse_constituents", "parse_sampling",
            "parse_value_map", "scalar_values", "parse_phases", "check_phases", "label_values",
@@ -384,10 +385,10 @@ def _label_field(ctx, t, domain, src, traced, cons, opts):
                       lab_img.spacing + 0.5).astype(int)
         ny, nx = labels.shape
         sub = labels[max(lo[1], 0):min(hi[1], ny - 1) + 1, max(lo[0], 0):min(hi[0], nx - 1) + 1]
-        present = np.unique(sub)
+        present = unique(sub)
     else:
         chains_lab = traced
-        present = np.unique(traced[1][traced[1] != OUTSIDE])
+        present = unique(traced[1][traced[1] != OUTSIDE])
     spec = parse_phases(ctx, phases, cons, src)
     check_phases(spec, present, labels, lab_img.source)
     used = [lab for lab in sorted(spec) if lab in set(present.tolist())]

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...errors import MaterialError, ModelFileError
 from ...io.schema import describe
+from ...topology import unique
 from .parse import (
     check_phases,
     fill_phase,
@@ -155,7 +156,7 @@ def mask_solid(ctx, inside: np.ndarray, img, labels: np.ndarray | None = None):
     from ...tet.masked import VoxelSolid, largest_component
 
     kept = largest_component(inside, where=img.source)
-    phases = () if labels is None else tuple(np.unique(labels[kept]).tolist())
+    phases = () if labels is None else tuple(unique(labels[kept]).tolist())
     return VoxelSolid(kept, img.origin, img.spacing, source=img.source, where=ctx.where,
                       labels=labels, phases=phases)
 

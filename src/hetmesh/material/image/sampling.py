@@ -8,6 +8,8 @@ from typing import Protocol
 
 import numpy as np
 
+from ...topology import unique
+
 __all__ = ["pixel_centres_in_triangles", "pixel_blocks", "voxel_centres_in_tets",
            "voxel_blocks", "element_pixel_delta"]
 
@@ -80,7 +82,7 @@ def pixel_blocks(points, triangles, origin, spacing, shape, *, block: int = 1 <<
     tot = cnt[:, 0] * cnt[:, 1]
     ends = np.searchsorted(np.cumsum(tot), np.arange(1, 1 + tot.sum() // block + 1) * block,
                            side="right")
-    bounds = np.unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
+    bounds = unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
     for b0, b1 in zip(bounds[:-1], bounds[1:]):
         if not tot[b0:b1].sum():
             continue
@@ -200,7 +202,7 @@ def voxel_blocks(points, tets, origin, spacing, shape, *, block: int = 1 << 19):
     tot = cnt[:, 0] * cnt[:, 1] * cnt[:, 2]
     ends = np.searchsorted(np.cumsum(tot), np.arange(1, 1 + tot.sum() // block + 1) * block,
                            side="right")
-    bounds = np.unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
+    bounds = unique(np.r_[0, np.maximum(ends, 1), len(T)].clip(0, len(T)))
     for b0, b1 in zip(bounds[:-1], bounds[1:]):
         if not tot[b0:b1].sum():
             continue

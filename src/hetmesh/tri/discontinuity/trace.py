@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from ...errors import MeshingError
+from ...topology import unique
 from .regions import BISECT, GRID_CELLS, Discontinuity
 
 __all__ = ["trace_discontinuities", "Untraceable"]
@@ -119,7 +120,7 @@ def _junction(field, center: np.ndarray, size: float, tol: float) -> np.ndarray:
         xs, ys = c[0] + s, c[1] + s
         pts, pairs, _, _ = _crossings(field, xs, ys, _labels(field, xs, ys))
         A, rhs = np.zeros((2, 2)), np.zeros(2)
-        for pr in np.unique(pairs, axis=0):
+        for pr in unique(pairs, axis=0):
             q = pts[(pairs == pr).all(axis=1)]
             if len(q) < 2:
                 continue
@@ -233,7 +234,7 @@ def _pair_of(pairs: np.ndarray) -> tuple[int, int]:
     ok = pairs[pairs[:, 0] >= 0]
     if len(ok) == 0:
         return (-1, -1)
-    vals, counts = np.unique(ok, axis=0, return_counts=True)
+    vals, counts = unique(ok, axis=0, return_counts=True)
     a, b = vals[np.argmax(counts)]
     return int(a), int(b)
 

@@ -31,6 +31,7 @@ from shapely.geometry import Polygon
 
 from hetmesh.errors import GeometryError
 
+from ...topology import unique
 from .curves import Arc, Curve, CurveBatch, Segment, sample_parameters, segments_through, tolerance
 from .validate import VALIDATION_CHORD, validate_domain
 
@@ -391,7 +392,7 @@ def fixed_vertices(domain: Domain) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     m = len(coords)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
     _, labels = connected_components(graph, directed=False)
-    _, first = np.unique(labels, return_index=True)  # first vertex of every label
+    _, first = unique(labels, return_index=True)  # first vertex of every label
     order = np.argsort(first)
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))

@@ -23,6 +23,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from ...topology import unique
 from ..workset import Context
 from .levels import Levels, crossed_levels
 from .paths import GradientPaths, gradient_profiles
@@ -340,7 +341,7 @@ def regraded_dprime(b: Banding, below: np.ndarray, above: np.ndarray,
     sub-bands next to every row (nan: the band there is whole, its median height counts)."""
     lv, first, last = b.levels, b.spans.first, b.spans.last
     dps = lv.dprime.copy()
-    for lvl in np.unique(b.crossings.level):
+    for lvl in unique(b.crossings.level):
         p = int(lv.piece[lvl])
         nbl = [lv.value[k] for k in (lvl - 1, lvl + 1) if first[p] <= k <= last[p]]
         odd = any(abs(abs(v - lv.value[lvl]) - dprime) > 0.01 * dprime for v in nbl)
@@ -405,7 +406,7 @@ def grade_levels(ctx: Context, pieces: Pieces, levels: Levels, dprime: float,
         for upper in (False, True):  # a piece's end: the border curve's node spacing
             if b.is_piece_end(j, upper):
                 hend = 2.0 / np.sqrt(3.0) * (sub.heights[-1] if upper else sub.heights[0])
-                for cur in np.unique(b.end_curves(j, upper)):
+                for cur in unique(b.end_curves(j, upper)):
                     spacing[cur] = min(spacing[cur], hend)
     levels = replace(levels, dprime=regraded_dprime(b, below, above, dprime))
     if not new:

@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...density import background_points
+from ...topology import unique
 from ..workset import Context
 from .curves import side_points
 from .pieces import OUTSIDE, Pieces
@@ -133,7 +134,7 @@ def border_levels(ctx: Context, pieces: Pieces, dprime: float):
             pc = pieces.at(k, ts, side)
             f = ctx.f(side_points(ctx, k, ts, ev))
             vals.append(f)
-            for p in np.unique(pc[pc != OUTSIDE]):
+            for p in unique(pc[pc != OUTSIDE]):
                 m = pc == p
                 if m.sum() < 0.9 * len(ts):
                     continue

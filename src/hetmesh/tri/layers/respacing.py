@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ...topology import unique
 from ..workset import Context, project_to_level
 from .paths import RowSeeds
 from .rowstep import LEVEL_TOL, row_step_at
@@ -226,7 +227,7 @@ def chain_phases(ctx: Context, lines: Polylines, units: RowUnits, index: np.ndar
     u_sp = np.where(same, u, units.U[pr] - u) / a_p  # in the predecessor's spacings
     phi = np.asarray(phi0, float).copy()
     lvl_of = index[rr]
-    for lvl in np.unique(lvl_of):
+    for lvl in unique(lvl_of):
         m = np.flatnonzero(lvl_of == lvl)
         r, p = rr[m], pr[m]
         prev = np.where(same[m], phi[p], np.mod(units.n[p] - phi[p], 1.0))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...topology import unique
 from ..workset import Context, row_tangent
 from .crossings import Crossings
 from .curves import curve_distances, left_normal, side_points
@@ -30,7 +31,7 @@ def crossing_starts(ctx: Context, cross: Crossings, dprime: float):
     inward = np.zeros(len(cross), bool)
     if isb.any():  # boundary: the row starts where its tangent points into the domain
         inward[isb] = ctx.inside(seeds[isb] + 0.05 * s[isb, None] * tau[isb])
-    for k in np.unique(cross.curve[~isb]):  # interface: into the side it was found on
+    for k in unique(cross.curve[~isb]):  # interface: into the side it was found on
         m = np.flatnonzero((cross.curve == k) & ~isb)
         nrm = cross.side[m, None] * left_normal(ctx.curves[k], cross.t[m])
         inward[m] = (tau[m] * nrm).sum(1) > 0
@@ -68,7 +69,7 @@ def rows_from_seeds(ctx: Context, levels: Levels, seeds: RowSeeds, rows: list[Ro
             break
         # one seed per level: the first path's (seeds come in path order), so that the
         # seeds of nested closed rows lie on one gradient line and their phases agree
-        _, first = np.unique(seeds.level, return_index=True)
+        _, first = unique(seeds.level, return_index=True)
         pick = np.zeros(len(seeds), bool)
         pick[first] = True
         s, seeds = seeds.take(pick), seeds.take(~pick)

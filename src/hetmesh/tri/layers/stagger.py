@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...parallel import block_map, blocks
-from ...topology import any_corner
+from ...topology import any_corner, unique
 from .. import cvt
 from ..workset import FREE, Context, WorkSet, slide_along_rows, triangulate
 
@@ -45,7 +45,7 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
     moves along its row towards their mean, then back onto its level (Newton); moves are
     limited to the vertex's star. Returns the new triangles.
     """
-    lv_all = np.unique(ws.level[np.isfinite(ws.level)])
+    lv_all = unique(ws.level[np.isfinite(ws.level)])
     # index of every node's level among all the levels carried (intermediate levels)
     lvi = np.searchsorted(lv_all, np.nan_to_num(ws.level, nan=np.inf))
 
