@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..topology import unique
+from ..topology import edge_keys, unique
 from .quality import TET_FACES
 
 __all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", "strip_faces",
@@ -132,9 +132,8 @@ def section_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: 
         return empty
     t = np.asarray(tris2, dtype=np.int64)
     all_e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    n = np.int64(len(points2))
-    k_all, cnt = unique(all_e[:, 0] * n + all_e[:, 1], return_counts=True)
-    inner = np.isin(e[:, 0] * n + e[:, 1], k_all[cnt == 2])
+    k_all, cnt = unique(edge_keys(all_e[:, 0], all_e[:, 1]), return_counts=True)
+    inner = np.isin(edge_keys(e[:, 0], e[:, 1]), k_all[cnt == 2])
     e = e[inner]
     a, b = points2[e[:, 0]], points2[e[:, 1]]
     best = np.full(len(e), np.inf)

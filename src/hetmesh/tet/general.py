@@ -353,6 +353,15 @@ def mmg_remesh(p, t, faces, markers, size, hausd):
     return p, t, np.asarray(f, dtype=np.int64), np.asarray(fr, dtype=np.int64) - 1, h
 
 
+def remesh_solid(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: float):
+    """One MMG remeshing of a solid's mesh to ``size`` (:func:`mmg_remesh`), its boundary
+    triangles named again (within ``tol`` of their faces) and its boundary vertices projected
+    onto them: ``(points, tets, faces, markers, size MMG interpolated)``."""
+    p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
+    faces, markers = _faces_after(solid, p, t, fm, rm, tol)
+    return project_safely(solid, p, t, faces, markers), t, faces, markers, h_mmg
+
+
 def _faces_after(solid, p, t, f_mmg, r_mmg, tol):
     """Boundary triangles of ``t`` with the face MMG kept for them (its triangles' refs),
     checked against the geometry."""
@@ -441,9 +450,8 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     rounds = 0
     mtol = max(0.25 * h_max, 10 * chord)
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
-        faces, markers = _faces_after(solid, p, t, fm, rm, mtol)
-        p = project_safely(solid, p, t, faces, markers)
+        p, t, faces, markers, h_mmg = remesh_solid(solid, p, t, faces, markers, size, hausd,
+                                                   mtol)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -588,9 +596,8 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     p, t = cut_solid(solid, spacing)
     faces, markers = _boundary(solid, p, t, 0.5 * spacing)
     size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
-    p, t, fm, rm, _ = mmg_remesh(p, t, faces, markers, size, 0.5 * chord)
-    faces, markers = _faces_after(solid, p, t, fm, rm, max(0.25 * h, 10 * chord))
-    p = project_safely(solid, p, t, faces, markers)
+    p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size, 0.5 * chord,
+                                           max(0.25 * h, 10 * chord))
     if max_elements is not None and len(t) > max_elements:
         raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
                           f"over the budget of {max_elements:,}")
