@@ -450,6 +450,17 @@ def test_mesh_prints_summary(model, tmp_path, capsys):
     assert f"wrote {out}" in stdout
 
 
+def test_a_long_output_path_is_printed_on_one_line(model, tmp_path, capsys):
+    """Output is not a terminal here (rich would wrap at 80 columns): the written file's
+    path stays whole on its line, so scripts can take it from the output."""
+    out = tmp_path / ("a_folder_with_a_rather_long_name_" * 4) / "the_mesh_of_the_plate.vtu"
+    out.parent.mkdir()
+    argv = [a for a in mesh_argv(model, out) if a != "--quiet"]
+    code, stdout, _ = run(argv, capsys)
+    assert code == 0 and len(str(out)) > 120
+    assert f"wrote {out}" in stdout.splitlines()
+
+
 def test_progress_bar_on_a_terminal(model, tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("TTY_COMPATIBLE", "1")  # rich: treat stderr (and stdout) as a terminal
     out = tmp_path / "o.vtu"

@@ -7,10 +7,9 @@ import argparse
 from importlib import resources
 from pathlib import Path
 
-from rich.console import Console
-
 from ..io.atomic import output_dir
 from .mesh import check_threshold, check_writable_dir, run_pipeline
+from .progress import result_console
 
 __all__ = ["add_parser", "run", "EXAMPLE"]
 
@@ -90,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         adaptive.stats = with_bounds(adaptive.stats, adaptive.mesh, model, None)
         uni.stats = with_bounds(uni.stats, uni.mesh, model, None)
 
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         console.print(f"{model.name}, delta_0 = {D:g}")
         console.print(stats_table({"adaptive": adaptive.stats, "uniform": uni.stats},
                                   times={"adaptive": t_adaptive, "uniform": t_uniform}))
@@ -122,7 +121,7 @@ def _volume(args: argparse.Namespace, out: Path) -> int:
               f"{name}: {len(res.tets)} tetrahedra, delta_0 = {D:g}")
     if not args.quiet:
         st = tet_statistics(model, res)
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         console.print(f"{name} (a {' x '.join(map(str, model.material.shape[::-1]))} voxel "
                       f"TIFF stack), delta_0 = {D:g}")
         console.print(f"  {st['n_elements']} tetrahedra, {st['n_points']} points "

@@ -13,10 +13,10 @@ import argparse
 from importlib import resources
 from pathlib import Path
 
-from rich.console import Console
 from rich.table import Table
 
 from ..errors import ModelFileError, OptionError, OutputError
+from .progress import result_console
 
 __all__ = ["add_parser", "run", "example_names", "check_model_path"]
 
@@ -71,7 +71,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 
 def run(args: argparse.Namespace) -> int:
     names = example_names()
-    console = Console(highlight=False, markup=False)
+    console = result_console()
     if args.name is None:
         table = Table()
         table.add_column("example")

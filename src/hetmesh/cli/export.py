@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from rich.console import Console
+from .progress import result_console
 
 __all__ = ["add_parser", "run"]
 
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     report = write_deck(mesh, model, args.output, args.to, bin_width=args.bin_width,
                         distribution=args.distribution)
     if not args.quiet:
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         what = "analysis deck" if report.analysis else "mesh and material"
         line = f"{model.name}: {mesh.n_elements} elements, {args.to} {what}"
         if report.bins:

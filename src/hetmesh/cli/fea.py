@@ -12,11 +12,11 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from rich.console import Console
 from rich.table import Table
 
 from ..fea.adapt import DEFAULT_FRACTION, DEFAULT_STEPS
 from .mesh import check_output_paths, mesh_extensions, plot_extensions
+from .progress import result_console
 from .stats import check_mesh_of_model
 
 __all__ = ["add_parser", "run", "probe_table"]
@@ -177,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         written.append(plot_von_mises(result, args.plot, units=model.units))
     if not args.quiet:
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         T = result.temperature
         kind = (f"3-D, P{result.config.order}" if mesh.dim == 3
                 else f"plane {result.config.plane}")

@@ -15,13 +15,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from rich.console import Console
-
 from ..errors import OutputError
 from ..io.export import FILE_FORMATS
 from ..io.jsondoc import jsonable
 from ..options import SAMPLINGS, check_options, check_sampling
-from .progress import progress_reporter
+from .progress import progress_reporter, result_console
 
 __all__ = [
     "add_parser", "run", "add_meshing_options", "meshing_kwargs", "check_threshold",
@@ -272,7 +270,7 @@ def write_outputs(args: argparse.Namespace, model, result, seconds: float) -> li
 def print_summary(model, result, seconds: float, written: list[Path], threshold: float) -> None:
     from .stats import stats_table
 
-    console = Console(highlight=False, markup=False)
+    console = result_console()
     console.print(f"{model.name}, delta_0 = {threshold:g}")
     console.print(stats_table({model.name: result.stats}, times={model.name: seconds}))
     for path in written:

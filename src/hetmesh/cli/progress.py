@@ -1,4 +1,5 @@
-"""A rich progress bar behind the pipeline's ``progress(stage, fraction)`` callback.
+"""The CLI's terminal output: a rich progress bar behind the pipeline's
+``progress(stage, fraction)`` callback, and the console results are printed on.
 
 The bar goes to stderr (results go to stdout) and disappears when done. It is off with
 ``--quiet`` and when stderr is not a terminal; then stage changes are only logged (``-v``).
@@ -20,11 +21,19 @@ from rich.progress import (
     TimeElapsedColumn,
 )
 
-__all__ = ["ProgressCallback", "progress_reporter"]
+__all__ = ["ProgressCallback", "progress_reporter", "result_console"]
 
 log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[str, float | None], None]
+
+
+def result_console() -> Console:
+    """The console results go to (stdout): no markup or highlighting (paths and formulas
+    print as they are), and long lines are not wrapped, so a written file's path can be
+    copied or parsed from the output whatever the terminal's width (rich wraps at 80
+    columns when stdout is not a terminal)."""
+    return Console(highlight=False, markup=False, soft_wrap=True)
 
 
 def _logging_callback(label: str) -> ProgressCallback:

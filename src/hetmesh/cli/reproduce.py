@@ -8,11 +8,9 @@ import shlex
 import sys
 from pathlib import Path
 
-from rich.console import Console
-
 from ..errors import OutputError
 from .mesh import check_writable_dir
-from .progress import progress_reporter
+from .progress import progress_reporter, result_console
 from .sweep import worker_count
 
 __all__ = ["add_parser", "run", "summary_table", "summary_3d"]
@@ -82,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
                            command=command, workers=args.workers, scheduler=args.scheduler,
                            three_d=args.three_d)
     if not args.quiet:
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         if report.runs:
             console.print(summary_table(report))
         for line in summary_3d(report):

@@ -11,8 +11,9 @@ import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from rich.console import Console
 from rich.table import Table
+
+from .progress import result_console
 
 __all__ = ["add_parser", "run", "stats_table", "STAT_ROWS", "with_dense_max", "with_bounds",
            "check_mesh_of_model"]
@@ -190,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps({"mesh": str(args.mesh), "model": str(args.model),
                           "sampling": args.sampling, **stats.as_dict()}, indent=2))
     else:
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         console.print(f"{args.mesh}: model {model.name}, delta from the {args.sampling}")
         console.print(stats_table({args.mesh.name: stats}))
     return 0

@@ -13,6 +13,7 @@ from rich.console import Console
 
 from ..errors import OutputError
 from .mesh import check_writable_dir
+from .progress import result_console
 
 __all__ = ["add_parser", "run", "sweep_progress", "worker_count"]
 
@@ -128,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
         table = sweep(study, workers=args.workers, scheduler=args.scheduler, out=out,
                       resume=not args.no_resume, serial=args.serial, progress=progress)
     if not args.quiet:
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         console.print(summary_table(table))
         failed = int((table["status"] != "ok").sum())
         cached = int(table.attrs.get("cached", 0))

@@ -174,9 +174,9 @@ def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
             fh.write("\n")
         written.append(args.stats)
     if not args.quiet:
-        from rich.console import Console
+        from ..cli.progress import result_console
 
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         console.print(f"{model.name}, delta_0 = {args.threshold:g}")
         console.print(
             f"  {stats['n_elements']} tetrahedra, {stats['n_points']} points "
@@ -255,9 +255,9 @@ def run_tet_stats(args: argparse.Namespace, model) -> int:
     if args.json:
         print(json.dumps({"mesh": str(path), "model": str(args.model), **stats}, indent=2))
     else:
-        from rich.console import Console
+        from ..cli.progress import result_console
 
-        console = Console(highlight=False, markup=False)
+        console = result_console()
         console.print(f"{path}: model {model.name}, delta from the {sampling}")
         for k, val in stats.items():
             console.print(f"  {k:<20} {val:.6g}" if isinstance(val, float)
