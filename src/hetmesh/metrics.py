@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .parallel import block_concat
+from .topology import index_columns
 
 __all__ = [
     "quality",
@@ -50,8 +51,8 @@ def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _sides(x, y, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Side lengths ``(a, b, c)`` opposite vertices 0, 1, 2 of triangles ``t``."""
-    x0, y0, x1, y1, x2, y2 = (x[t[:, 0]], y[t[:, 0]], x[t[:, 1]], y[t[:, 1]],
-                              x[t[:, 2]], y[t[:, 2]])
+    c0, c1, c2 = index_columns(t)
+    x0, y0, x1, y1, x2, y2 = x[c0], y[c0], x[c1], y[c1], x[c2], y[c2]
     return np.hypot(x2 - x1, y2 - y1), np.hypot(x0 - x2, y0 - y2), np.hypot(x1 - x0, y1 - y0)
 
 
@@ -60,7 +61,7 @@ def corner_columns(points: np.ndarray, triangles: np.ndarray):
     contiguous: gathered from coordinate columns, which is faster than from ``(N, 2)``
     rows and gives the same numbers."""
     x, y = _columns(points)
-    return tuple((x[triangles[:, k]], y[triangles[:, k]]) for k in range(3))
+    return tuple((x[c], y[c]) for c in index_columns(triangles))
 
 
 def circumcircles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -69,8 +70,8 @@ def circumcircles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray
 
     def block(s):
         t = triangles[s]
-        ox, oy, r = circumcenters(x[t[:, 0]], y[t[:, 0]], x[t[:, 1]], y[t[:, 1]],
-                                  x[t[:, 2]], y[t[:, 2]])
+        c0, c1, c2 = index_columns(t)
+        ox, oy, r = circumcenters(x[c0], y[c0], x[c1], y[c1], x[c2], y[c2])
         return np.column_stack([ox, oy]), r
 
     return block_concat(block, len(triangles))
@@ -263,8 +264,8 @@ def triangle_areas2(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
     def block(s):
         t = triangles[s]
-        ax, ay, bx, by, cx, cy = (x[t[:, 0]], y[t[:, 0]], x[t[:, 1]], y[t[:, 1]],
-                                  x[t[:, 2]], y[t[:, 2]])
+        c0, c1, c2 = index_columns(t)
+        ax, ay, bx, by, cx, cy = x[c0], y[c0], x[c1], y[c1], x[c2], y[c2]
         return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
     return block_concat(block, len(triangles))

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..metrics import circumcenters, triangle_areas2
 from ..parallel import block_map, blocks
-from ..topology import unique
+from ..topology import index_columns, unique
 
 __all__ = ["cell_centroids", "limit_to_star", "slide_on_curves"]
 
@@ -54,9 +54,8 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     ox, oy, cen = np.empty(m), np.empty(m), np.empty((m, 2))
 
     def centres(s):
-        tt = t[s]
-        ax, ay, bx, by, cx, cy = (x[tt[:, 0]], y[tt[:, 0]], x[tt[:, 1]], y[tt[:, 1]],
-                                  x[tt[:, 2]], y[tt[:, 2]])
+        c0, c1, c2 = index_columns(t[s])
+        ax, ay, bx, by, cx, cy = x[c0], y[c0], x[c1], y[c1], x[c2], y[c2]
         qx, qy, _ = circumcenters(ax, ay, bx, by, cx, cy)
         # obtuse: clamp the circumcenter to the midpoint of the longest edge
         la = (bx - cx) ** 2 + (by - cy) ** 2
@@ -85,30 +84,34 @@ def cell_centroids(points: np.ndarray, triangles: np.ndarray, rho) -> tuple[np.n
     mass = np.zeros(k)
     mx = np.zeros(k)
     my = np.zeros(k)
-    w, wx, wy = np.empty(m), np.empty(m), np.empty(m)
-    # sub-triangles (p, q, o) of corner c: p/q the corner and the midpoint of an edge at it
+    # per corner c, its two sub-triangles (p, q, o): p/q the corner and the midpoint of
+    # an edge at it, the "first" one on the edge (c, c+1), the other on (c-1, c); one pass
+    # over the triangles gathers the corner and its neighbours once for both
+    w = [np.empty(m) for _ in range(6)]
     for c, (u, v) in ((0, (1, 2)), (1, (2, 0)), (2, (0, 1))):
-        for first in (True, False):
 
-            def sub(s, c=c, u=u, v=v, first=first):
-                tt = t[s]
-                cx_, cy_ = x[tt[:, c]], y[tt[:, c]]
-                # the midpoints of the edges (c, c+1) and (c-1, c), summed in that order
-                m1x, m1y = 0.5 * (cx_ + x[tt[:, u]]), 0.5 * (cy_ + y[tt[:, u]])
-                m2x, m2y = 0.5 * (x[tt[:, v]] + cx_), 0.5 * (y[tt[:, v]] + cy_)
-                px, py, qx, qy = (cx_, cy_, m1x, m1y) if first else (m2x, m2y, cx_, cy_)
-                o_x, o_y = ox[s], oy[s]
+        def subs(s, c=c, u=u, v=v):
+            cols = index_columns(t[s])
+            ic, iu, iv = cols[c], cols[u], cols[v]
+            cx_, cy_ = x[ic], y[ic]
+            m1x, m1y = 0.5 * (cx_ + x[iu]), 0.5 * (cy_ + y[iu])
+            m2x, m2y = 0.5 * (x[iv] + cx_), 0.5 * (y[iv] + cy_)
+            o_x, o_y, r = ox[s], oy[s], rt[s]
+            for j, (px, py, qx, qy) in enumerate(((cx_, cy_, m1x, m1y),
+                                                  (m2x, m2y, cx_, cy_))):
                 ar = 0.5 * np.abs((qx - px) * (o_y - py) - (qy - py) * (o_x - px))
-                ws = ar * rt[s]
-                w[s] = ws
-                wx[s] = ws * ((px + qx + o_x) / 3.0)
-                wy[s] = ws * ((py + qy + o_y) / 3.0)
+                ws = ar * r
+                w[3 * j][s] = ws
+                w[3 * j + 1][s] = ws * ((px + qx + o_x) / 3.0)
+                w[3 * j + 2][s] = ws * ((py + qy + o_y) / 3.0)
 
-            block_map(sub, m)
-            idx = ids[:, c]
-            mass += np.bincount(idx, w, minlength=k)
-            mx += np.bincount(idx, wx, minlength=k)
-            my += np.bincount(idx, wy, minlength=k)
+        block_map(subs, m)
+        idx = ids[:, c]
+        for j in (0, 1):  # the first sub-triangles' sums, then the others'
+            mass += np.bincount(idx, w[3 * j], minlength=k)
+            mx += np.bincount(idx, w[3 * j + 1], minlength=k)
+            my += np.bincount(idx, w[3 * j + 2], minlength=k)
+    w = None
     if used is not None:
         full = np.zeros((3, n))
         full[:, used] = (mass, mx, my)
@@ -146,15 +149,24 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
     live = moving
     bad = np.zeros(len(p), bool)
     parts = None
+    # x and y columns of the points and targets: the gathers below read contiguous arrays
+    cols = (np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]),
+            np.ascontiguousarray(targets[:, 0]), np.ascontiguousarray(targets[:, 1]))
+    cand = None  # the triangles a try looks at: all, then those the last one found
     for _ in range(halvings + 1):
-        bad, found = _folds_alone(p, t, targets, step, live, min_area_ratio)
+        bad, found = _folds_alone(cols, t if cand is None else t[cand], step, live,
+                                  min_area_ratio)
         if parts is None:  # the first try looks at every triangle with a moving corner
             parts = found
         bad &= step > 0
         if not bad.any():
             break
         step[bad] *= 0.5
+        # the next try's live points (a subset of this one's) have their triangles among
+        # those this try found
         live = bad
+        rows = np.concatenate([r for r, _ in found])
+        cand = rows if cand is None else cand[rows]
     else:
         step[bad] = 0.0
     new = p.copy()
@@ -174,39 +186,40 @@ def limit_to_star(points: np.ndarray, triangles: np.ndarray, targets: np.ndarray
     return new
 
 
-def _folds_alone(p, t, targets, step, live, ratio):
+def _folds_alone(cols, t, step, live, ratio):
     """The ``live`` points (mask) that would fold an incident triangle below ``ratio`` of
     its area if each alone moved by its ``step`` towards its target (the others held); and,
     per block of ``t``, the triangles with a live corner (ids, in order) and twice their
-    signed areas."""
+    signed areas. ``cols`` holds the points' and the targets' x and y columns."""
+    x, y, gx, gy = cols
 
     def block(s):
         tt = t[s]
-        lv = [live[tt[:, k]] for k in range(3)]
-        rows = np.flatnonzero(lv[0] | lv[1] | lv[2])
-        c = [tt[rows, k] for k in range(3)]
-        ax, ay, bx, by, cx, cy = (p[c[0], 0], p[c[0], 1], p[c[1], 0], p[c[1], 1],
-                                  p[c[2], 0], p[c[2], 1])
+        lv = np.take(live, tt.ravel()).reshape(tt.shape)
+        rows = np.flatnonzero(lv[:, 0] | lv[:, 1] | lv[:, 2])
+        c = index_columns(tt[rows])
+        lv = lv[rows]
+        ax, ay, bx, by, cx, cy = (x[c[0]], y[c[0]], x[c[1]], y[c[1]], x[c[2]], y[c[2]])
         a0 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
         lim = ratio * a0
         out = []
-        for k in range(3):
+        for k, (vx, vy) in enumerate(((ax, ay), (bx, by), (cx, cy))):
             v = c[k]
             # the corner alone at its tried position (the same numbers as for all points)
-            vx, vy, sv = p[v, 0], p[v, 1], step[v]
-            px = vx + sv * (targets[v, 0] - vx)
-            py = vy + sv * (targets[v, 1] - vy)
+            sv = step[v]
+            px = vx + sv * (gx[v] - vx)
+            py = vy + sv * (gy[v] - vy)
             if k == 0:
                 ar = (bx - px) * (cy - py) - (by - py) * (cx - px)
             elif k == 1:
                 ar = (px - ax) * (cy - ay) - (py - ay) * (cx - ax)
             else:
                 ar = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-            out.append(v[lv[k][rows] & (ar < lim)])
+            out.append(v[lv[:, k] & (ar < lim)])
         return np.concatenate(out), rows + s.start, a0
 
     found = block_map(block, len(t))
-    bad = np.zeros(len(p), bool)
+    bad = np.zeros(len(x), bool)
     for f, _, _ in found:
         bad[f] = True
     return bad, [(rows, a0) for _, rows, a0 in found]

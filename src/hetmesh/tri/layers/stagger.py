@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...parallel import block_map, blocks
-from ...topology import any_corner, unique
+from ...topology import any_corner, index_columns, unique
 from .. import cvt
 from ..workset import FREE, Context, WorkSet, slide_along_rows, triangulate
 
@@ -52,11 +52,13 @@ def stagger(ws: WorkSet, ctx: Context, tris: np.ndarray, dprime: float, iters: i
     def facing(tris):
         """(apex, a, b) index arrays of the row-to-row triangles, and the movable apexes."""
         parts = []
+        cols = index_columns(tris)
+        lev = [ws.level[c] for c in cols]
         for k in range(3):
             a, b = (k + 1) % 3, (k + 2) % 3
             # a row edge (a, b: one level) and an apex on another level
-            r = np.flatnonzero(ws.level[tris[:, a]] == ws.level[tris[:, b]])
-            ta, tc = tris[r, a], tris[r, k]
+            r = np.flatnonzero(lev[a] == lev[b])
+            ta, tc = cols[a][r], cols[k][r]
             la, lc = ws.level[ta], ws.level[tc]
             gap = np.abs(lc - la)
             ok = (np.isfinite(la) & np.isfinite(lc)
