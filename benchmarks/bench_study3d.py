@@ -18,7 +18,8 @@ Runs :func:`hetmesh.reproduce.study3d.run3d` -- the same code as ``hetmesh repro
 - T3: the tetrahedra each family needs for 0.5 % at the probes, and adaptive / uniform
   (the target: at most 0.5);
 - T4 (unless ``--no-refine``): the third family, the material-adaptive mesh at the plan's
-  largest delta_0 (chord tolerance 1e-3) refined by the solution
+  largest delta_0 (start chord tolerance per solid: 1e-3, fgm_plate_3d 2e-3, whose goal
+  functional is also narrower; ``hetmesh.reproduce.study3d.CASES3D``) refined by the solution
   (:func:`hetmesh.fea.adapt.refinement_study`: the probes' dual-weighted indicator,
   :mod:`hetmesh.fea.goal`, Doerfler marking, longest-edge bisection, new boundary vertices
   on the exact surface, re-verified), every step's tetrahedra, probe estimate and probe

@@ -369,6 +369,38 @@ def test_dual_load_is_the_probe_functional(cylinder, coarse_start):
         goal.dual_solution(coarse_start, cylinder, cfg, r.probes, names=["R9"])
 
 
+def test_goal_functional_mollifier_floor(cylinder, coarse_start):
+    """The mollifier's floor is ``element_factor`` x the longest edge of the probe's
+    element: a smaller factor narrows the functional (J(u_h) still about 1 for one probe)
+    and pulls the dual's error towards the probe; a factor <= 0 is refused before any
+    solve."""
+    from dataclasses import replace
+
+    cfg = replace(cylinder.fea, order=1)
+    r = hetmesh.fea.solve(coarse_start, cylinder, config=cfg)
+    u = np.asarray(r.displacement).ravel()
+    P, T = np.asarray(coarse_start.points), np.asarray(coarse_start.cells)
+    dist = np.linalg.norm(P[T].mean(axis=1) - np.array(cylinder.fea.probes["R2"]), axis=1)
+    floor = goal.DEFAULT_RADIUS * cylinder.solid.diameter
+    wide = goal.dual_solution(coarse_start, cylinder, cfg, r.probes, names=["R2"])
+    assert goal.DEFAULT_ELEMENT_FACTOR == 1.0 and wide.rho["R2"] > 4 * floor
+    spread = []
+    for f in (0.5, 0.25):
+        d = goal.dual_solution(coarse_start, cylinder, cfg, r.probes, names=["R2"],
+                               element_factor=f)
+        assert d.rho["R2"] == pytest.approx(max(floor, f * wide.rho["R2"]))
+        assert float(d.load @ u) == pytest.approx(1.0, rel=0.05)
+        eta_z, _ = goal.dual_indicator(d)
+        spread.append(float((eta_z ** 2 * dist).sum() / (eta_z ** 2).sum()))
+    eta_w, _ = goal.dual_indicator(wide)
+    assert spread[1] < spread[0] < float((eta_w ** 2 * dist).sum() / (eta_w ** 2).sum())
+    with pytest.raises(hetmesh.errors.FEAError, match="element factor"):
+        goal.dual_solution(coarse_start, cylinder, cfg, r.probes, element_factor=0.0)
+    with pytest.raises(OptionError, match="goal_element_factor"):
+        ad.adapt(coarse_start, cylinder, 0.4, tolerance=1e-3, indicator="goal",
+                 goal_element_factor=-1.0)
+
+
 def test_goal_oriented_marks_go_to_the_probes(cylinder, coarse_start):
     """With the dual weights the marks gather around R1..R3; ZZ's energy-norm marks spread
     over the wall."""

@@ -139,3 +139,32 @@ def test_run3d_with_a_plan_of_its_own():
     assert [m["family"] for m in s.meshes] == ["uniform"] and "error" not in s.meshes[0]
     text = "\n".join(render3d(sec))
     assert "graded_cylinder" in text and "| R |" in text
+
+
+def test_refine_case_takes_the_solids_start_and_mollifier(cylinder):
+    """Each solid's refined family starts from its own chord tolerance and aims the goal
+    functional with its own mollifier floor (the plate's differ from the cylinder's)."""
+    from dataclasses import replace
+
+    from hetmesh.reproduce.study3d import REFINE_START_CHORD_TOL, refine_case
+
+    tube, plate = CASES3D["graded_cylinder"], CASES3D["fgm_plate_3d"]
+    assert tube.refine_start_chord == REFINE_START_CHORD_TOL
+    assert tube.refine_element_factor is None
+    assert plate.refine_start_chord > REFINE_START_CHORD_TOL
+    assert plate.refine_element_factor < 1.0
+    ref = ps.radial_reference(cylinder)
+    s = ps.study3d(cylinder, ref, uniform_elements=(800,), thresholds=(0.4,), chord_tol=2e-4)
+    plan = {"uniform_elements": [800], "thresholds": [0.4]}
+    case = replace(tube, refine_start_chord=2e-3, refine_element_factor=0.5)
+    r = refine_case(case, cylinder, s, True, plan, steps=1)
+    assert r["start_chord_tol"] == 2e-3 and r["goal_element_factor"] == 0.5
+    start = hetmesh.generate(cylinder, 0.4, chord_tol=2e-3).mesh
+    counts = [m["elements"] for m in r["meshes"]]
+    assert counts[0] == start.n_elements < counts[1] and len(counts) == 2
+    text = "\n".join(render3d(Section3D(quick=True, studies={"graded_cylinder": s},
+                                        refinements={"graded_cylinder": r})))
+    assert "chord tolerance 0.002" in text and "mollifier at least 0.5 x" in text
+    default = refine_case(tube, cylinder, s, True, plan, steps=0)
+    assert default["goal_element_factor"] == 1.0
+    assert default["start_chord_tol"] == REFINE_START_CHORD_TOL

@@ -51,7 +51,14 @@ import numpy as np
 from ..errors import FEAError, OptionError, VerificationError
 from ..topology import unique
 from .estimate import compliance_energy, relative_estimate, zz_indicator
-from .goal import DEFAULT_RADIUS, dual_indicator, dual_solution, goal_estimate, goal_indicator
+from .goal import (
+    DEFAULT_ELEMENT_FACTOR,
+    DEFAULT_RADIUS,
+    dual_indicator,
+    dual_solution,
+    goal_estimate,
+    goal_indicator,
+)
 
 __all__ = ["zz_indicator", "compliance_energy", "doerfler_mark", "snap_to_surface",
            "refine_marked", "mesh_faces", "adapt", "Adapted", "check_adapt_options",
@@ -344,7 +351,8 @@ def refined_mesh(ref: Refined, constituents, names) -> Any:
 def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAULT_STEPS,
           fraction: float = DEFAULT_FRACTION, max_elements: int | None = None,
           chord_tol: float | None = None, indicator: str = "energy",
-          goal_probes: Sequence[str] | None = None, goal_radius: float | None = None, config=None,
+          goal_probes: Sequence[str] | None = None, goal_radius: float | None = None,
+          goal_element_factor: float | None = None, config=None,
           progress: Callable[[dict], None] | None = None) -> Adapted:
     """Solve, estimate, mark, refine, repeat (see the module docstring) on a tetrahedral
     mesh of ``model`` that meets ``delta_0 = threshold`` at its vertices.
@@ -375,7 +383,9 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
         von Mises error at the probes (:mod:`hetmesh.fea.goal`; one more solve per step).
     goal_probes : names of the ``[fea]`` probes the goal-oriented indicator aims at (default
         all); goal_radius : the probe functional's mollifier radius, x the diameter
-        (default :data:`hetmesh.fea.goal.DEFAULT_RADIUS`)
+        (default :data:`hetmesh.fea.goal.DEFAULT_RADIUS`); goal_element_factor : the radius
+        is at least this times the longest edge of the probe's element (default
+        :data:`hetmesh.fea.goal.DEFAULT_ELEMENT_FACTOR`)
     progress : callable, optional
         Called with every step's record.
 
@@ -394,6 +404,11 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     if indicator not in INDICATORS:
         raise OptionError(f"indicator: expected one of {', '.join(INDICATORS)}, got "
                           f"{indicator!r}")
+    if goal_element_factor is not None and not (
+            isinstance(goal_element_factor, (int, float)) and math.isfinite(goal_element_factor)
+            and goal_element_factor > 0):
+        raise OptionError(f"goal_element_factor: expected a number > 0, got "
+                          f"{goal_element_factor!r}")
     cfg = config if config is not None else getattr(model, "fea", None)
     if indicator == "goal" and (cfg is None or not getattr(cfg, "probes", None)):
         raise FEAError(f"model {getattr(model, 'name', '')!r}: the goal-oriented indicator "
@@ -446,7 +461,9 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
             t0 = time.perf_counter()
             dual = dual_solution(cur_mesh, model, cfg, r.probes, names=goal_probes,
                                  radius=DEFAULT_RADIUS if goal_radius is None
-                                 else goal_radius)
+                                 else goal_radius,
+                                 element_factor=DEFAULT_ELEMENT_FACTOR
+                                 if goal_element_factor is None else goal_element_factor)
             eta_z, _ = dual_indicator(dual)
             mark_eta = goal_indicator(eta, eta_z)
             rec["energy_estimate"] = est
@@ -492,24 +509,29 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
 
 # ---------------------------------------------------------------------------- the study
 
-#: the refinement family of the 3-D study: Doerfler fraction, refinements, tetrahedra budget
-#: and the indicator the marks follow (the probes' dual-weighted one: the study asks for the
-#: stress at the probes, not for the energy norm)
+#: the refinement family of the 3-D study: Doerfler fraction, refinements, tetrahedra budget,
+#: the indicator the marks follow (the probes' dual-weighted one: the study asks for the
+#: stress at the probes, not for the energy norm) and its mollifier's element factor
 STUDY_REFINEMENT = {"full": {"fraction": 0.5, "steps": 8, "max_elements": 60_000,
-                             "indicator": "goal"},
+                             "indicator": "goal",
+                             "goal_element_factor": DEFAULT_ELEMENT_FACTOR},
                     "quick": {"fraction": 0.5, "steps": 5, "max_elements": 20_000,
-                              "indicator": "goal"}}
+                              "indicator": "goal",
+                              "goal_element_factor": DEFAULT_ELEMENT_FACTOR}}
 
 
 def refinement_study(model, reference: dict, study, *, threshold: float, quick: bool = False,
                      chord_tol: float | None = None, start_chord_tol: float | None = None,
                      fraction: float | None = None, steps: int | None = None,
                      max_elements: int | None = None, indicator: str | None = None,
+                     goal_element_factor: float | None = None,
                      uniform_elements: Sequence[int] | None = None) -> dict:
     """The third family of the 3-D study: the material-adaptive mesh at ``threshold``
     (:func:`hetmesh.generate` with the chord tolerance ``start_chord_tol``, default
     ``chord_tol``, both relative) refined by :func:`adapt` step by step (marks by
-    ``indicator``, default the plan's), every step's mesh one member, with the probe errors
+    ``indicator``, default the plan's; with the goal-oriented one, the mollifier's floor
+    ``goal_element_factor`` x the probe element's longest edge, default the plan's), every
+    step's mesh one member, with the probe errors
     against ``reference`` (as :func:`hetmesh.fea.probe_study.study3d`'s ``study``, whose
     uniform counts give the ratios). A coarser start is refined towards the exact surface:
     every new boundary vertex is put on it (:func:`snap_to_surface`); the refined meshes are
@@ -520,7 +542,8 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
     faces.
 
     Returns ``{"threshold", "fraction", "steps", "max_elements", "indicator",
-    "start_chord_tol", "reason", "seconds", "meshes": [{"family": "refined", "param": step,
+    "goal_element_factor", "start_chord_tol", "reason", "seconds", "meshes": [{"family":
+    "refined", "param": step,
     "elements", "von_mises", "estimate", "estimate_of", "errors", "max_error",
     "solve_seconds"}], "needed": {set: {"refined", "refined_exact", "uniform",
     "uniform_exact", "adaptive", "ratio", and with the like-for-like uniform family
@@ -533,7 +556,7 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
 
     plan = dict(STUDY_REFINEMENT["quick" if quick else "full"])
     for k, v in (("fraction", fraction), ("steps", steps), ("max_elements", max_elements),
-                 ("indicator", indicator)):
+                 ("indicator", indicator), ("goal_element_factor", goal_element_factor)):
         if v is not None:
             plan[k] = v
     t0 = time.perf_counter()
@@ -546,7 +569,8 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
     start = generate(model, threshold, chord_tol=start_tol).mesh
     a = adapt(start, model, threshold, tolerance=1e-9, steps=plan["steps"],
               fraction=plan["fraction"], max_elements=plan["max_elements"],
-              chord_tol=verify_tol, indicator=plan["indicator"])
+              chord_tol=verify_tol, indicator=plan["indicator"],
+              goal_element_factor=plan["goal_element_factor"])
     tol = TOLERANCE if study is None else study.tolerance
     meshes = []
     for st in a.steps:

@@ -13,8 +13,9 @@ load is the quantity of interest:
    ``J_i(v) = int k_i(x) n_i : sigma(v) dx``, ``n_i = 3 dev(sigma(x_i)) / (2 s_i^2)`` (so
    that ``J_i(u) ~ 1`` and an error ``e`` changes it by ``delta s_i / s_i``), mollified by
    a Gaussian ``k_i = exp(-|x - x_i|^2 / rho^2)`` normalised to ``int k_i = 1`` on the
-   mesh (``rho`` a fraction of the solid's diameter, at least the size of the element
-   holding the probe); the functional of all probes is the sum ``J = sum_i J_i``.
+   mesh (``rho`` a fraction of the solid's diameter, at least a factor, 1 unless told, times
+   the longest edge of the element holding the probe); the functional of all probes is
+   the sum ``J = sum_i J_i``.
 2. **The dual problem**: ``z`` with ``a(v, z) = J(v)`` for every admissible ``v`` (the
    primal's stiffness and fixed displacement components, homogeneous); its load is a
    prestress, ``int k 2 mu n : eps(v)`` (``n`` is deviatoric, so the ``lambda tr n`` part
@@ -59,10 +60,12 @@ from .solid import (
 )
 
 __all__ = ["von_mises_direction", "DualSolution", "dual_solution", "dual_indicator",
-           "goal_indicator", "goal_estimate", "DEFAULT_RADIUS"]
+           "goal_indicator", "goal_estimate", "DEFAULT_RADIUS", "DEFAULT_ELEMENT_FACTOR"]
 
 #: the mollifier's radius rho, x the solid's diameter (at least the probe element's size)
 DEFAULT_RADIUS = 0.005
+#: the mollifier's radius is at least this times the longest edge of the probe's element
+DEFAULT_ELEMENT_FACTOR = 1.0
 
 
 def von_mises_direction(stress: np.ndarray) -> np.ndarray:
@@ -112,8 +115,8 @@ class DualSolution:
 
 
 def dual_solution(mesh, model, cfg, probes: Mapping[str, Mapping[str, float]], *,
-                  names: Sequence[str] | None = None, radius: float = DEFAULT_RADIUS
-                  ) -> DualSolution:
+                  names: Sequence[str] | None = None, radius: float = DEFAULT_RADIUS,
+                  element_factor: float = DEFAULT_ELEMENT_FACTOR) -> DualSolution:
     """Solve the dual problem of the relative von Mises functional of the probes ``names``
     (default all; see the module docstring).
 
@@ -126,9 +129,18 @@ def dual_solution(mesh, model, cfg, probes: Mapping[str, Mapping[str, float]], *
         :attr:`hetmesh.fea.analysis3d.FEAResult3D.probes`)
     radius : float
         The mollifier's radius rho, x the solid's diameter (the mesh's bounding-box diagonal
-        when the model has no solid); at least the longest edge of the element holding the
-        probe.
+        when the model has no solid); at least ``element_factor`` times the longest edge of
+        the element holding the probe.
+    element_factor : float
+        That floor's factor (> 0; default :data:`DEFAULT_ELEMENT_FACTOR`, the whole edge).
+        On long, flat tetrahedra the whole edge makes the functional an average over a ball
+        much larger than the elements around the probe; a smaller factor keeps it near the
+        point.
     """
+    if not (isinstance(element_factor, (int, float)) and math.isfinite(element_factor)
+            and element_factor > 0):
+        raise FEAError(f"goal-oriented indicator: the mollifier's element factor must be a "
+                       f"number > 0, got {element_factor!r}")
     names = list(probes) if names is None else list(names)
     missing = [n for n in names if n not in probes]
     if missing:
@@ -153,7 +165,7 @@ def dual_solution(mesh, model, cfg, probes: Mapping[str, Mapping[str, float]], *
             n = von_mises_direction(np.array([rec[k] for k in STRESS_NAMES_3D], dtype=float))
             e, _ = locate_tet(P, T, q)
             h = float(np.linalg.norm(P[T[e]][:, None] - P[T[e]][None], axis=-1).max())
-            rho = rhos[name] = max(radius * diam, h)
+            rho = rhos[name] = max(radius * diam, element_factor * h)
             k = _mollifier(xq, space.dx, q, rho)
             near = np.flatnonzero((k > 1e-12 * k.max()).any(axis=1))
             # int k 2 mu n : eps(v) = sum_q dx k 2 mu (n g_i)_a for component a of node i

@@ -532,9 +532,13 @@ def _refinement_lines(section) -> list[str]:
                 for m in r["meshes"]]
         goal = r.get("indicator", "energy") == "goal"
         start = r.get("start_chord_tol")
+        factor = r.get("goal_element_factor") if goal else None
         out += [f"**{name}** (from δ0 = {r['threshold']:g}"
                 + ("" if start is None else f", chord tolerance {start:g}")
-                + f", indicator {r.get('indicator', 'energy')}, fraction {r['fraction']:g}, "
+                + f", indicator {r.get('indicator', 'energy')}"
+                + ("" if factor is None else f" (mollifier at least {factor:g} x the probe "
+                   f"element's longest edge)")
+                + f", fraction {r['fraction']:g}, "
                 f"stopped: {r['reason']}, {r['seconds']:.0f} s).", ""]
         out += markdown_table(["step", "tets", "probe estimate %" if goal else "ZZ estimate %"]
                               + [f"max error {k} %" for k in sets] + ["solve s"], rows) + [""]
