@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .parallel import block_concat
+from .parallel import block_concat, block_map
 from .topology import index_columns
 
 __all__ = [
@@ -343,41 +343,48 @@ def delta_dense(field, points: np.ndarray, triangles: np.ndarray, order: int = 4
     cols = [np.ascontiguousarray(points[:, d]) for d in range(dim)]
     for s in range(0, len(triangles), chunk):
         t = triangles[s:s + chunk]
-        # the block function runs within this iteration: binding t late is safe
-        xy = block_concat(lambda b: _lattice_points(cols, t[b], lam),  # noqa: B023
-                          len(t)).reshape(-1, dim)
+        xy = _lattice_points(cols, t, lam)  # (K, n, d): lattice point k of every element
         if regions is not None:
-            comp = field.composition(xy, region=np.repeat(regions[s:s + chunk], len(lam)))
+            comp = field.composition(xy.reshape(-1, dim),
+                                     region=np.tile(regions[s:s + chunk], len(lam)))
         else:
-            comp = field.composition(xy)
-        out[s:s + chunk] = _sample_range(comp.reshape(len(t), len(lam), -1))
+            comp = field.composition(xy.reshape(-1, dim))
+        xy = None
+        out[s:s + chunk] = _sample_range(comp.reshape(len(lam), len(t), -1))
     return out
 
 
 def _lattice_points(cols, t, lam) -> np.ndarray:
-    """The points ``(n, K, d)`` at barycentric coordinates ``lam (K, d + 1)`` in the
-    simplices ``t``: ``(l0 a + l1 b) + l2 c (+ l3 e)`` per coordinate, as ``np.einsum(
-    "kv,cvd->ckd", ...)`` sums them (the same numbers), from the coordinate columns ``cols``."""
-    out = np.empty((len(t), len(lam), len(cols)))
-    for d, z in enumerate(cols):
-        corners = [z[t[:, v]] for v in range(t.shape[1])]
-        for k, weights in enumerate(lam):
-            acc = weights[0] * corners[0]
-            for w, zc in zip(weights[1:], corners[1:]):
-                acc = acc + w * zc
-            out[:, k, d] = acc
+    """The points ``(K, n, d)`` at barycentric coordinates ``lam (K, d + 1)`` in the
+    simplices ``t`` (lattice point first: every array below is contiguous): ``(l0 a + l1 b)
+    + l2 c (+ l3 e)`` per coordinate, as ``np.einsum("kv,cvd->ckd", ...)`` sums them (the
+    same numbers), from the coordinate columns ``cols``; by blocks of simplices (in
+    threads)."""
+    out = np.empty((len(lam), len(t), len(cols)))
+    tcols = index_columns(t)
+
+    def block(s):
+        for d, z in enumerate(cols):
+            corners = [z[c[s]] for c in tcols]
+            for k, weights in enumerate(lam):
+                acc = weights[0] * corners[0]
+                for w, zc in zip(weights[1:], corners[1:]):
+                    acc = acc + w * zc
+                out[k, s, d] = acc
+
+    block_map(block, len(t))
     return out
 
 
 def _sample_range(comp: np.ndarray) -> np.ndarray:
-    """``(comp.max(axis=1) - comp.min(axis=1)).max(axis=1)`` of ``comp (n, K, m)``, the same
-    numbers, by elementwise passes over K and m (a strided reduction over the short middle
-    axis costs numpy three times as much)."""
-    hi = comp[:, 0].copy()
+    """``(comp.max(axis=0) - comp.min(axis=0)).max(axis=1)`` of ``comp (K, n, m)`` (the
+    compositions at the K lattice points of n elements), the same numbers, by elementwise
+    passes over the contiguous ``(n, m)`` slices of K, then over m."""
+    hi = comp[0].copy()
     lo = hi.copy()
-    for k in range(1, comp.shape[1]):
-        np.maximum(hi, comp[:, k], out=hi)
-        np.minimum(lo, comp[:, k], out=lo)
+    for k in range(1, comp.shape[0]):
+        np.maximum(hi, comp[k], out=hi)
+        np.minimum(lo, comp[k], out=lo)
     hi -= lo
     out = hi[:, 0].copy()
     for j in range(1, hi.shape[1]):
