@@ -216,16 +216,19 @@ def flip_improve(p: np.ndarray, t: np.ndarray, phase: np.ndarray,
     smallest dihedral angle, degrees; larger is better) is below ``bound``, the worst
     first, in up to ``passes`` passes (in each, a tetrahedron takes part in one
     replacement at most; of a tetrahedron's replacements, the one whose worst tetrahedron
-    is best, if better than the worst of those it replaces). ``ok(tets, phase)`` is the
+    is best, if better than the worst of those it replaces; after the first pass, only the
+    tetrahedra sharing a vertex with a replaced one or with one whose replacement another
+    took the place of are tried again). ``ok(tets, phase)`` is the
     caller's check of candidate tetrahedra (True: acceptable). ``(tets, phase)``: the new
     tetrahedra, all positive, in a deterministic order; points of removed vertices are no
     longer referenced."""
     measure = _min_dihedral if measure is None else measure
     t = np.asarray(t, np.int64)
     phase = np.asarray(phase, np.int64)
+    dirty = np.ones(len(p), bool)  # the tetrahedra to try: those with a dirty vertex
     for _ in range(passes):
         dm = measure(p, t)
-        bad = np.flatnonzero(dm < bound)
+        bad = np.flatnonzero((dm < bound) & dirty[t].any(axis=1))
         if not len(bad):
             break
         bad = bad[np.argsort(dm[bad], kind="stable")]
@@ -277,14 +280,18 @@ def flip_improve(p: np.ndarray, t: np.ndarray, phase: np.ndarray,
         take = take[np.lexsort((take, -cmin[take], rank[owner_a[group[take]]]))]
         busy = np.zeros(len(t), bool)
         drop, add, add_phase = [], [], []
+        # next pass: the tetrahedra around the replaced ones and those that were blocked
+        dirty = np.zeros(len(p), bool)
         for c in take.tolist():
             old = olds[group[c]]
             if busy[old].any():
+                dirty[t[owner_a[group[c]]]] = True
                 continue
             new = rows[offsets[c]:offsets[c + 1]]
             if _oriented_faces(new) != _oriented_faces(t[old]):
                 continue
             busy[old] = True
+            dirty[t[old].ravel()] = True
             drop.append(old)
             add.append(new)
             add_phase.append(int(phase[owner_a[group[c]]]))

@@ -23,7 +23,11 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
    vertices move to better places, the points of the surface only within flat patches of
    it, so the surface and every claim of the verification that rests on it stay. The
    thin tetrahedra MMG leaves are at the surface: a triangle of the voxel contour (ridges
-   and corners a voxel apart) and an inner vertex close to its plane.
+   and corners a voxel apart) and an inner vertex close to its plane. With phases, the
+   tetrahedra are then reconnected within each phase (:func:`reconnect`: flips and
+   collapses of inner vertices, :mod:`hetmesh.tet.flips`, and the polish again): where
+   three phases meet, the interfaces leave wedges of a phase too narrow for two
+   tetrahedra, which no vertex move mends.
 3. *Faces*: the boundary triangles take the name of the zero region on their side: ``outer``
    (the zeros connected to the outside of the volume) or ``cavity[k]`` (an enclosed zero
    region, numbered in the order of its first voxel, k fastest x).
@@ -513,11 +517,13 @@ def reconnect(p, t, phase, comp, field, threshold):
     ``threshold`` in its phase) of the tetrahedra whose radius ratio is below
     :data:`FLIP_RADIUS`, then :data:`FLIP_ROUNDS` rounds of flips of those whose smallest
     dihedral angle is below :data:`POLISH_ANGLE` and the polish (:func:`polish`). The
-    boundary, the interfaces and every vertex on them stay; the thin tetrahedra left by
-    the polish are those between three vertices on the interfaces, which no vertex move
-    mends: at a line where three phases meet, a phase's wedge of 15-20 degrees between
-    two interface triangles split into two tetrahedra by an inner vertex, which a collapse
-    joins into one. ``(points, tets, phase, comp)``, the unused points dropped."""
+    boundary and the interfaces keep their triangles (the polish moves their points only
+    within flat patches). The thin tetrahedra the polish leaves have three vertices on the
+    interfaces, which it does not move: at a line where three phases meet, a phase's wedge
+    of 15-20 degrees between two interface triangles, split into two tetrahedra by an
+    inner vertex, becomes one by a collapse of that vertex. The radius-ratio flips raise
+    the mean radius ratio, which is lowest in the tetrahedra with vertices on the
+    voxel-scale interfaces. ``(points, tets, phase, comp)``, the unused points dropped."""
     from ..metrics import tet_quality
     from .flips import flip_improve
 
