@@ -23,7 +23,11 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
    vertices move to better places, the points of the surface only within flat patches of
    it, so the surface and every claim of the verification that rests on it stay. The
    thin tetrahedra MMG leaves are at the surface: a triangle of the voxel contour (ridges
-   and corners a voxel apart) and an inner vertex close to its plane.
+   and corners a voxel apart) and an inner vertex close to its plane. With phases, the
+   tetrahedra are then reconnected within each phase (:func:`reconnect`: flips and
+   collapses of inner vertices, :mod:`hetmesh.tet.flips`, and the polish again): where
+   three phases meet, the interfaces leave wedges of a phase too narrow for two
+   tetrahedra, which no vertex move mends.
 3. *Faces*: the boundary triangles take the name of the zero region on their side: ``outer``
    (the zeros connected to the outside of the volume) or ``cavity[k]`` (an enclosed zero
    region, numbered in the order of its first voxel, k fastest x).
@@ -93,6 +97,12 @@ POLISH_ROUNDS = 30
 POLISH_STEPS = (0.04, 0.12, 0.3)
 _DIRS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], float) - 1.0
 _DIRS /= np.linalg.norm(_DIRS, axis=1, keepdims=True)
+#: with phases, after the polish: flips (:func:`hetmesh.tet.flips.flip_improve`) of the
+#: tetrahedra whose radius ratio is below FLIP_RADIUS, in up to FLIP_RADIUS_PASSES passes,
+#: then FLIP_ROUNDS rounds of flips of those under POLISH_ANGLE degrees and the polish
+FLIP_RADIUS = 0.6
+FLIP_RADIUS_PASSES = 4
+FLIP_ROUNDS = 2
 #: size rounds before the bisection repair
 SIZE_ROUNDS = 6
 #: MMG's gradation
@@ -495,8 +505,41 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
                              max_elements=max_elements, regions=phase)
         p, t, phase, comp, passes = rep.points, rep.tets, rep.regions, rep.comp, rep.passes
     p, comp = polish(p, t, phase, comp, field, threshold)
+    if solid.n_phases > 1:
+        p, t, phase, comp = reconnect(p, t, phase, comp, field, threshold)
     delta = _delta(field, p, t, phase, comp)
     return p, t, phase, comp, delta, rounds, passes
+
+
+def reconnect(p, t, phase, comp, field, threshold):
+    """Flips within the phases (:func:`hetmesh.tet.flips.flip_improve`: face flips, edge
+    removals, collapses of inner vertices; every new tetrahedron with delta below
+    ``threshold`` in its phase) of the tetrahedra whose radius ratio is below
+    :data:`FLIP_RADIUS`, then :data:`FLIP_ROUNDS` rounds of flips of those whose smallest
+    dihedral angle is below :data:`POLISH_ANGLE` and the polish (:func:`polish`). The
+    boundary and the interfaces keep their triangles (the polish moves their points only
+    within flat patches). The thin tetrahedra the polish leaves have three vertices on the
+    interfaces, which it does not move: at a line where three phases meet, a phase's wedge
+    of 15-20 degrees between two interface triangles, split into two tetrahedra by an
+    inner vertex, becomes one by a collapse of that vertex. The radius-ratio flips raise
+    the mean radius ratio, which is lowest in the tetrahedra with vertices on the
+    voxel-scale interfaces. ``(points, tets, phase, comp)``, the unused points dropped."""
+    from ..metrics import tet_quality
+    from .flips import flip_improve
+
+    def ok(tets, ph, p=p, comp=comp):
+        return _delta(field, p, tets, ph, comp) < threshold
+
+    t, phase = flip_improve(p, t, phase, ok, bound=FLIP_RADIUS, measure=tet_quality,
+                            passes=FLIP_RADIUS_PASSES)
+    for _ in range(FLIP_ROUNDS):
+        t, phase = flip_improve(p, t, phase, lambda tets, ph, p=p, comp=comp:
+                                ok(tets, ph, p, comp), bound=POLISH_ANGLE)
+        p, comp = polish(p, t, phase, comp, field, threshold)
+    used = unique(t)
+    remap = np.full(len(p), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    return p[used], remap[t], phase, comp[used]
 
 
 def independent_vertices(tets: np.ndarray, cand: np.ndarray, rank: np.ndarray
@@ -544,8 +587,10 @@ def surface_normals(p, t, phase) -> np.ndarray:
 
 
 def polish(p, t, phase, comp, field, threshold, *, angle: float = POLISH_ANGLE,
-           rounds: int = POLISH_ROUNDS):
-    """Move vertices of the tetrahedra whose smallest dihedral angle is below ``angle``:
+           rounds: int = POLISH_ROUNDS, measure=None):
+    """Move vertices of the tetrahedra whose smallest dihedral angle is below ``angle``
+    (with ``measure(points, tets)``, another quality, larger better: whose quality is below
+    ``angle``; the moves then raise the smallest quality around the vertices):
     in each round, a set of such vertices no two of which share a tetrahedron
     (:func:`independent_vertices`, the worst first) each go to the trial position
     (:data:`POLISH_STEPS` along :data:`_DIRS`, the mean of their neighbours, or where
@@ -558,13 +603,14 @@ def polish(p, t, phase, comp, field, threshold, *, angle: float = POLISH_ANGLE,
     from ..mesh import simplex_measures
     from .quality import min_dihedral
 
+    measure = min_dihedral if measure is None else measure
     p, comp = p.copy(), comp.copy()
     t = np.asarray(t, np.int64)
     normal = surface_normals(p, t, phase)
     stuck = np.isnan(normal).any(axis=1)
     normal = np.nan_to_num(normal)
     for _ in range(rounds):
-        dm = min_dihedral(p, t)
+        dm = measure(p, t)
         bad = dm < angle
         worst = np.full(len(p), np.inf)
         np.minimum.at(worst, t[bad].ravel(), np.repeat(dm[bad], 4))
@@ -600,7 +646,7 @@ def polish(p, t, phase, comp, field, threshold, *, angle: float = POLISH_ANGLE,
         tv = np.repeat(t[rows], k_n, axis=0)
         kk = np.tile(np.arange(k_n), len(rows))
         tv[np.arange(len(tv)), np.repeat(col, k_n)] = n0 + np.repeat(owner, k_n) * k_n + kk
-        score = min_dihedral(pv, tv)
+        score = measure(pv, tv)
         ok = simplex_measures(pv, tv) > 0
         ok &= _delta(field, pv, tv, np.repeat(phase[rows], k_n), cv) < threshold
         score = np.where(ok, score, -np.inf).reshape(len(rows), k_n)
