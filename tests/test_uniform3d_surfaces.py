@@ -74,24 +74,25 @@ def test_a_surface_solid_gets_a_verified_uniform_mesh(tmp_path):
     assert len(r.tets) > len(a.tets), (len(r.tets), len(a.tets))
 
 
-def graded_mask_model(tmp_path):
+def graded_mask_model(tmp_path, n=N):
     """The mask test part with a grey volume that grows as the cube of the height (the
     metal fraction steep at the top, flat at the bottom: the adaptive mesh grades)."""
-    path = write_model(tmp_path)
-    k = np.mgrid[0:N, 0:N, 0:N][0]
-    np.save(tmp_path / "grey.npy", (k / (N - 1.0)) ** 3)
+    path = write_model(tmp_path, part_mask(n))
+    k = np.mgrid[0:n, 0:n, 0:n][0]
+    np.save(tmp_path / "grey.npy", (k / (n - 1.0)) ** 3)
     return load_model(path)
 
 
 def test_a_mask_solid_gets_a_verified_uniform_mesh(tmp_path):
-    m = graded_mask_model(tmp_path)
+    n = 10
+    m = graded_mask_model(tmp_path, n)
     assert isinstance(m.solid, VoxelSolid)
     d0 = 0.15
     r = uniform_model(m, d0)
     assert r.info["placement"] == "uniform remeshed"
     # from the arrays: every voxel centre of the mask inside, every other one outside, the
     # boundary within half a voxel of the voxel faces, delta over the vertices
-    check_mesh(r, part_mask(), threshold=d0)
+    check_mesh(r, part_mask(n), threshold=d0)
     p, t = r.points, r.tets.astype(np.int64)
     c = m.material.composition(p)
     assert ((c[t].max(axis=1) - c[t].min(axis=1)).max(axis=1)).max() < d0
@@ -103,7 +104,7 @@ def test_a_mask_solid_gets_a_verified_uniform_mesh(tmp_path):
 
 
 def test_the_budget_ends_the_search_in_one_line(tmp_path):
-    m = load_model(write_model(tmp_path))
+    m = graded_mask_model(tmp_path, 10)
     with pytest.raises(BudgetError, match="^no uniform tetrahedral mesh meets delta_max < "
                                           "0.01 within the budget: ") as exc:
         uniform_model(m, 0.01, max_elements=5_000)
@@ -111,7 +112,8 @@ def test_the_budget_ends_the_search_in_one_line(tmp_path):
 
 
 def test_cli_uniform_on_a_mask(tmp_path, capsys):
-    path = write_model(tmp_path)
+    graded_mask_model(tmp_path, 10)
+    path = tmp_path / "m.toml"
     out = tmp_path / "u.vtu"
     code = main(["uniform", str(path), "-d", "0.3", "-o", str(out)])
     o, err = capsys.readouterr()
@@ -126,7 +128,7 @@ def test_cli_uniform_on_a_mask(tmp_path, capsys):
 
 
 def test_same_mask_same_uniform_mesh(tmp_path):
-    m = load_model(write_model(tmp_path))
+    m = graded_mask_model(tmp_path, 10)
     a, b = (uniform_mask_at(m.solid, m.material, 0.8, 0.3) for _ in range(2))
     assert a.points.tobytes() == b.points.tobytes() and a.tets.tobytes() == b.tets.tobytes()
     assert a.info["size"] == 0.8 and a.threshold == 0.3
