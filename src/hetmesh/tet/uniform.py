@@ -524,10 +524,6 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
                                                    section_chord(solid, chord_tol))
     chord_abs = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
     start = None  # the remeshed start of a surface or a mask, shared by every size
-    if isinstance(solid, SurfaceSolid):
-        start = surface_start(solid, chord_abs)
-    elif isinstance(solid, VoxelSolid):
-        start = cut_mask(solid)
     h = _start_size(model, threshold)
     best: TetResult | None = None
     best_count = 0
@@ -536,6 +532,10 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     swept = _is_swept(model)
     for i in range(tries):
         try:
+            if start is None and isinstance(solid, (SurfaceSolid, VoxelSolid)):
+                _check_estimate(solid, h, max_elements)  # the budget before the start
+                start = surface_start(solid, chord_abs) if isinstance(solid, SurfaceSolid) \
+                    else cut_mask(solid)
             if isinstance(solid, SurfaceSolid):
                 res = uniform_surface_at(solid, model.material, h, threshold,
                                          chord_tol=chord_abs, max_elements=max_elements,
