@@ -132,3 +132,17 @@ def test_same_mask_same_uniform_mesh(tmp_path):
     a, b = (uniform_mask_at(m.solid, m.material, 0.8, 0.3) for _ in range(2))
     assert a.points.tobytes() == b.points.tobytes() and a.tets.tobytes() == b.tets.tobytes()
     assert a.info["size"] == 0.8 and a.threshold == 0.3
+
+
+@pytest.mark.slow  # about 70 s on a loaded 2-core machine
+def test_a_label_volume_keeps_every_phase(tmp_path):
+    """The phases of a label volume: no tetrahedron straddles two, delta in each phase."""
+    from test_image_labels3d import check_phases, labels
+    from test_image_labels3d import write as write_labels
+
+    m = load_model(write_labels(tmp_path))
+    d0 = 0.3
+    r = uniform_model(m, d0)
+    assert r.info["placement"] == "uniform remeshed"
+    check_phases(r, labels(), m.material, d0, m.solid.phases)
+    assert len(set(r.info["regions"].tolist())) == 3
