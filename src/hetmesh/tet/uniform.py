@@ -15,6 +15,15 @@ and returned. Every size's element count is estimated before it is meshed, so a 
 that would need more than ``max_elements`` raises :class:`~hetmesh.errors.BudgetError`
 instead of running on.
 
+Solids with no section to sweep are remeshed by MMG to the one size ``h`` from the start the
+adaptive mesher of that kind uses, nothing refined for the material: a solid of primitives
+(:func:`hetmesh.tet.general.uniform_solid_at`), a closed triangulated surface
+(:func:`uniform_surface_at`: Gmsh's first volume mesh of the input triangles, MMG's
+Hausdorff distance half the chord tolerance) and the non-zero voxels of a mask
+(:func:`uniform_mask_at`: the cut voxel-centre grid, MMG's Hausdorff distance in voxels,
+the optimisation pass and the polish of the adaptive mask mesh, every phase of a label
+volume kept). Each is verified as the adaptive mesh of that kind is.
+
 >>> import hetmesh
 >>> r = uniform_tets(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.3)
 >>> r.mesh.cell_type, bool(r.stats.delta_max < 0.3), r.options["placement"]
@@ -23,13 +32,14 @@ instead of running on.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
 
 import numpy as np
 
-from ..errors import BudgetError, OptionError, VerificationError
+from ..errors import BudgetError, MeshingError, OptionError, VerificationError
 from ..kernel import Result
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
@@ -38,19 +48,32 @@ from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
 from .columns import swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
-from .general import solid_problems, uniform_solid_at
+from .general import (
+    HGRAD,
+    mmg_remesh,
+    orient_positive,
+    quiet_mmg,
+    solid_problems,
+    uniform_solid_at,
+)
 from .implicit import CSGSolid
+from .masked import HAUSD, VoxelSolid, cut_mask, interface_faces, mask_problems, polish
 from .mesher import TetResult
+from .surface import SurfaceSolid
 from .verify import raise_problems
 
 __all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
-           "SectionMesher", "estimate_uniform", "section_chord", "TETS_PER_H3"]
+           "SectionMesher", "estimate_uniform", "section_chord", "TETS_PER_H3",
+           "uniform_surface_at", "uniform_mask_at", "surface_start", "estimate_remeshed",
+           "REGULAR_PER_H3"]
 
 log = logging.getLogger(__name__)
 
 #: tetrahedra per h^3 of volume in a swept uniform mesh: 4 / (sqrt(3) h^2) triangles per
 #: unit area (equilateral, edge h), 3 tetrahedra per triangle and layer of thickness h
 TETS_PER_H3 = 12.0 / math.sqrt(3.0)
+#: regular tetrahedra of edge h per h^3 of volume (a remeshed uniform mesh's estimate)
+REGULAR_PER_H3 = 6.0 * math.sqrt(2.0)
 #: default chord tolerance of curved faces, x the solid's diameter (as for the adaptive mesh)
 CHORD = 2e-3
 #: stop the size search when the failing and passing sizes are this close (ratio)
@@ -284,13 +307,185 @@ def _section_trial(model, h, threshold, sections, chord_tol, max_elements, min_a
                      {"size": float(h), "elements": count})
 
 
+# -- remeshed solids without a section: triangulated surfaces, voxel masks ----------------
+
+def estimate_remeshed(solid, h: float) -> float:
+    """A-priori tetrahedron count of a remeshed uniform mesh of size ``h``: regular
+    tetrahedra of edge ``h`` over the solid's volume (:data:`REGULAR_PER_H3`), plus, for a
+    voxel mask, its boundary at the voxel size (as :func:`hetmesh.tet.masked.estimate_masked`
+    adds it: 4 x the bounding box's area / voxel^2)."""
+    est = REGULAR_PER_H3 * float(solid.volume) / h ** 3
+    if isinstance(solid, VoxelSolid):
+        lo, hi = solid.bounds
+        e = hi - lo
+        est += 4.0 * 2.0 * float((e * e[[1, 2, 0]]).sum()) / solid.voxel ** 2
+    return est + 100.0
+
+
+def _check_estimate(solid, h: float, max_elements: int | None) -> float:
+    est = estimate_remeshed(solid, h)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
+                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    return est
+
+
+def _check_count(h: float, n: int, max_elements: int | None) -> None:
+    if max_elements is not None and n > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {n:,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+
+
+def _surface_markers(solid: SurfaceSolid, p, faces, chord: float, known=None,
+                     known_markers=None) -> np.ndarray:
+    """The face of each boundary triangle of a surface solid's mesh: the reference MMG kept
+    for it (the triangles ``known`` with ``known_markers``) where it is the same triangle,
+    else the face of the input triangle nearest to it (within ``chord``)."""
+    if len(solid.face_names) == 1:
+        return np.zeros(len(faces), dtype=np.int64)
+    markers = np.full(len(faces), -1, dtype=np.int64)
+    if known is not None and len(known):
+        n = len(p) + 1
+
+        def key(f):
+            q = np.sort(np.asarray(f, dtype=np.int64), axis=1)
+            return (q[:, 0] * n + q[:, 1]) * n + q[:, 2]
+
+        kb, km = key(faces), key(known)
+        order = np.argsort(km)
+        pos = np.clip(np.searchsorted(km[order], kb), 0, len(km) - 1)
+        hit = km[order][pos] == kb
+        markers = np.where(hit, np.asarray(known_markers, dtype=np.int64)[order][pos], -1)
+    bad = (markers < 0) | (markers >= len(solid.face_names))
+    if bad.any():
+        markers[bad] = solid.classify_faces(p[faces[bad]], chord)
+    if (markers < 0).any():
+        c = p[faces[markers < 0][0]].mean(axis=0)
+        raise MeshingError(f"{int((markers < 0).sum())} boundary triangles off the surface "
+                           f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    return markers
+
+
+def surface_start(solid: SurfaceSolid, chord: float):
+    """The adaptive surface mesher's start (:func:`hetmesh.tet.surface_mesh.initial_volume`:
+    Gmsh's volume mesh of the input triangles) with its boundary triangles and their faces:
+    ``(points, tets, faces, markers)``, shared by every size of the search."""
+    from .surface_mesh import initial_volume
+
+    p, t = initial_volume(solid)
+    faces, _ = boundary_faces(t)
+    return p, t, faces, _surface_markers(solid, p, faces, chord)
+
+
+def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *,
+                       chord_tol: float | None = None, max_elements: int | None = None,
+                       start=None) -> TetResult:
+    """The uniform baseline's mesh of a solid inside a closed triangulated surface at size
+    ``h``, not verified: the adaptive mesher's start (:func:`surface_start`, or ``start``)
+    remeshed once by MMG to the constant size ``h`` with the Hausdorff distance half the
+    chord tolerance ``chord_tol`` (absolute; default 2e-3 x the diameter), as the adaptive
+    mesh is (MMG keeps the sharp edges as ridges and refines where the surface curves).
+    Nothing is refined for the material: ``delta`` over the vertices is measured,
+    ``threshold`` recorded but not required."""
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    est = _check_estimate(solid, h, max_elements)
+    p, t, faces, markers = surface_start(solid, chord) if start is None else start
+    p, t, fm, rm, _ = mmg_remesh(p, t, faces, markers, np.full(len(p), float(h)),
+                                 0.5 * chord)
+    _check_count(h, len(t), max_elements)
+    faces, _ = boundary_faces(t)
+    markers = _surface_markers(solid, p, faces, chord, fm, rm)
+    comp = field.composition(p)
+    info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
+            "chord_tol": chord, "composition": comp, "hgrad": HGRAD}
+    return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
+                     (markers + 1).astype(np.int32), tuple(solid.face_names),
+                     delta_vertices(comp, t), float(threshold), info)
+
+
+def _mask_remesh(p, t, phase, size, hausd, **options):
+    """One MMG remeshing of a mask's mesh to ``size`` (None: MMG's optimisation pass with
+    ``options``, sizes from the mesh), the boundary and the interfaces between phases kept
+    within ``hausd`` as the adaptive mask mesher keeps them: ``(points, tets, phase)``."""
+    mmgpy = quiet_mmg()
+    faces, _ = boundary_faces(t)
+    inter, _ = interface_faces(t, phase)
+    tri = np.concatenate([faces, inter]).astype(np.int32)
+    refs = np.r_[np.ones(len(faces)), np.full(len(inter), 2)].astype(np.int32)
+    m = mmgpy.MmgMesh3D()
+    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(tri))
+    m.set_vertices(np.ascontiguousarray(p))
+    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                     np.ascontiguousarray(phase + 1, dtype=np.int32))
+    m.set_triangles(np.ascontiguousarray(tri), np.ascontiguousarray(refs))
+    if size is not None:
+        m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
+    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD, **options)
+    if out.get("return_code", 0) != 0:
+        raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
+    p = np.array(m.get_vertices(), dtype=np.float64)
+    tt, rr = m.get_tetrahedra_with_refs()
+    t = orient_positive(p, np.asarray(tt, dtype=np.int64))
+    return p, t, np.asarray(rr, dtype=np.int64) - 1
+
+
+def _phase_delta(field, p, t, phase, comp) -> np.ndarray:
+    """delta over the vertices, each tetrahedron's in its own phase (a label volume)."""
+    if getattr(field, "n_regions", 1) > 1:
+        from ..delta import element_delta
+        return element_delta(field, p, t, composition=comp, regions=phase)
+    return delta_vertices(comp, t)
+
+
+def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
+                    max_elements: int | None = None, start=None) -> TetResult:
+    """The uniform baseline's mesh of the non-zero voxels of a mask at size ``h``: the
+    adaptive mask mesher's start (:func:`hetmesh.tet.masked.cut_mask`, or ``start``)
+    remeshed once by MMG to the constant size ``h``, then MMG's optimisation pass with the
+    surface kept and the polish of thin tetrahedra (:func:`hetmesh.tet.masked.polish`), as
+    in the adaptive mesh; the Hausdorff distances of :data:`hetmesh.tet.masked.HAUSD` are
+    tried in turn until the voxel claims of :func:`hetmesh.tet.masked.mask_problems` hold
+    (every centre on its side, the boundary and the interfaces between unlike centres;
+    delta is not required here). Nothing is refined for the material: ``delta`` over the
+    vertices (each tetrahedron in its phase) is measured, ``threshold`` recorded."""
+    est = _check_estimate(solid, h, max_elements)
+    p0, t0, ph0 = cut_mask(solid) if start is None else start
+    probs: list[str] = []
+    for hv in HAUSD:
+        hausd = hv * solid.voxel
+        p, t, phase = _mask_remesh(p0, t0, ph0, np.full(len(p0), float(h)), hausd)
+        _check_count(h, len(t), max_elements)
+        p, t, phase = _mask_remesh(p, t, phase, None, hausd, optim=1, nosurf=1)
+        _check_count(h, len(t), max_elements)
+        comp = field.composition(p)
+        p, comp = polish(p, t, phase, comp, field, threshold)
+        t = t.astype(np.int32)
+        faces, _ = boundary_faces(t)
+        markers = solid.classify_faces(p[faces])
+        info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
+                "hausd": hausd, "composition": comp}
+        if solid.n_phases > 1:
+            info["regions"] = phase.astype(np.int32)
+        res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
+                        tuple(solid.face_names), _phase_delta(field, p, t, phase, comp),
+                        float(threshold), info)
+        # the voxel claims alone: delta is measured, not required, at a trial size
+        probs = mask_problems(dataclasses.replace(res, threshold=math.inf), solid, None)
+        if not probs:
+            return res
+        log.info("uniform mask: h = %.4g, Hausdorff distance %.3g voxels: %s; again with "
+                 "less", h, hv, probs[0])
+    raise_problems(probs)
+    return res  # not reached: raise_problems raised
+
+
 def _start_size(model, threshold: float) -> float:
     """delta_0 / max |grad f| over sample points (the size at which a straight edge along
     the steepest gradient varies by delta_0), at most a quarter of the section's diameter."""
     solid = model.solid
     p = solid.sample(16)
     g = np.linalg.norm(model.material.gradient(p), axis=2).max() if len(p) else 0.0
-    if isinstance(solid, CSGSolid):
+    if isinstance(solid, (CSGSolid, SurfaceSolid, VoxelSolid)):
         cap = solid.diameter / 4
     else:
         cap = (solid.profile if _is_revolution(solid) else solid.section).diameter / 4
@@ -319,15 +514,16 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     t0 = time.perf_counter()
     threshold = float(threshold)
     solid = model.solid
-    remeshed = isinstance(solid, CSGSolid)
+    remeshed = isinstance(solid, (CSGSolid, SurfaceSolid, VoxelSolid))
     if not (remeshed or _is_revolution(solid) or hasattr(solid, "section")):
         raise OptionError(f"a uniform mesh of {model.name} is not available: the uniform "
                           f"tetrahedral mesher takes prisms (boxes, cylinders, extrusions), "
-                          f"solids of revolution and solids of primitives, not triangulated "
-                          f"surfaces or voxel masks")
+                          f"solids of revolution, solids of primitives, triangulated "
+                          f"surfaces and voxel masks, not {type(solid).__name__}")
     sections = None if remeshed else SectionMesher(model, threshold,
                                                    section_chord(solid, chord_tol))
     chord_abs = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
+    start = None  # the remeshed start of a surface or a mask, shared by every size
     h = _start_size(model, threshold)
     best: TetResult | None = None
     best_count = 0
@@ -336,7 +532,18 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     swept = _is_swept(model)
     for i in range(tries):
         try:
-            if remeshed:
+            if start is None and isinstance(solid, (SurfaceSolid, VoxelSolid)):
+                _check_estimate(solid, h, max_elements)  # the budget before the start
+                start = surface_start(solid, chord_abs) if isinstance(solid, SurfaceSolid) \
+                    else cut_mask(solid)
+            if isinstance(solid, SurfaceSolid):
+                res = uniform_surface_at(solid, model.material, h, threshold,
+                                         chord_tol=chord_abs, max_elements=max_elements,
+                                         start=start)
+            elif isinstance(solid, VoxelSolid):
+                res = uniform_mask_at(solid, model.material, h, threshold,
+                                      max_elements=max_elements, start=start)
+            elif remeshed:
                 res = uniform_solid_at(solid, model.material, h, threshold,
                                        chord_tol=chord_abs, max_elements=max_elements)
             elif swept:
@@ -387,7 +594,12 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
         best = uniform_tets_at(model, best.info["size"], threshold, sections=sections,
                                chord_tol=chord_tol, max_elements=max_elements,
                                min_angle=min_angle)
-    if remeshed:
+    if isinstance(solid, SurfaceSolid):  # as the adaptive mesh of each kind is verified
+        from .surface_mesh import surface_problems
+        raise_problems(surface_problems(best, solid, model.material, chord_abs))
+    elif isinstance(solid, VoxelSolid):
+        raise_problems(mask_problems(best, solid, model.material))
+    elif remeshed:
         raise_problems(solid_problems(best, solid, None, chord_abs))
     else:
         verify_uniform(best, solid)
