@@ -81,7 +81,8 @@ from .mesher import TetResult
 from .refine import repair
 from .verify import raise_problems, validity_problems
 
-__all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "polish", "HAUSD"]
+__all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "polish",
+           "remesh_phases", "HAUSD"]
 
 log = logging.getLogger(__name__)
 
@@ -433,7 +434,7 @@ def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np
     return f[a], np.column_stack([phase[owner[a]], phase[owner[b]]])
 
 
-def _remesh(p, t, phase, size, hausd, **options):
+def remesh_phases(p, t, phase, size, hausd, **options):
     """MMG's remeshing to ``size`` with the boundary and the phases' interfaces kept within
     ``hausd``: ``(points, tets, phase, size MMG interpolated)``. ``size`` None and
     ``options`` (MMG's ``optim``, ``nosurf``): the optimisation pass, sizes taken from the
@@ -480,7 +481,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
     size = size_field(field, p, threshold, h_max, h_min)
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, phase, h_mmg = _remesh(p, t, phase, size, hausd)
+        p, t, phase, h_mmg = remesh_phases(p, t, phase, size, hausd)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -493,7 +494,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         size = next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min)
     # the optimisation pass: swaps, moves and MMG's own size, the boundary and the
     # interfaces kept as they are (nosurf)
-    p, t, phase, _ = _remesh(p, t, phase, None, hausd, optim=1, nosurf=1)
+    p, t, phase, _ = remesh_phases(p, t, phase, None, hausd, optim=1, nosurf=1)
     comp = field.composition(p)
     log.info("mask: optimisation pass: %d tetrahedra", len(t))
     if solid.n_phases == 1:

@@ -51,7 +51,7 @@ from .surface import SurfaceSolid, distance_to_triangles, distance_within
 from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
-           "EXTRA"]
+           "keep_markers", "EXTRA"]
 
 log = logging.getLogger(__name__)
 
@@ -161,7 +161,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
         p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
-        faces, markers = _keep_markers(solid, p, t, fm, rm, chord)
+        faces, markers = keep_markers(solid, p, t, fm, rm, chord)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -176,7 +176,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
                                        max_elements=max_elements)
     if passes:  # bisected boundary triangles: the new ones take the face they lie on
-        faces, markers = _keep_markers(solid, p, t, faces, markers, chord)
+        faces, markers = keep_markers(solid, p, t, faces, markers, chord)
     t = t.astype(np.int32)
     info = {"placement": "surface", "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place, "h_max": h_max,
@@ -202,10 +202,11 @@ def _classify(solid: SurfaceSolid, p, faces, chord: float) -> np.ndarray:
     return markers
 
 
-def _keep_markers(solid, p, t, known, known_markers, chord):
+def keep_markers(solid, p, t, known, known_markers, chord):
     """The boundary triangles of ``t`` and their faces: those of the triangles ``known``
-    (MMG's, with the references it kept; or the mesh's before a repair) where they are
-    the same, the others classified by their geometry."""
+    (MMG's, with the references it kept; or the mesh's before a repair; may be empty)
+    where they are the same, the others classified by their geometry
+    (:class:`MeshingError` where a triangle is off the surface)."""
     faces, _ = boundary_faces(t)
     if len(solid.face_names) == 1:
         return faces, np.zeros(len(faces), dtype=np.int64)
@@ -215,11 +216,13 @@ def _keep_markers(solid, p, t, known, known_markers, chord):
         s = np.sort(np.asarray(f, dtype=np.int64), axis=1)
         return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
 
-    kb, km = key(faces), key(known)
-    order = np.argsort(km)
-    pos = np.clip(np.searchsorted(km[order], kb), 0, max(len(km) - 1, 0))
-    hit = km[order][pos] == kb if len(km) else np.zeros(len(kb), dtype=bool)
-    markers = np.where(hit, np.asarray(known_markers)[order][pos], -1)
+    markers = np.full(len(faces), -1, dtype=np.int64)
+    if len(known):
+        kb, km = key(faces), key(known)
+        order = np.argsort(km)
+        pos = np.clip(np.searchsorted(km[order], kb), 0, len(km) - 1)
+        hit = km[order][pos] == kb
+        markers = np.where(hit, np.asarray(known_markers, dtype=np.int64)[order][pos], -1)
     bad = (markers < 0) | (markers >= len(solid.face_names))
     if bad.any():
         markers[bad] = _classify(solid, p, faces[bad], chord)

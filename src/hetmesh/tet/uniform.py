@@ -39,7 +39,7 @@ import time
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError, OptionError, VerificationError
+from ..errors import BudgetError, OptionError, VerificationError
 from ..kernel import Result
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
@@ -51,13 +51,18 @@ from .faces import boundary_faces
 from .general import (
     HGRAD,
     mmg_remesh,
-    orient_positive,
-    quiet_mmg,
     solid_problems,
     uniform_solid_at,
 )
 from .implicit import CSGSolid
-from .masked import HAUSD, VoxelSolid, cut_mask, interface_faces, mask_problems, polish
+from .masked import (
+    HAUSD,
+    VoxelSolid,
+    cut_mask,
+    mask_problems,
+    polish,
+    remesh_phases,
+)
 from .mesher import TetResult
 from .surface import SurfaceSolid
 from .verify import raise_problems
@@ -336,45 +341,15 @@ def _check_count(h: float, n: int, max_elements: int | None) -> None:
                           f"over the budget of {max_elements:,}")
 
 
-def _surface_markers(solid: SurfaceSolid, p, faces, chord: float, known=None,
-                     known_markers=None) -> np.ndarray:
-    """The face of each boundary triangle of a surface solid's mesh: the reference MMG kept
-    for it (the triangles ``known`` with ``known_markers``) where it is the same triangle,
-    else the face of the input triangle nearest to it (within ``chord``)."""
-    if len(solid.face_names) == 1:
-        return np.zeros(len(faces), dtype=np.int64)
-    markers = np.full(len(faces), -1, dtype=np.int64)
-    if known is not None and len(known):
-        n = len(p) + 1
-
-        def key(f):
-            q = np.sort(np.asarray(f, dtype=np.int64), axis=1)
-            return (q[:, 0] * n + q[:, 1]) * n + q[:, 2]
-
-        kb, km = key(faces), key(known)
-        order = np.argsort(km)
-        pos = np.clip(np.searchsorted(km[order], kb), 0, len(km) - 1)
-        hit = km[order][pos] == kb
-        markers = np.where(hit, np.asarray(known_markers, dtype=np.int64)[order][pos], -1)
-    bad = (markers < 0) | (markers >= len(solid.face_names))
-    if bad.any():
-        markers[bad] = solid.classify_faces(p[faces[bad]], chord)
-    if (markers < 0).any():
-        c = p[faces[markers < 0][0]].mean(axis=0)
-        raise MeshingError(f"{int((markers < 0).sum())} boundary triangles off the surface "
-                           f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
-    return markers
-
-
 def surface_start(solid: SurfaceSolid, chord: float):
     """The adaptive surface mesher's start (:func:`hetmesh.tet.surface_mesh.initial_volume`:
     Gmsh's volume mesh of the input triangles) with its boundary triangles and their faces:
     ``(points, tets, faces, markers)``, shared by every size of the search."""
-    from .surface_mesh import initial_volume
+    from .surface_mesh import initial_volume, keep_markers
 
     p, t = initial_volume(solid)
-    faces, _ = boundary_faces(t)
-    return p, t, faces, _surface_markers(solid, p, faces, chord)
+    none = np.zeros((0, 3), dtype=np.int64)
+    return (p, t) + keep_markers(solid, p, t, none, np.zeros(0, dtype=np.int64), chord)
 
 
 def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *,
@@ -387,46 +362,21 @@ def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *
     mesh is (MMG keeps the sharp edges as ridges and refines where the surface curves).
     Nothing is refined for the material: ``delta`` over the vertices is measured,
     ``threshold`` recorded but not required."""
+    from .surface_mesh import keep_markers
+
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     est = _check_estimate(solid, h, max_elements)
     p, t, faces, markers = surface_start(solid, chord) if start is None else start
     p, t, fm, rm, _ = mmg_remesh(p, t, faces, markers, np.full(len(p), float(h)),
                                  0.5 * chord)
     _check_count(h, len(t), max_elements)
-    faces, _ = boundary_faces(t)
-    markers = _surface_markers(solid, p, faces, chord, fm, rm)
+    faces, markers = keep_markers(solid, p, t, fm, rm, chord)
     comp = field.composition(p)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
             "chord_tol": chord, "composition": comp, "hgrad": HGRAD}
     return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
                      (markers + 1).astype(np.int32), tuple(solid.face_names),
                      delta_vertices(comp, t), float(threshold), info)
-
-
-def _mask_remesh(p, t, phase, size, hausd, **options):
-    """One MMG remeshing of a mask's mesh to ``size`` (None: MMG's optimisation pass with
-    ``options``, sizes from the mesh), the boundary and the interfaces between phases kept
-    within ``hausd`` as the adaptive mask mesher keeps them: ``(points, tets, phase)``."""
-    mmgpy = quiet_mmg()
-    faces, _ = boundary_faces(t)
-    inter, _ = interface_faces(t, phase)
-    tri = np.concatenate([faces, inter]).astype(np.int32)
-    refs = np.r_[np.ones(len(faces)), np.full(len(inter), 2)].astype(np.int32)
-    m = mmgpy.MmgMesh3D()
-    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(tri))
-    m.set_vertices(np.ascontiguousarray(p))
-    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                     np.ascontiguousarray(phase + 1, dtype=np.int32))
-    m.set_triangles(np.ascontiguousarray(tri), np.ascontiguousarray(refs))
-    if size is not None:
-        m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
-    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD, **options)
-    if out.get("return_code", 0) != 0:
-        raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
-    p = np.array(m.get_vertices(), dtype=np.float64)
-    tt, rr = m.get_tetrahedra_with_refs()
-    t = orient_positive(p, np.asarray(tt, dtype=np.int64))
-    return p, t, np.asarray(rr, dtype=np.int64) - 1
 
 
 def _phase_delta(field, p, t, phase, comp) -> np.ndarray:
@@ -453,9 +403,9 @@ def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
     probs: list[str] = []
     for hv in HAUSD:
         hausd = hv * solid.voxel
-        p, t, phase = _mask_remesh(p0, t0, ph0, np.full(len(p0), float(h)), hausd)
+        p, t, phase, _ = remesh_phases(p0, t0, ph0, np.full(len(p0), float(h)), hausd)
         _check_count(h, len(t), max_elements)
-        p, t, phase = _mask_remesh(p, t, phase, None, hausd, optim=1, nosurf=1)
+        p, t, phase, _ = remesh_phases(p, t, phase, None, hausd, optim=1, nosurf=1)
         _check_count(h, len(t), max_elements)
         comp = field.composition(p)
         p, comp = polish(p, t, phase, comp, field, threshold)
