@@ -82,7 +82,7 @@ from .refine import repair
 from .verify import raise_problems, validity_problems
 
 __all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "polish",
-           "remesh_phases", "HAUSD"]
+           "remesh_phases", "phase_delta", "boundary_estimate", "HAUSD"]
 
 log = logging.getLogger(__name__)
 
@@ -349,10 +349,14 @@ class VoxelSolid:
 # -- 1. the cuts --------------------------------------------------------------------------
 
 def _compact(p, t):
+    """The points ``p`` that ``t`` uses (or a tuple of per-point arrays, each kept alike)
+    and ``t`` renumbered to them."""
+    arrays = p if isinstance(p, tuple) else (p,)
     used = unique(t)
-    remap = np.full(len(p), -1, np.int64)
+    remap = np.full(len(arrays[0]), -1, np.int64)
     remap[used] = np.arange(len(used))
-    return p[used], remap[t]
+    kept = tuple(a[used] for a in arrays)
+    return (kept if isinstance(p, tuple) else kept[0]), remap[t]
 
 
 def _cut(mmgpy, p, t, refs, phi, split: dict, what: str):
@@ -466,7 +470,9 @@ def remesh_phases(p, t, phase, size, hausd, **options):
     return p, t, np.asarray(rr, dtype=np.int64) - 1, h
 
 
-def _delta(field, p, t, phase, comp):
+def phase_delta(field, p, t, phase, comp):
+    """delta over the vertices, each tetrahedron's in its own phase (a label volume's
+    field has regions; a mask's is one field)."""
     from ..delta import element_delta
 
     if getattr(field, "n_regions", 1) > 1:
@@ -486,7 +492,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
         comp = field.composition(p)
-        bad = _delta(field, p, t, phase, comp) >= threshold
+        bad = phase_delta(field, p, t, phase, comp) >= threshold
         log.info("mask: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
         if not bad.any() or rounds == SIZE_ROUNDS:
@@ -508,7 +514,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
     p, comp = polish(p, t, phase, comp, field, threshold)
     if solid.n_phases > 1:
         p, t, phase, comp = reconnect(p, t, phase, comp, field, threshold)
-    delta = _delta(field, p, t, phase, comp)
+    delta = phase_delta(field, p, t, phase, comp)
     return p, t, phase, comp, delta, rounds, passes
 
 
@@ -528,19 +534,17 @@ def reconnect(p, t, phase, comp, field, threshold):
     from ..metrics import tet_quality
     from .flips import flip_improve
 
-    def ok(tets, ph, p=p, comp=comp):
-        return _delta(field, p, tets, ph, comp) < threshold
+    def below(p, comp):
+        """The flips' check at the points ``p`` with compositions ``comp``."""
+        return lambda tets, ph: phase_delta(field, p, tets, ph, comp) < threshold
 
-    t, phase = flip_improve(p, t, phase, ok, bound=FLIP_RADIUS, measure=tet_quality,
-                            passes=FLIP_RADIUS_PASSES)
+    t, phase = flip_improve(p, t, phase, below(p, comp), bound=FLIP_RADIUS,
+                            measure=tet_quality, passes=FLIP_RADIUS_PASSES)
     for _ in range(FLIP_ROUNDS):
-        t, phase = flip_improve(p, t, phase, lambda tets, ph, p=p, comp=comp:
-                                ok(tets, ph, p, comp), bound=POLISH_ANGLE)
+        t, phase = flip_improve(p, t, phase, below(p, comp), bound=POLISH_ANGLE)
         p, comp = polish(p, t, phase, comp, field, threshold)
-    used = unique(t)
-    remap = np.full(len(p), -1, np.int64)
-    remap[used] = np.arange(len(used))
-    return p[used], remap[t], phase, comp[used]
+    (p, comp), t = _compact((p, comp), t)
+    return p, t, phase, comp
 
 
 def independent_vertices(tets: np.ndarray, cand: np.ndarray, rank: np.ndarray
@@ -649,7 +653,7 @@ def polish(p, t, phase, comp, field, threshold, *, angle: float = POLISH_ANGLE,
         tv[np.arange(len(tv)), np.repeat(col, k_n)] = n0 + np.repeat(owner, k_n) * k_n + kk
         score = measure(pv, tv)
         ok = simplex_measures(pv, tv) > 0
-        ok &= _delta(field, pv, tv, np.repeat(phase[rows], k_n), cv) < threshold
+        ok &= phase_delta(field, pv, tv, np.repeat(phase[rows], k_n), cv) < threshold
         score = np.where(ok, score, -np.inf).reshape(len(rows), k_n)
         star = np.full((len(sel), k_n), np.inf)
         np.minimum.at(star, owner, score)
@@ -667,10 +671,15 @@ def estimate_masked(solid: VoxelSolid, field, threshold: float) -> float:
     (:func:`hetmesh.tet.general.estimate_solid`), plus the boundary at the voxel size."""
     from .general import estimate_solid
 
+    return estimate_solid(solid, field, threshold) + boundary_estimate(solid)
+
+
+def boundary_estimate(solid: VoxelSolid) -> float:
+    """The tetrahedra a mask's boundary adds at the voxel size: 4 x the area of its bounding
+    box / voxel^2."""
     lo, hi = solid.bounds
-    est = estimate_solid(solid, field, threshold)
     area = 2.0 * float(((hi - lo)[[0, 1, 2]] * (hi - lo)[[1, 2, 0]]).sum())
-    return est + 4.0 * area / solid.voxel ** 2
+    return 4.0 * area / solid.voxel ** 2
 
 
 def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0,
@@ -789,7 +798,7 @@ def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None)
     if field is None:
         delta = res.delta
     else:
-        delta = _delta(field, p, np.asarray(t, np.int64), phase, field.composition(p))
+        delta = phase_delta(field, p, np.asarray(t, np.int64), phase, field.composition(p))
     if not float(delta.max()) < res.threshold:
         out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
                    f"{res.threshold:g}")

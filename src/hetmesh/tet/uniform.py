@@ -58,8 +58,10 @@ from .implicit import CSGSolid
 from .masked import (
     HAUSD,
     VoxelSolid,
+    boundary_estimate,
     cut_mask,
     mask_problems,
+    phase_delta,
     polish,
     remesh_phases,
 )
@@ -321,9 +323,7 @@ def estimate_remeshed(solid, h: float) -> float:
     adds it: 4 x the bounding box's area / voxel^2)."""
     est = REGULAR_PER_H3 * float(solid.volume) / h ** 3
     if isinstance(solid, VoxelSolid):
-        lo, hi = solid.bounds
-        e = hi - lo
-        est += 4.0 * 2.0 * float((e * e[[1, 2, 0]]).sum()) / solid.voxel ** 2
+        est += boundary_estimate(solid)
     return est + 100.0
 
 
@@ -379,14 +379,6 @@ def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *
                      delta_vertices(comp, t), float(threshold), info)
 
 
-def _phase_delta(field, p, t, phase, comp) -> np.ndarray:
-    """delta over the vertices, each tetrahedron's in its own phase (a label volume)."""
-    if getattr(field, "n_regions", 1) > 1:
-        from ..delta import element_delta
-        return element_delta(field, p, t, composition=comp, regions=phase)
-    return delta_vertices(comp, t)
-
-
 def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
                     max_elements: int | None = None, start=None) -> TetResult:
     """The uniform baseline's mesh of the non-zero voxels of a mask at size ``h``: the
@@ -417,7 +409,7 @@ def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
         if solid.n_phases > 1:
             info["regions"] = phase.astype(np.int32)
         res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
-                        tuple(solid.face_names), _phase_delta(field, p, t, phase, comp),
+                        tuple(solid.face_names), phase_delta(field, p, t, phase, comp),
                         float(threshold), info)
         # the voxel claims alone: delta is measured, not required, at a trial size
         probs = mask_problems(dataclasses.replace(res, threshold=math.inf), solid, None)
