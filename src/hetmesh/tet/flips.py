@@ -38,7 +38,8 @@ from functools import cache
 
 import numpy as np
 
-from ..metrics import dihedral_angles, tet_volumes6
+from ..metrics import tet_volumes6
+from .quality import min_dihedral
 
 __all__ = ["flip_improve", "ring_triangulations", "MAX_RING"]
 
@@ -65,10 +66,6 @@ def ring_triangulations(n: int) -> tuple[tuple[tuple[int, int, int], ...], ...]:
         return out
 
     return tuple(tuple(tr) for tr in of(0, n - 1))
-
-
-def _min_dihedral(p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    return dihedral_angles(p, t).min(axis=1)
 
 
 def _oriented_faces(t: np.ndarray) -> set[tuple[int, int, int]]:
@@ -222,7 +219,7 @@ def flip_improve(p: np.ndarray, t: np.ndarray, phase: np.ndarray,
     caller's check of candidate tetrahedra (True: acceptable). ``(tets, phase)``: the new
     tetrahedra, all positive, in a deterministic order; points of removed vertices are no
     longer referenced."""
-    measure = _min_dihedral if measure is None else measure
+    measure = min_dihedral if measure is None else measure
     t = np.asarray(t, np.int64)
     phase = np.asarray(phase, np.int64)
     dirty = np.ones(len(p), bool)  # the tetrahedra to try: those with a dirty vertex
