@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .material.field import thread_safe
 from .parallel import block_concat, block_map
 from .topology import index_columns
 
@@ -341,16 +342,20 @@ def delta_dense(field, points: np.ndarray, triangles: np.ndarray, order: int = 4
     lam = 0.999999 * lam + 0.000001 / (dim + 1.0)
     out = np.empty(len(triangles))
     cols = [np.ascontiguousarray(points[:, d]) for d in range(dim)]
-    for s in range(0, len(triangles), chunk):
-        t = triangles[s:s + chunk]
+
+    def block(s):
+        t = triangles[s]
         xy = _lattice_points(cols, t, lam)  # (K, n, d): lattice point k of every element
         if regions is not None:
             comp = field.composition(xy.reshape(-1, dim),
-                                     region=np.tile(regions[s:s + chunk], len(lam)))
+                                     region=np.tile(regions[s], len(lam)))
         else:
             comp = field.composition(xy.reshape(-1, dim))
         xy = None
-        out[s:s + chunk] = _sample_range(comp.reshape(len(lam), len(t), -1))
+        out[s] = _sample_range(comp.reshape(len(lam), len(t), -1))
+
+    # chunks of elements; in parallel threads when the field allows it (the same numbers)
+    block_map(block, len(triangles), size=chunk, serial=not thread_safe(field))
     return out
 
 

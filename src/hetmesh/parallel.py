@@ -75,7 +75,8 @@ def block_map(fn, n: int, size: int = BLOCK, serial: bool = False) -> list:
     """``[fn(s) for s in blocks(n, size)]``, the blocks spread over threads when there are
     several (and this is not already a worker thread); with ``serial``, one after the other
     in the calling thread (for work that is not safe in threads, such as evaluating a
-    material field: blocks still keep the temporaries small)."""
+    material field that is not :func:`~hetmesh.material.field.thread_safe`: blocks still
+    keep the temporaries small)."""
     parts = blocks(n, size)
     ex = (None if serial or len(parts) < 2 or getattr(_inside, "active", False)
           else _executor())

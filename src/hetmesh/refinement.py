@@ -15,7 +15,7 @@ import numpy as np
 
 from .delta import element_delta
 from .errors import BudgetError, MeshingError
-from .material.field import element_subregions, has_subregions
+from .material.field import element_subregions, has_subregions, thread_safe
 from .mesh import edge_keys
 from .metrics import TET_EDGES
 from .parallel import block_concat
@@ -32,8 +32,10 @@ SIMPLEX_EDGES = {3: ((1, 2), (2, 0), (0, 1)), 4: TET_EDGES}
 
 
 def composition_at(field, pts: np.ndarray) -> np.ndarray:
-    """The field's compositions at ``pts``, by blocks of points (pointwise)."""
-    return block_concat(lambda s: field.composition(pts[s]), len(pts), serial=True)
+    """The field's compositions at ``pts``, by blocks of points (pointwise; in parallel
+    threads when the field is :func:`~hetmesh.material.field.thread_safe`)."""
+    return block_concat(lambda s: field.composition(pts[s]), len(pts),
+                        serial=not thread_safe(field))
 
 
 

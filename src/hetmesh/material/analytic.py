@@ -232,6 +232,9 @@ class AnalyticField(Shiftable):
     0.2
     """
 
+    #: every evaluation works on arrays of its own (see :func:`~hetmesh.material.field.thread_safe`)
+    thread_safe = True
+
     def __init__(self, formulas: Mapping[str, str], constituents: Sequence[str],
                  parameters: Mapping[str, float] | None = None, where: str = "", *,
                  length: float | None = None, dim: int = 2):

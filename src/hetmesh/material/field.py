@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import MaterialError
 
-__all__ = ["MaterialField", "PiecewiseField", "field_dim", "has_subregions",
+__all__ = ["MaterialField", "PiecewiseField", "field_dim", "has_subregions", "thread_safe",
            "element_subregions", "check_field", "sample_domain", "as_points", "TOLERANCE", "JUMP",
            "JUMP_REACH"]
 
@@ -118,6 +118,18 @@ def element_subregions(field, points: np.ndarray, cells: np.ndarray) -> np.ndarr
     element straddles a discontinuity once they are embedded, so any interior point would
     do)."""
     return np.asarray(field.region(points[cells].mean(axis=1)), dtype=np.int64)
+
+
+def thread_safe(field) -> bool:
+    """Whether ``field`` may be evaluated from several threads at once: its ``thread_safe``
+    attribute, False without one.
+
+    A field sets it when its evaluations share no mutable state (the formula fields: each
+    call works on arrays of its own). The mesher then evaluates large point sets by blocks
+    in parallel threads (:mod:`hetmesh.parallel`); the values are those of the serial
+    evaluation, since every point is evaluated alone. Fields that cache their last call, and
+    user callables, are evaluated block after block in one thread."""
+    return bool(getattr(field, "thread_safe", False))
 
 
 def field_dim(field) -> int:

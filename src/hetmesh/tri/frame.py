@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GeometryError
+from ..material.field import thread_safe
 
 __all__ = ["LocalFrame", "local_frame", "local_field"]
 
@@ -74,6 +75,7 @@ class _LocalField:
         self.base, self.frame = base, frame
         self.constituents = base.constituents
         self.dim = 2
+        self.thread_safe = thread_safe(base)
         if callable(getattr(base, "region", None)):
             self.region = self._region
             self.n_regions = base.n_regions

@@ -53,7 +53,7 @@ import logging
 import numpy as np
 
 from ..delta import element_delta
-from ..material.field import element_subregions, has_subregions
+from ..material.field import element_subregions, has_subregions, thread_safe
 from ..mesh import any_corner, edge_keys, edge_order
 from ..metrics import signed_area2, triangle_areas2
 from ..parallel import block_concat
@@ -83,7 +83,8 @@ class DeltaEvaluator:
 
     def comp(self, pts):
         """Compositions at ``pts`` (pointwise: by blocks of points)."""
-        return block_concat(lambda s: self.field.composition(pts[s]), len(pts), serial=True)
+        return block_concat(lambda s: self.field.composition(pts[s]), len(pts),
+                            serial=not thread_safe(self.field))
 
     def delta(self, X: np.ndarray, C: np.ndarray, reg) -> np.ndarray:
         """delta of triangles with corners ``X (n, 3, 2)`` and corner compositions

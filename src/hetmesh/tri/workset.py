@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .. import density as dens
-from ..material.field import field_dim
+from ..material.field import field_dim, thread_safe
 from ..parallel import BLOCK, block_concat
 from ..topology import any_corner, points_near, unique
 from . import cvt
@@ -79,6 +79,13 @@ class Context:
         return self.domain.contains(pts)
 
     @property
+    def serial(self) -> bool:
+        """Whether pointwise work on the field runs block after block in the calling thread
+        (a field that is not :func:`~hetmesh.material.field.thread_safe`) rather than in
+        parallel threads; the values are the same either way."""
+        return not thread_safe(self.field)
+
+    @property
     def g_cap(self) -> float:
         """The largest gradient norm the size and density fields use (inf without h_min)."""
         return self.threshold / self.h_min if self.h_min > 0 else np.inf
@@ -90,7 +97,7 @@ class Context:
         passes over the constituents (its reductions over the short axes cost twice the
         gradient itself on a million points); by blocks of points."""
         if len(pts) > BLOCK:
-            return block_concat(lambda s: self.g(pts[s]), len(pts), serial=True)
+            return block_concat(lambda s: self.g(pts[s]), len(pts), serial=self.serial)
         gr = self.field.gradient(pts)
         g = None
         for j in range(gr.shape[1]):
@@ -116,7 +123,7 @@ class Context:
 
     def rho(self, pts: np.ndarray) -> np.ndarray:
         if len(pts) > BLOCK:
-            return block_concat(lambda s: self.rho(pts[s]), len(pts), serial=True)
+            return block_concat(lambda s: self.rho(pts[s]), len(pts), serial=self.serial)
         return dens.density(self.g(pts), self.h_at(pts), self.threshold,
                             field_dim(self.field))  # Eq. (9)
 
@@ -448,7 +455,7 @@ def project_to_level(ctx: Context, pts: np.ndarray, level: np.ndarray, iters: in
         tl = np.broadcast_to(tol, level.shape) if tol is not None else None
         return block_concat(lambda s: project_to_level(
             ctx, pts[s], level[s], iters, None if tl is None else tl[s]), len(pts),
-            serial=True)
+            serial=ctx.serial)
     p = pts.copy()
     cap = ctx.h_max
     for _ in range(iters):
@@ -488,7 +495,7 @@ def slide_along_rows(ctx: Context, x: np.ndarray, target: np.ndarray, level: np.
     (pointwise: by blocks of points)."""
     if len(x) > BLOCK:
         return block_concat(lambda s: slide_along_rows(ctx, x[s], target[s], level[s], relax,
-                                                       iters), len(x), serial=True)
+                                                       iters), len(x), serial=ctx.serial)
     tng = row_tangent(ctx.grad_f(x))
     step = relax * ((target - x) * tng).sum(1, keepdims=True) * tng
     return project_to_level(ctx, x + step, level, iters=iters)

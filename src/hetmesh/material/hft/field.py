@@ -4,6 +4,7 @@ interface (composition, exact gradient, owning subregion), paper Section 3.3.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 
 import numpy as np
@@ -42,6 +43,10 @@ class HFTField(Shiftable):
     [0.0, -1.0]
     """
 
+    #: evaluations share only the per-thread cache (see
+    #: :func:`~hetmesh.material.field.thread_safe`)
+    thread_safe = True
+
     def __init__(self, root, constituents: Sequence[str]):
         self.root = root
         self.constituents = check_constituents(constituents)
@@ -71,21 +76,24 @@ class HFTField(Shiftable):
     def evaluate(self, points, region=None):
         """``(composition (N, m), gradient (N, m, 2), region (N,))`` in one pass.
 
-        The last result is kept, keyed by the *contents* of the points and regions, so that
-        ``composition(p)`` followed by ``gradient(p)`` (as the mesher calls them) evaluates
-        the tree once; callers get copies.
+        The last result of each thread is kept, keyed by the *contents* of the points and
+        regions, so that ``composition(p)`` followed by ``gradient(p)`` (as the mesher calls
+        them) evaluates the tree once; callers get copies.
         """
         return tuple(a.copy() for a in self._cached(points, region))
 
     def _cached(self, points, region):
-        """``(composition, gradient, region)`` of the one-entry cache (not copies)."""
+        """``(composition, gradient, region)`` of the calling thread's one-entry cache (not
+        copies): threads evaluating blocks at once do not evict each other's entries."""
         p = self._global(points)
         r = self._region_arg(region, len(p))
         key = (p.shape, hash(p.tobytes()), None if r is None else hash(r.tobytes()))
-        cached = getattr(self, "_cache", None)
+        caches = self.__dict__.setdefault("_cache", {})
+        thread = threading.get_ident()
+        cached = caches.get(thread)
         if cached is None or cached[0] != key:
             ev = self.root.evaluate(p, r)
-            cached = self._cache = (key, ev.comp, ev.dcomp, ev.region)
+            cached = caches[thread] = (key, ev.comp, ev.dcomp, ev.region)
         return cached[1:]
 
     def composition(self, points, region=None) -> np.ndarray:

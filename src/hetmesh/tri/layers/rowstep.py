@@ -36,7 +36,7 @@ def row_step_at(ctx: Context, pts: np.ndarray, dprime, grad: np.ndarray | None =
         dp = np.broadcast_to(dprime, (len(pts),))
         return block_concat(lambda s: row_step_at(ctx, pts[s], dp[s],
                                                   None if grad is None else grad[s]),
-                            len(pts), serial=True)
+                            len(pts), serial=ctx.serial)
     gr = ctx.grad_f(pts) if grad is None else grad
     gn = np.minimum(np.nan_to_num(np.linalg.norm(gr, axis=1), nan=np.inf), ctx.cap_at(pts))
     return row_step(ctx, gn, dprime, ctx.h_at(pts))
