@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from rich.table import Table
 
-from ..fea.adapt import DEFAULT_FRACTION, DEFAULT_STEPS
+from ..fea.adapt import DEFAULT_FRACTION, DEFAULT_STEPS, INDICATORS
 from .mesh import check_output_paths, mesh_extensions, plot_extensions
 from .progress import result_console
 from .stats import check_mesh_of_model
@@ -55,8 +55,8 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
         "re-verify (delta_max < delta_0, faces on the solid), repeat; --output gets the last "
         "mesh with its results and the cell data error_indicator (docs/fea.md).")
     a.add_argument("--adapt", type=float, metavar="TOL",
-                   help="refine until the relative error estimate (energy norm) is <= TOL, "
-                        "e.g. 0.005")
+                   help="refine until the relative error estimate (energy norm; at the "
+                        "probes with --adapt-indicator goal) is <= TOL, e.g. 0.005")
     a.add_argument("--threshold", "-d", type=float, metavar="D",
                    help="with --adapt: delta_0 of the mesh, which every refined mesh keeps")
     a.add_argument("--adapt-steps", type=int, metavar="N",
@@ -66,6 +66,13 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                         f"{DEFAULT_FRACTION})")
     a.add_argument("--adapt-max-elements", type=int, metavar="N",
                    help="with --adapt: stop before a mesh of more than N tetrahedra")
+    a.add_argument("--adapt-indicator", choices=INDICATORS, metavar="KIND",
+                   help="with --adapt: what the marks and the stop follow: 'energy' (ZZ's "
+                        "energy-norm error, the default) or 'goal' (the von Mises error at "
+                        "the probes, dual-weighted; one more solve per step)")
+    a.add_argument("--adapt-probes", metavar="NAMES",
+                   help="with --adapt-indicator goal: the probes to aim at, comma-separated "
+                        "(default all of the [fea] table's)")
     p.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
     p.set_defaults(run=run)
     return p
@@ -91,17 +98,32 @@ def check_adapt_args(args: argparse.Namespace) -> None:
 
     extra = [f for f, v in (("--threshold", args.threshold), ("--adapt-steps", args.adapt_steps),
                             ("--adapt-fraction", args.adapt_fraction),
-                            ("--adapt-max-elements", args.adapt_max_elements)) if v is not None]
+                            ("--adapt-max-elements", args.adapt_max_elements),
+                            ("--adapt-indicator", args.adapt_indicator),
+                            ("--adapt-probes", args.adapt_probes)) if v is not None]
     if args.adapt is None:
         if extra:
             raise OptionError(f"{extra[0]} is an option of --adapt, which is not given")
         return
     if args.threshold is None:
         raise OptionError("--adapt needs --threshold D: the delta_0 every refined mesh keeps")
+    if args.adapt_probes is not None:
+        if args.adapt_indicator != "goal":
+            raise OptionError("--adapt-probes is an option of --adapt-indicator goal, which is "
+                              "not given")
+        names = adapt_probe_names(args.adapt_probes)
+        if not names:
+            raise OptionError(f"--adapt-probes: expected probe names separated by commas, got "
+                              f"{args.adapt_probes!r}")
     check_adapt_options(args.adapt, DEFAULT_STEPS if args.adapt_steps is None
                         else args.adapt_steps,
                         DEFAULT_FRACTION if args.adapt_fraction is None else args.adapt_fraction,
                         args.adapt_max_elements, args.threshold)
+
+
+def adapt_probe_names(text: str) -> list[str]:
+    """The probe names of ``--adapt-probes``: comma-separated, blanks around them ignored."""
+    return [n.strip() for n in text.split(",") if n.strip()]
 
 
 def probe_table(result) -> Table:
@@ -151,18 +173,27 @@ def run(args: argparse.Namespace) -> int:
                             f"node coordinates")
     adapted = None
     if args.adapt is not None:
-        if mesh.dim != 3:
-            from ..errors import OptionError
+        from ..errors import OptionError
 
+        if mesh.dim != 3:
             raise OptionError(f"--adapt: solution-adaptive refinement needs a tetrahedral "
                               f"mesh; {args.mesh} is {mesh.dim}-D")
         from ..fea.adapt import adapt
 
+        if args.adapt_probes is not None:  # named before any solve
+            known = list(getattr(model.fea, "probes", None) or {})
+            unknown = [n for n in adapt_probe_names(args.adapt_probes) if n not in known]
+            if unknown:
+                raise OptionError(f"--adapt-probes: model {model.name!r} has no probe named "
+                                  f"{unknown[0]!r} (its probes: {', '.join(known) or 'none'})")
         adapted = adapt(mesh, model, args.threshold, tolerance=args.adapt,
                         steps=DEFAULT_STEPS if args.adapt_steps is None else args.adapt_steps,
                         fraction=(DEFAULT_FRACTION if args.adapt_fraction is None
                                   else args.adapt_fraction),
-                        max_elements=args.adapt_max_elements)
+                        max_elements=args.adapt_max_elements,
+                        indicator=args.adapt_indicator or "energy",
+                        goal_probes=(None if args.adapt_probes is None
+                                     else adapt_probe_names(args.adapt_probes)))
         result, mesh = adapted.result, adapted.mesh
     else:
         result = solve(mesh, model)
