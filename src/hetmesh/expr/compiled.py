@@ -60,12 +60,15 @@ class Expr:
 
         Non-finite values (log(0), 1/0, ...) are returned as they are, without warnings.
         """
-        wrong = [f"unexpected variable {k!r}" for k in values if k not in self.variables] + \
-            [f"missing value for {k!r}" for k in sorted(self.names.difference(values))]
-        if wrong:
+        if not (self.names <= values.keys() and all(k in self.variables for k in values)):
+            wrong = ([f"unexpected variable {k!r}" for k in values if k not in self.variables]
+                     + [f"missing value for {k!r}" for k in sorted(self.names.difference(values))])
             raise TypeError(f"{self.where}: {wrong[0]} (variables: {', '.join(self.variables)})")
         env = {k: np.asarray(v, dtype=np.float64) for k, v in values.items()}
-        shape = np.broadcast_shapes(*(a.shape for a in env.values()))
+        shapes = {a.shape for a in env.values()}
+        shape = shapes.pop() if len(shapes) == 1 else np.broadcast_shapes(*shapes)
+        if self._node.op == "const":  # a derivative of a linear term, a constant fraction
+            return np.full(shape, self._node.value, dtype=np.float64)
         with np.errstate(all="ignore"):
             result = run_tape(self._tape, env)
         if (not isinstance(result, np.ndarray) or result.shape != shape

@@ -369,7 +369,7 @@ class AnalyticField(Shiftable):
         """``e`` at the global points ``p (N, d)``, as ``(N,)`` floats."""
         v = np.asarray(e(**{n: p[:, i] for i, n in enumerate(self._vars)}, **conds),
                        dtype=float)
-        return np.broadcast_to(v, (len(p),))
+        return v if v.shape == (len(p),) else np.broadcast_to(v, (len(p),))
 
     def _values(self, p: np.ndarray, bits: np.ndarray | None) -> np.ndarray:
         """The given constituents' formulas ``(N, g)`` at global points ``p``, with the
