@@ -266,3 +266,21 @@ def test_polish_lifts_slivers_and_keeps_the_surface():
     # corners and edge points (where the surface bends) do not move
     bent = on.sum(axis=1) >= 2
     np.testing.assert_array_equal(Q[bent], P[bent])
+
+
+def test_the_estimate_counts_the_contour_faces(tmp_path):
+    """The a-priori count's contour term: a number per voxel face between a non-zero and a
+    zero voxel, twice per face between two phases; on the test mask the estimate is within
+    a factor of 1.5 of the mesh's count."""
+    from hetmesh.tet.masked import CONTOUR_TETS, VoxelSolid, boundary_estimate, contour_faces
+
+    block = np.zeros((4, 5, 6), bool)
+    block[1:3, 1:4, 1:5] = True  # 2 x 3 x 4 voxels (z, y, x): 2 (12 + 6 + 8) = 52 faces
+    assert contour_faces(VoxelSolid(block, (0, 0, 0), (1, 1, 1))) == 52
+    lab = np.where(block, 1, 0)
+    lab[:, :, 3:] = np.where(block[:, :, 3:], 2, 0)  # phase 2 from x = 3: 2 x 3 faces between
+    s = VoxelSolid(block, (0, 0, 0), (1, 1, 1), labels=lab, phases=(1, 2))
+    assert contour_faces(s) == 52 + 2 * 6
+    assert boundary_estimate(s) == CONTOUR_TETS * 64
+    r = mesh_model(load_model(write_model(tmp_path)), 0.3)
+    assert 1 / 1.5 < len(r.tets) / r.info["estimate"] < 1.5
