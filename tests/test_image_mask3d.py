@@ -284,3 +284,22 @@ def test_the_estimate_counts_the_contour_faces(tmp_path):
     assert boundary_estimate(s) == CONTOUR_TETS * 64
     r = mesh_model(load_model(write_model(tmp_path)), 0.3)
     assert 1 / 1.5 < len(r.tets) / r.info["estimate"] < 1.5
+
+
+def test_voxel_claims_hold_on_the_cut_and_catch_a_moved_boundary():
+    """The size rounds' check: the cut of the voxel grid meets every voxel claim; a boundary
+    point pushed a voxel outwards takes the boundary out of the half-voxel band."""
+    from hetmesh.tet.faces import boundary_faces
+    from hetmesh.tet.masked import VoxelSolid, cut_mask, voxel_claims
+
+    mask = np.zeros((6, 6, 6), bool)
+    mask[1:5, 1:5, 1:5] = True
+    s = VoxelSolid(mask, (0.25, 0.25, 0.25), (0.5, 0.5, 0.5))
+    p, t, phase = cut_mask(s)
+    assert voxel_claims(s, p, t, phase) == []
+    faces, _ = boundary_faces(t)
+    top = faces.ravel()[np.argmax(p[faces.ravel(), 2])]  # a point of the top face
+    q = p.copy()
+    q[top, 2] += 0.5
+    probs = voxel_claims(s, q, t, phase)
+    assert any("half a voxel" in m for m in probs), probs
