@@ -266,3 +266,40 @@ def test_polish_lifts_slivers_and_keeps_the_surface():
     # corners and edge points (where the surface bends) do not move
     bent = on.sum(axis=1) >= 2
     np.testing.assert_array_equal(Q[bent], P[bent])
+
+
+def test_the_estimate_counts_the_contour_faces(tmp_path):
+    """The a-priori count's contour term: a number per voxel face between a non-zero and a
+    zero voxel, twice per face between two phases; on the test mask the estimate is within
+    a factor of 1.5 of the mesh's count."""
+    from hetmesh.tet.masked import CONTOUR_TETS, VoxelSolid, boundary_estimate, contour_faces
+
+    block = np.zeros((4, 5, 6), bool)
+    block[1:3, 1:4, 1:5] = True  # 2 x 3 x 4 voxels (z, y, x): 2 (12 + 6 + 8) = 52 faces
+    assert contour_faces(VoxelSolid(block, (0, 0, 0), (1, 1, 1))) == 52
+    lab = np.where(block, 1, 0)
+    lab[:, :, 3:] = np.where(block[:, :, 3:], 2, 0)  # phase 2 from x = 3: 2 x 3 faces between
+    s = VoxelSolid(block, (0, 0, 0), (1, 1, 1), labels=lab, phases=(1, 2))
+    assert contour_faces(s) == 52 + 2 * 6
+    assert boundary_estimate(s) == CONTOUR_TETS * 64
+    r = mesh_model(load_model(write_model(tmp_path)), 0.3)
+    assert 1 / 1.5 < len(r.tets) / r.info["estimate"] < 1.5
+
+
+def test_voxel_claims_hold_on_the_cut_and_catch_a_moved_boundary():
+    """The size rounds' check: the cut of the voxel grid meets every voxel claim; a boundary
+    point pushed a voxel outwards takes the boundary out of the half-voxel band."""
+    from hetmesh.tet.faces import boundary_faces
+    from hetmesh.tet.masked import VoxelSolid, cut_mask, voxel_claims
+
+    mask = np.zeros((6, 6, 6), bool)
+    mask[1:5, 1:5, 1:5] = True
+    s = VoxelSolid(mask, (0.25, 0.25, 0.25), (0.5, 0.5, 0.5))
+    p, t, phase = cut_mask(s)
+    assert voxel_claims(s, p, t, phase) == []
+    faces, _ = boundary_faces(t)
+    top = faces.ravel()[np.argmax(p[faces.ravel(), 2])]  # a point of the top face
+    q = p.copy()
+    q[top, 2] += 0.5
+    probs = voxel_claims(s, q, t, phase)
+    assert any("half a voxel" in m for m in probs), probs

@@ -15,6 +15,11 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
 2. *Size*: MMG remeshes the inside to ``delta_0 / |grad f|`` (as for solids of primitives,
    :mod:`hetmesh.tet.general`), the boundary within a Hausdorff distance of
    :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds.
+   Each round remeshes the surface of the round before, which may move it by up to the
+   Hausdorff distance again: once a round breaks the voxel claims (:func:`voxel_claims`),
+   it is redone from the round before with the boundary and the interfaces kept (MMG's
+   ``nosurf``), as are the rounds after it, which also stop when the violators no longer
+   become fewer.
    One more MMG pass optimises the mesh without touching its surface (``optim``, sizes
    from the mesh itself; ``nosurf``: the boundary and the interfaces stay as they are);
    the violators left are bisected (:func:`hetmesh.tet.refine.repair`; with phases
@@ -67,6 +72,7 @@ zero regions inside become cavities. The same input gives the same mesh.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass
 from functools import cached_property
@@ -82,7 +88,8 @@ from .refine import repair
 from .verify import raise_problems, validity_problems
 
 __all__ = ["VoxelSolid", "largest_component", "generate_masked", "mask_problems", "polish",
-           "remesh_phases", "phase_delta", "boundary_estimate", "HAUSD"]
+           "remesh_phases", "phase_delta", "boundary_estimate", "contour_faces", "voxel_claims",
+           "HAUSD"]
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +115,9 @@ FLIP_ROUNDS = 2
 SIZE_ROUNDS = 6
 #: MMG's gradation
 HGRAD = 1.3
+#: the a-priori count's tetrahedra per voxel face of the contour (:func:`boundary_estimate`):
+#: MMG's meshes at the Hausdorff distance HAUSD[0] have 7.3 on the two examples (docs/tet.md)
+CONTOUR_TETS = 7.5
 #: barycentric points at which the boundary triangles are checked
 _BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
                   [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
@@ -486,8 +496,19 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
 
     size = size_field(field, p, threshold, h_max, h_min)
     rounds = 0
+    n_bad = None
+    kept = False  # the surface kept as it is from this round on (MMG's nosurf)
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, phase, h_mmg = remesh_phases(p, t, phase, size, hausd)
+        new = remesh_phases(p, t, phase, size, hausd, **({"nosurf": 1} if kept else {}))
+        if rounds and not kept and voxel_claims(solid, *new[:3]):
+            # a remeshing of the remeshed surface may move it by hausd again: this one
+            # broke the voxel claims, so it is redone from the round before with the
+            # boundary and the interfaces kept, as are the rounds after it
+            log.info("mask: size round %d moved the surface out of the voxel claims; "
+                     "again with the surface kept", rounds)
+            kept = True
+            new = remesh_phases(p, t, phase, size, hausd, nosurf=1)
+        p, t, phase, h_mmg = new
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -495,8 +516,13 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         bad = phase_delta(field, p, t, phase, comp) >= threshold
         log.info("mask: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
-        if not bad.any() or rounds == SIZE_ROUNDS:
+        # with the surface kept, no fewer violators than the round before: the rounds
+        # have stalled (a violator whose varying edge lies on the surface stays); the
+        # repair bisects the rest
+        stalled = kept and n_bad is not None and bad.sum() >= n_bad
+        if not bad.any() or rounds == SIZE_ROUNDS or stalled:
             break
+        n_bad = int(bad.sum())
         size = next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min)
     # the optimisation pass: swaps, moves and MMG's own size, the boundary and the
     # interfaces kept as they are (nosurf)
@@ -516,6 +542,19 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         p, t, phase, comp = reconnect(p, t, phase, comp, field, threshold)
     delta = phase_delta(field, p, t, phase, comp)
     return p, t, phase, comp, delta, rounds, passes
+
+
+def voxel_claims(solid: VoxelSolid, p, t, phase) -> list[str]:
+    """The broken claims of :func:`mask_problems` of the tetrahedra ``t`` (phases
+    ``phase``) other than delta: validity, every voxel centre on its side and in its
+    phase, the boundary and the interfaces between unlike centres."""
+    t = np.asarray(t, np.int32)
+    faces, _ = boundary_faces(t)
+    markers = solid.classify_faces(p[faces])
+    info = {"regions": np.asarray(phase, np.int32)} if solid.n_phases > 1 else {}
+    res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
+                    tuple(solid.face_names), np.zeros(len(t)), math.inf, info)
+    return mask_problems(res, solid, None)
 
 
 def reconnect(p, t, phase, comp, field, threshold):
@@ -668,18 +707,31 @@ def polish(p, t, phase, comp, field, threshold, *, angle: float = POLISH_ANGLE,
 
 def estimate_masked(solid: VoxelSolid, field, threshold: float) -> float:
     """A-priori element count, as for solids of primitives
-    (:func:`hetmesh.tet.general.estimate_solid`), plus the boundary at the voxel size."""
+    (:func:`hetmesh.tet.general.estimate_solid`), plus the contour's
+    (:func:`boundary_estimate`)."""
     from .general import estimate_solid
 
     return estimate_solid(solid, field, threshold) + boundary_estimate(solid)
 
 
+def contour_faces(solid: VoxelSolid) -> int:
+    """The voxel faces of the mask's contour: those between a non-zero and a zero voxel,
+    plus twice those between voxels of two phases (an interface has tetrahedra on both
+    sides)."""
+    g = solid.phase_grid
+    n = 0
+    for axis in range(3):
+        a = np.moveaxis(g, axis, 0)
+        x, y = a[1:], a[:-1]
+        n += int(((x < 0) != (y < 0)).sum())
+        n += 2 * int(((x >= 0) & (y >= 0) & (x != y)).sum())
+    return n
+
+
 def boundary_estimate(solid: VoxelSolid) -> float:
-    """The tetrahedra a mask's boundary adds at the voxel size: 4 x the area of its bounding
-    box / voxel^2."""
-    lo, hi = solid.bounds
-    area = 2.0 * float(((hi - lo)[[0, 1, 2]] * (hi - lo)[[1, 2, 0]]).sum())
-    return 4.0 * area / solid.voxel ** 2
+    """The tetrahedra the mask's contour adds: :data:`CONTOUR_TETS` per voxel face of it
+    (:func:`contour_faces`)."""
+    return CONTOUR_TETS * contour_faces(solid)
 
 
 def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0,

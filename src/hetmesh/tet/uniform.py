@@ -320,7 +320,7 @@ def estimate_remeshed(solid, h: float) -> float:
     """A-priori tetrahedron count of a remeshed uniform mesh of size ``h``: regular
     tetrahedra of edge ``h`` over the solid's volume (:data:`REGULAR_PER_H3`), plus, for a
     voxel mask, its boundary at the voxel size (as :func:`hetmesh.tet.masked.estimate_masked`
-    adds it: 4 x the bounding box's area / voxel^2)."""
+    adds it: a number per voxel face of the contour)."""
     est = REGULAR_PER_H3 * float(solid.volume) / h ** 3
     if isinstance(solid, VoxelSolid):
         est += boundary_estimate(solid)
