@@ -21,8 +21,10 @@ no elements. :func:`adapt` closes the loop the way Abaqus, COMSOL and scikit-fem
 3. **mark** by Doerfler's bulk criterion (:func:`doerfler_mark`; Doerfler 1996, "A convergent
    adaptive algorithm for Poisson's equation"): the fewest elements whose ``eta_T^2`` add up
    to ``fraction`` of the total;
-4. **refine** the marked tetrahedra by longest-edge bisection (:func:`refine_marked`): the
-   bisection of :mod:`hetmesh.tet.refine` (every tetrahedron around a split edge is split,
+4. **refine** the marked tetrahedra by longest-edge bisection (:func:`refine_marked`; with
+   ``edges="stress"`` the edge longest once the directions along which the recovered stress
+   hardly varies are shrunk, :func:`stress_metric`): the bisection of
+   :mod:`hetmesh.tet.refine` (every tetrahedron around a split edge is split,
    so the mesh stays conforming with no closure step), the boundary triangles split with
    their edges and keep their face names (:func:`hetmesh.tet.sampling.bisect_faces`), new
    vertices on curved faces moved onto the exact surface (:func:`snap_to_surface`), then
@@ -291,6 +293,8 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
     pending = np.asarray(marked, dtype=bool).copy()
     n_start = len(P)
     key = None if edge_key is None else np.asarray(edge_key, dtype=np.float64)
+    if key is not None and len(key) != len(P):
+        raise FEAError(f"edge_key has {len(key)} rows for {len(P)} points")
     passes = 0
     while pending.any():
         if passes >= MAX_PASSES:
@@ -351,7 +355,8 @@ class Adapted:
         relative error, or with the goal-oriented indicator its probe estimate; then also
         ``energy_estimate`` and ``dual_seconds``), ``estimate_of`` (``"energy"`` or
         ``"probes"``), ``marked``, ``delta_max``, ``von_mises`` (probe -> Pa),
-        ``solve_seconds``, ``refine_seconds``.
+        ``solve_seconds``, ``refine_seconds``; with ``edges="stress"`` and a refinement
+        after it, ``edge_metric`` (the :func:`stress_metric` used, 3 x 3).
     reason : str
         Why it stopped: ``"tolerance"``, ``"steps"`` or ``"max_elements"``.
     threshold, tolerance, fraction : float
