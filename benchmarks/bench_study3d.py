@@ -18,11 +18,13 @@ Runs :func:`hetmesh.reproduce.study3d.run3d` -- the same code as ``hetmesh repro
 - T3: the tetrahedra each family needs for 0.5 % at the probes, and adaptive / uniform
   (the target: at most 0.5);
 - T4 (unless ``--no-refine``): the third family, the material-adaptive mesh at the plan's
-  largest delta_0 (start chord tolerance per solid: 1e-3, fgm_plate_3d 2e-3, whose goal
-  functional is also narrower; ``hetmesh.reproduce.study3d.CASES3D``) refined by the solution
+  largest delta_0 (start chord tolerance 1e-3; fgm_plate_3d's goal functional is narrower,
+  ``hetmesh.reproduce.study3d.CASES3D``) refined by the solution
   (:func:`hetmesh.fea.adapt.refinement_study`: the probes' dual-weighted indicator,
-  :mod:`hetmesh.fea.goal`, Doerfler marking, longest-edge bisection, new boundary vertices
-  on the exact surface, re-verified), every step's tetrahedra, probe estimate and probe
+  :mod:`hetmesh.fea.goal`, Doerfler marking, bisection of the longest edge once the
+  directions along which the stress hardly varies are shrunk,
+  :func:`hetmesh.fea.adapt.stress_metric`, new boundary vertices on the exact surface,
+  re-verified), every step's tetrahedra, probe estimate and probe
   errors, and the tetrahedra for 0.5 % by (a) uniform, (b) adaptive, (c) adaptive + refined
   meshes with (c)/(a) against 0.5, and (a') the uniform family again at the refined
   family's starting chord tolerance (counts up to 25,000) with the like-for-like (c)/(a').

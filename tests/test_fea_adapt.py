@@ -449,3 +449,53 @@ def test_cli_adapt_needs_a_tetrahedral_mesh(tmp_path, capsys):
     rc = main(["fea", str(model), "--mesh", str(mesh), "--adapt", "0.01", "-d", "0.4"])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and "tetrahedral" in err, err
+
+
+def test_stress_metric_keeps_the_directions_the_stress_varies_along():
+    """Where the stress varies along every axis the metric is a rotation (the longest edges
+    are bisected, as without it); a direction without variation is shrunk by 1/STRETCH."""
+    rng = np.random.default_rng(5)
+    x = rng.random((40, 3))
+    from scipy.spatial import Delaunay
+
+    T = Delaunay(x).simplices
+    s = np.zeros((40, 6))
+    s[:, 0], s[:, 1], s[:, 3] = x[:, 0] + x[:, 2], 2 * x[:, 1], 0.7 * x[:, 2]
+    A = ad.stress_metric(x, T, s)
+    np.testing.assert_allclose(A @ A.T, np.eye(3), atol=1e-12)
+    np.testing.assert_array_equal(ad.stress_metric(x, T, np.ones((40, 6))), np.eye(3))
+    s[:, 3] = 0.0
+    s[:, 0] = x[:, 0] + 1e-3 * x[:, 2]                     # hardly any change along z
+    A = ad.stress_metric(x, T, s)
+    assert np.isclose(np.linalg.norm(A[2]), 1 / ad.STRETCH, rtol=1e-5)
+    np.testing.assert_allclose(np.linalg.norm(A[:2], axis=1), 1.0, rtol=1e-5)
+
+
+def test_stress_edges_split_across_the_tube_not_along_its_axis(cylinder, coarse_start):
+    """The tube is in plane strain: its stress does not vary along z, so with
+    ``edge_key`` from :func:`stress_edge_key` the marked tetrahedra are bisected across the
+    axis -- no new vertex on a vertical line of the swept start, where the longest edges
+    put some -- and the mesh passes the independent checks."""
+    r = hetmesh.fea.solve(coarse_start, cylinder)
+    key, A = ad.stress_edge_key(r, coarse_start.points)
+    assert np.isclose(np.abs(A[2]).max(), 1 / ad.STRETCH, rtol=1e-3)
+    marked = ad.doerfler_mark(r.error_indicator, 0.5)
+    faces, markers = ad.mesh_faces(coarse_start, cylinder.solid)
+    P0 = np.asarray(coarse_start.points)
+    columns = {tuple(p) for p in P0[:, :2].round(9)}
+
+    def vertical(ref):
+        new = ref.points[len(P0):, :2].round(9)
+        return sum(tuple(p) in columns for p in new), len(new)
+
+    got = {}
+    for name, k in (("longest", None), ("stress", key)):
+        ref = ad.refine_marked(P0, coarse_start.cells, faces, markers, marked,
+                               solid=cylinder.solid, field=cylinder.material, threshold=0.4,
+                               chord_tol=START_CHORD * cylinder.solid.diameter, edge_key=k)
+        got[name] = vertical(ref)
+        mesh = ad.refined_mesh(ref, cylinder.constituents, cylinder.solid.face_names)
+        assert independent_problems(mesh, cylinder, 0.4) == []
+    assert got["longest"][0] > 0 and got["stress"][0] == 0 and got["stress"][1] > 10, got
+    with pytest.raises(OptionError, match="edges"):
+        ad.adapt(coarse_start, cylinder, 0.4, tolerance=1e-3, edges="shortest")

@@ -151,7 +151,7 @@ def test_refine_case_takes_the_solids_start_and_mollifier(cylinder):
     tube, plate = CASES3D["graded_cylinder"], CASES3D["fgm_plate_3d"]
     assert tube.refine_start_chord == REFINE_START_CHORD_TOL
     assert tube.refine_element_factor is None
-    assert plate.refine_start_chord > REFINE_START_CHORD_TOL
+    assert plate.refine_start_chord == REFINE_START_CHORD_TOL
     assert plate.refine_element_factor < 1.0
     ref = ps.radial_reference(cylinder)
     s = ps.study3d(cylinder, ref, uniform_elements=(800,), thresholds=(0.4,), chord_tol=2e-4)
@@ -159,6 +159,7 @@ def test_refine_case_takes_the_solids_start_and_mollifier(cylinder):
     case = replace(tube, refine_start_chord=2e-3, refine_element_factor=0.5)
     r = refine_case(case, cylinder, s, True, plan, steps=1)
     assert r["start_chord_tol"] == 2e-3 and r["goal_element_factor"] == 0.5
+    assert r["edges"] == "stress"
     start = hetmesh.generate(cylinder, 0.4, chord_tol=2e-3).mesh
     counts = [m["elements"] for m in r["meshes"]]
     assert counts[0] == start.n_elements < counts[1] and len(counts) == 2

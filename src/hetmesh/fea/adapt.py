@@ -21,8 +21,10 @@ no elements. :func:`adapt` closes the loop the way Abaqus, COMSOL and scikit-fem
 3. **mark** by Doerfler's bulk criterion (:func:`doerfler_mark`; Doerfler 1996, "A convergent
    adaptive algorithm for Poisson's equation"): the fewest elements whose ``eta_T^2`` add up
    to ``fraction`` of the total;
-4. **refine** the marked tetrahedra by longest-edge bisection (:func:`refine_marked`): the
-   bisection of :mod:`hetmesh.tet.refine` (every tetrahedron around a split edge is split,
+4. **refine** the marked tetrahedra by longest-edge bisection (:func:`refine_marked`; with
+   ``edges="stress"`` the edge longest once the directions along which the recovered stress
+   hardly varies are shrunk, :func:`stress_metric`): the bisection of
+   :mod:`hetmesh.tet.refine` (every tetrahedron around a split edge is split,
    so the mesh stays conforming with no closure step), the boundary triangles split with
    their edges and keep their face names (:func:`hetmesh.tet.sampling.bisect_faces`), new
    vertices on curved faces moved onto the exact surface (:func:`snap_to_surface`), then
@@ -63,7 +65,8 @@ from .goal import (
 __all__ = ["zz_indicator", "compliance_energy", "doerfler_mark", "snap_to_surface",
            "refine_marked", "mesh_faces", "adapt", "Adapted", "check_adapt_options",
            "DEFAULT_FRACTION", "DEFAULT_STEPS", "refinement_study", "STUDY_REFINEMENT",
-           "relative_estimate", "Refined", "refined_mesh"]
+           "relative_estimate", "Refined", "refined_mesh", "stress_metric", "stress_edge_key",
+           "FLAT", "STRETCH", "EDGES"]
 
 log = logging.getLogger(__name__)
 
@@ -71,6 +74,15 @@ log = logging.getLogger(__name__)
 DEFAULT_FRACTION = 0.5
 #: refinement steps (solves after the first) unless told
 DEFAULT_STEPS = 8
+#: a direction along which the recovered stress varies by less than this times along the
+#: steepest one is flat (:func:`stress_metric`)
+FLAT = 0.1
+#: with ``edges="stress"``, an edge along a flat direction counts this many times shorter:
+#: it is bisected once the others are this much shorter than it
+STRETCH = 4.0
+#: how :func:`refine_marked` picks the edge of a marked tetrahedron: the longest, or the
+#: longest once the directions along which the stress hardly varies are shrunk
+EDGES = ("longest", "stress")
 #: what the marks follow: ZZ's energy-norm indicator, or the probes' dual-weighted one
 #: (:mod:`hetmesh.fea.goal`)
 INDICATORS = ("energy", "goal")
@@ -95,6 +107,55 @@ def doerfler_mark(eta: np.ndarray, fraction: float) -> np.ndarray:
     k = int(np.searchsorted(cum, fraction * total * (1 - 1e-12))) + 1
     out[order[:min(k, len(e2))]] = True
     return out
+
+
+def stress_metric(points: np.ndarray, tets: np.ndarray, stress: np.ndarray,
+                  flat: float | None = None, stretch: float | None = None) -> np.ndarray:
+    """``A (3, 3)``: coordinates ``x @ A`` in which the directions along which the stress
+    hardly varies are shrunk by ``1 / stretch`` (default :data:`STRETCH`).
+
+    ``M = sum_T |T| G_T G_T^T`` (``G_T (3, 6)`` the gradient of the vertex stresses
+    ``stress (n, 6)``, linear on tetrahedron ``T``); an eigenvector of ``M`` is *flat* when
+    the stress varies along it by less than ``flat`` (default :data:`FLAT`) times along the
+    steepest one (``sqrt(lambda / lambda_max) < flat``). ``A`` is the eigenvectors, the flat
+    ones scaled by ``1 / stretch``: the others keep their lengths, so where nothing is flat
+    (or the stress is constant) ``x @ A`` is a rotation of ``x`` and :func:`refine_marked`
+    bisects the longest edges.
+
+    >>> x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    >>> s = np.zeros((4, 6)); s[:, 0], s[:, 1] = x[:, 0], 2 * x[:, 1]   # none along z
+    >>> np.abs(stress_metric(x, np.array([[0, 1, 2, 3]]), s)).max(axis=1).round(3).tolist()
+    [1.0, 1.0, 0.25]
+    """
+    flat = FLAT if flat is None else float(flat)
+    stretch = STRETCH if stretch is None else float(stretch)
+    P = np.asarray(points, dtype=np.float64)
+    T = np.asarray(tets, dtype=np.int64)
+    S = np.asarray(stress, dtype=np.float64)
+    D = P[T[:, 1:]] - P[T[:, :1]]                                   # (M, 3, 3)
+    vol = np.abs(np.linalg.det(D)) / 6.0
+    ok = vol > 0
+    dS = S[T[ok, 1:]] - S[T[ok, :1]]                                # (m, 3, 6)
+    G = np.linalg.solve(D[ok], dS)                                  # (m, 3, 6): d S / d x
+    M = np.einsum("m,mic,mjc->ij", vol[ok], G, G)
+    w, V = np.linalg.eigh(0.5 * (M + M.T))
+    top = float(w.max())
+    if not top > 0:
+        return np.eye(3)
+    rel = np.sqrt(np.maximum(w, 0.0) / top)
+    scale = np.where(rel < flat, 1.0 / stretch, 1.0)
+    return V * scale
+
+
+def stress_edge_key(result, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(key (n, 3), A (3, 3))``: ``points @ A`` with ``A`` the :func:`stress_metric` of
+    the recovered vertex stresses of ``result`` (an :class:`FEAResult3D` whose mesh has the
+    vertices ``points``), the edge key of :func:`refine_marked` with ``edges="stress"``."""
+    pd = result.mesh.point_data
+    S = np.stack([np.asarray(pd[f"stress_{k}"], dtype=np.float64)
+                  for k in ("xx", "yy", "zz", "xy", "yz", "xz")], axis=1)
+    A = stress_metric(result.mesh.points, result.mesh.cells, S)
+    return np.asarray(points, dtype=np.float64) @ A, A
 
 
 # ---------------------------------------------------------------------------- refine
@@ -197,13 +258,16 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
                   markers: np.ndarray, marked: np.ndarray, *, solid, field,
                   threshold: float, regions: np.ndarray | None = None,
                   comp: np.ndarray | None = None, chord_tol: float | None = None,
-                  max_elements: int | None = None) -> Refined:
+                  max_elements: int | None = None,
+                  edge_key: np.ndarray | None = None) -> Refined:
     """Bisect every ``marked`` tetrahedron once along its longest edge, keep the mesh
     conforming, put the new boundary vertices on the exact surface, restore delta < delta_0
     and verify (see the module docstring).
 
     Each pass splits the longest edge (max norm) of the marked tetrahedra not split yet, at
-    most one edge per tetrahedron (:func:`hetmesh.tet.refine.select_edges`); every
+    most one edge per tetrahedron (:func:`hetmesh.tet.refine.select_edges`) -- longest in
+    ``edge_key (n, k)`` if given (one row per point; a new point gets the mean of its
+    edge's rows), e.g. the coordinates of :func:`stress_edge_key`; every
     tetrahedron around a split edge splits with it (:func:`hetmesh.tet.refine.bisect_edges`),
     children inheriting their parent's subregion, the boundary triangles along it too
     (:func:`hetmesh.tet.sampling.bisect_faces`).
@@ -228,11 +292,16 @@ def refine_marked(points: np.ndarray, tets: np.ndarray, faces: np.ndarray,
     reg = None if regions is None else np.asarray(regions, dtype=np.int64)
     pending = np.asarray(marked, dtype=bool).copy()
     n_start = len(P)
+    key = None if edge_key is None else np.asarray(edge_key, dtype=np.float64)
+    if key is not None and len(key) != len(P):
+        raise FEAError(f"edge_key has {len(key)} rows for {len(P)} points")
     passes = 0
     while pending.any():
         if passes >= MAX_PASSES:
             raise FEAError(f"marked refinement did not finish in {MAX_PASSES} passes")
-        split = select_edges(T, P, pending)
+        split = select_edges(T, P if key is None else key, pending)
+        if key is not None:
+            key = np.concatenate([key, 0.5 * (key[split[:, 0]] + key[split[:, 1]])])
         n0 = len(P)
         F, Mk = bisect_faces(F, Mk, split, n0)
         P, T2, parent = bisect_edges(P, T, split, with_parents=True)
@@ -286,7 +355,8 @@ class Adapted:
         relative error, or with the goal-oriented indicator its probe estimate; then also
         ``energy_estimate`` and ``dual_seconds``), ``estimate_of`` (``"energy"`` or
         ``"probes"``), ``marked``, ``delta_max``, ``von_mises`` (probe -> Pa),
-        ``solve_seconds``, ``refine_seconds``.
+        ``solve_seconds``, ``refine_seconds``; with ``edges="stress"`` and a refinement
+        after it, ``edge_metric`` (the :func:`stress_metric` used, 3 x 3).
     reason : str
         Why it stopped: ``"tolerance"``, ``"steps"`` or ``"max_elements"``.
     threshold, tolerance, fraction : float
@@ -352,7 +422,7 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
           fraction: float = DEFAULT_FRACTION, max_elements: int | None = None,
           chord_tol: float | None = None, indicator: str = "energy",
           goal_probes: Sequence[str] | None = None, goal_radius: float | None = None,
-          goal_element_factor: float | None = None, config=None,
+          goal_element_factor: float | None = None, edges: str = "longest", config=None,
           progress: Callable[[dict], None] | None = None) -> Adapted:
     """Solve, estimate, mark, refine, repeat (see the module docstring) on a tetrahedral
     mesh of ``model`` that meets ``delta_0 = threshold`` at its vertices.
@@ -381,6 +451,11 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
         What the marks and the stop follow: ZZ's energy-norm indicator and relative
         estimate, or the probes' dual-weighted indicator and its estimate of the relative
         von Mises error at the probes (:mod:`hetmesh.fea.goal`; one more solve per step).
+    edges : "longest" or "stress"
+        Which edge of a marked tetrahedron is bisected: the longest, or the longest once
+        the directions along which the recovered stress hardly varies are shrunk
+        (:func:`stress_metric`: on a plate in plane strain the axis, along which nothing
+        varies; elsewhere, where every direction varies, the longest as well).
     goal_probes : names of the ``[fea]`` probes the goal-oriented indicator aims at (default
         all); goal_radius : the probe functional's mollifier radius, x the diameter
         (default :data:`hetmesh.fea.goal.DEFAULT_RADIUS`); goal_element_factor : the radius
@@ -404,6 +479,8 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     if indicator not in INDICATORS:
         raise OptionError(f"indicator: expected one of {', '.join(INDICATORS)}, got "
                           f"{indicator!r}")
+    if edges not in EDGES:
+        raise OptionError(f"edges: expected one of {', '.join(EDGES)}, got {edges!r}")
     if goal_element_factor is not None and not (
             isinstance(goal_element_factor, (int, float)) and math.isfinite(goal_element_factor)
             and goal_element_factor > 0):
@@ -459,12 +536,11 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
         mark_eta = eta
         if indicator == "goal":
             t0 = time.perf_counter()
-            dual = dual_solution(cur_mesh, model, cfg, r.probes, names=goal_probes,
-                                 radius=DEFAULT_RADIUS if goal_radius is None
-                                 else goal_radius,
-                                 element_factor=DEFAULT_ELEMENT_FACTOR
-                                 if goal_element_factor is None else goal_element_factor)
-            eta_z, _ = dual_indicator(dual)
+            kw = {"radius": DEFAULT_RADIUS if goal_radius is None else goal_radius,
+                  "element_factor": DEFAULT_ELEMENT_FACTOR if goal_element_factor is None
+                  else goal_element_factor}
+            eta_z, _ = dual_indicator(dual_solution(cur_mesh, model, cfg, r.probes,
+                                                    names=goal_probes, **kw))
             mark_eta = goal_indicator(eta, eta_z)
             rec["energy_estimate"] = est
             est = rec["estimate"] = goal_estimate(eta, eta_z)
@@ -483,13 +559,18 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
             break
         marked = doerfler_mark(mark_eta, fraction)
         rec["marked"] = int(marked.sum())
+        key = None
+        if edges == "stress":
+            key, A = stress_edge_key(r, current.points)
+            rec["edge_metric"] = A.tolist()
         if progress is not None:
             progress(rec)
         t0 = time.perf_counter()
         nxt = refine_marked(current.points, current.tets, current.faces, current.markers,
                             marked, solid=solid, field=field_, threshold=threshold,
                             regions=current.regions, comp=current.comp,
-                            chord_tol=None if chord_tol is None else chord_tol * solid.diameter)
+                            chord_tol=None if chord_tol is None else chord_tol * solid.diameter,
+                            edge_key=key)
         refine_seconds = time.perf_counter() - t0
         if max_elements is not None and len(nxt.tets) > max_elements:
             reason = "max_elements"
@@ -511,20 +592,23 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
 
 #: the refinement family of the 3-D study: Doerfler fraction, refinements, tetrahedra budget,
 #: the indicator the marks follow (the probes' dual-weighted one: the study asks for the
-#: stress at the probes, not for the energy norm) and its mollifier's element factor
+#: stress at the probes, not for the energy norm), its mollifier's element factor and the
+#: edges bisected (along the directions in which the stress varies, :func:`stress_metric`)
 STUDY_REFINEMENT = {"full": {"fraction": 0.5, "steps": 8, "max_elements": 60_000,
                              "indicator": "goal",
-                             "goal_element_factor": DEFAULT_ELEMENT_FACTOR},
+                             "goal_element_factor": DEFAULT_ELEMENT_FACTOR,
+                             "edges": "stress"},
                     "quick": {"fraction": 0.5, "steps": 5, "max_elements": 20_000,
                               "indicator": "goal",
-                              "goal_element_factor": DEFAULT_ELEMENT_FACTOR}}
+                              "goal_element_factor": DEFAULT_ELEMENT_FACTOR,
+                              "edges": "stress"}}
 
 
 def refinement_study(model, reference: dict, study, *, threshold: float, quick: bool = False,
                      chord_tol: float | None = None, start_chord_tol: float | None = None,
                      fraction: float | None = None, steps: int | None = None,
                      max_elements: int | None = None, indicator: str | None = None,
-                     goal_element_factor: float | None = None,
+                     goal_element_factor: float | None = None, edges: str | None = None,
                      uniform_elements: Sequence[int] | None = None) -> dict:
     """The third family of the 3-D study: the material-adaptive mesh at ``threshold``
     (:func:`hetmesh.generate` with the chord tolerance ``start_chord_tol``, default
@@ -541,8 +625,10 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
     the chord tolerance also sets how many tetrahedra a uniform mesh has along the curved
     faces.
 
+    ``edges`` (default the plan's, ``"stress"``) picks the edges bisected (:func:`adapt`).
+
     Returns ``{"threshold", "fraction", "steps", "max_elements", "indicator",
-    "goal_element_factor", "start_chord_tol", "reason", "seconds", "meshes": [{"family":
+    "goal_element_factor", "edges", "start_chord_tol", "reason", "seconds", "meshes": [{"family":
     "refined", "param": step,
     "elements", "von_mises", "estimate", "estimate_of", "errors", "max_error",
     "solve_seconds"}], "needed": {set: {"refined", "refined_exact", "uniform",
@@ -556,7 +642,8 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
 
     plan = dict(STUDY_REFINEMENT["quick" if quick else "full"])
     for k, v in (("fraction", fraction), ("steps", steps), ("max_elements", max_elements),
-                 ("indicator", indicator), ("goal_element_factor", goal_element_factor)):
+                 ("indicator", indicator), ("goal_element_factor", goal_element_factor),
+                 ("edges", edges)):
         if v is not None:
             plan[k] = v
     t0 = time.perf_counter()
@@ -570,7 +657,7 @@ def refinement_study(model, reference: dict, study, *, threshold: float, quick: 
     a = adapt(start, model, threshold, tolerance=1e-9, steps=plan["steps"],
               fraction=plan["fraction"], max_elements=plan["max_elements"],
               chord_tol=verify_tol, indicator=plan["indicator"],
-              goal_element_factor=plan["goal_element_factor"])
+              goal_element_factor=plan["goal_element_factor"], edges=plan["edges"])
     tol = TOLERANCE if study is None else study.tolerance
     meshes = []
     for st in a.steps:

@@ -15,10 +15,10 @@ quality; Gmsh's 3-D mesh with the graded size field as a peer when installed
 (:func:`hetmesh.peers.search3d`); and the FEA study
 (:func:`hetmesh.fea.probe_study.study3d`): the tetrahedra each family needs for 0.5 % at
 the probes; and its third family (:func:`refine_case`): the material-adaptive mesh,
-started with a coarser chord tolerance (:data:`REFINE_START_CHORD_TOL`; the plate's
-:data:`PLATE_REFINE_START_CHORD_TOL`), refined by the probes' dual-weighted indicator (the
-plate's narrowed, :data:`PLATE_REFINE_ELEMENT_FACTOR`), with the uniform family measured
-again at that chord tolerance for a like-for-like ratio.
+started with a coarser chord tolerance (:data:`REFINE_START_CHORD_TOL`), refined by the
+probes' dual-weighted indicator (the plate's narrowed, :data:`PLATE_REFINE_ELEMENT_FACTOR`)
+bisecting the edges along which the stress varies, with the uniform family measured again
+at that chord tolerance for a like-for-like ratio.
 :func:`hetmesh.reproduce.report.render3d` renders the records.
 """
 
@@ -33,8 +33,7 @@ from dataclasses import dataclass, field
 from ..errors import HetmeshError
 
 __all__ = ["Case3D", "CASES3D", "MeshRun3D", "Section3D", "run3d", "CHORD_TOL",
-           "REFINE_START_CHORD_TOL", "SAME_CHORD_UNIFORM_MAX", "PLATE_REFINE_START_CHORD_TOL",
-           "PLATE_REFINE_ELEMENT_FACTOR"]
+           "REFINE_START_CHORD_TOL", "SAME_CHORD_UNIFORM_MAX", "PLATE_REFINE_ELEMENT_FACTOR"]
 
 log = logging.getLogger(__name__)
 
@@ -47,14 +46,12 @@ CHORD_TOL = 2e-4
 #: surface; at CHORD_TOL the graded cylinder's starting mesh alone has 3,129 tetrahedra, more
 #: than half the uniform family's count (docs/fea.md, "The 3-D study with a third family")
 REFINE_START_CHORD_TOL = 1e-3
-#: the plate's refined family starts at the meshers' default chord tolerance
-#: (:data:`hetmesh.tet.mesher.CHORD`): its start at delta_0 = 0.4 is within 0.5 % at Q1..Q6
-#: (at 1e-3 it is not, and stays above for three refinements), and its goal functional's
-#: mollifier is at least a quarter of the probe element's longest edge, not the whole edge:
-#: the plate's swept tetrahedra are long, and with the whole edge the mollifier spans
-#: 1.4-3.8 mm about the Q probes and the marks fall 2-6 mm from them (docs/fea.md, "The 3-D
-#: study with a third family")
-PLATE_REFINE_START_CHORD_TOL = 2e-3
+#: the plate's goal functional: its mollifier is at least a quarter of the probe element's
+#: longest edge, not the whole edge: the plate's swept tetrahedra are long, and with the
+#: whole edge the mollifier spans 1.4-3.8 mm about the Q probes and the marks fall 2-6 mm
+#: from them (docs/fea.md, "The 3-D study with a third family"). Its start is the
+#: cylinder's, :data:`REFINE_START_CHORD_TOL` (since the refinement bisects the edges along
+#: which the stress varies, :func:`hetmesh.fea.adapt.stress_metric`; before, 2e-3)
 PLATE_REFINE_ELEMENT_FACTOR = 0.25
 #: the uniform family measured again at the refined family's start chord tolerance (the
 #: like-for-like ratio of the refined family): the plan's counts up to this many tetrahedra
@@ -82,8 +79,7 @@ class Case3D:
 
 CASES3D = {c.name: c for c in (
     Case3D("fgm_plate_3d", "case study 4 extruded 10 mm, plane strain", (0.3, 0.2), (0.3,),
-           "plane-strain", "fgm_plate", refine_start_chord=PLATE_REFINE_START_CHORD_TOL,
-           refine_element_factor=PLATE_REFINE_ELEMENT_FACTOR),
+           "plane-strain", "fgm_plate", refine_element_factor=PLATE_REFINE_ELEMENT_FACTOR),
     Case3D("graded_cylinder", "graded tube under 100 MPa internal pressure", (0.2, 0.1),
            (0.2,), "radial"),
 )}
