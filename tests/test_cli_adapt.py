@@ -23,11 +23,12 @@ def test_goal_indicator_aims_at_the_named_probe(cylinder_mesh, tmp_path, capsys)
     rep, out = tmp_path / "a.json", tmp_path / "a.vtu"
     rc = main(["fea", str(model), "--mesh", str(cylinder_mesh), "--adapt", "1e-4", "-d",
                "0.4", "--adapt-steps", "1", "--adapt-fraction", "0.3", "--adapt-indicator",
-               "goal", "--adapt-probes", " R1 ", "--report", str(rep), "-o", str(out)])
+               "goal", "--adapt-probes", " R1 ", "--adapt-edges", "stress", "--report", str(rep),
+               "-o", str(out)])
     assert rc == 0, capsys.readouterr().err
     doc = json.loads(rep.read_text())
     adaptive = doc["adaptive"]
-    assert adaptive["indicator"] == "goal"
+    assert adaptive["indicator"] == "goal" and adaptive["edges"] == "stress"
     assert [s["step"] for s in adaptive["steps"]] == [0, 1]
     first, last = adaptive["steps"]
     assert last["elements"] > first["elements"]
@@ -36,7 +37,8 @@ def test_goal_indicator_aims_at_the_named_probe(cylinder_mesh, tmp_path, capsys)
     from hetmesh.fea.adapt import adapt
 
     api = adapt(hetmesh.io.read.read_mesh(cylinder_mesh), hetmesh.load_model(model), 0.4,
-                tolerance=1e-4, steps=1, fraction=0.3, indicator="goal", goal_probes=["R1"])
+                tolerance=1e-4, steps=1, fraction=0.3, indicator="goal", goal_probes=["R1"],
+                edges="stress")
     assert [s["elements"] for s in api.steps] == [s["elements"] for s in adaptive["steps"]]
 
 
@@ -48,6 +50,8 @@ def test_goal_indicator_aims_at_the_named_probe(cylinder_mesh, tmp_path, capsys)
     (["--adapt", "0.01", "-d", "0.4", "--adapt-indicator", "goal", "--adapt-probes", "R1,Q9"],
      "no probe named 'Q9'"),
     (["--adapt", "0.01", "-d", "0.4", "--adapt-indicator", "stress"], "--adapt-indicator"),
+    (["--adapt", "0.01", "-d", "0.4", "--adapt-edges", "shortest"], "--adapt-edges"),
+    (["--adapt-edges", "stress"], "--adapt-edges is an option of --adapt"),
 ])
 def test_bad_goal_options_are_one_line_errors(cylinder_mesh, tmp_path, capsys, argv, word):
     out = tmp_path / "never.vtu"

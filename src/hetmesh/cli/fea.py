@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from rich.table import Table
 
-from ..fea.adapt import DEFAULT_FRACTION, DEFAULT_STEPS, INDICATORS
+from ..fea.adapt import DEFAULT_FRACTION, DEFAULT_STEPS, EDGES, INDICATORS
 from .mesh import check_output_paths, mesh_extensions, plot_extensions
 from .progress import result_console
 from .stats import check_mesh_of_model
@@ -70,6 +70,11 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                    help="with --adapt: what the marks and the stop follow: 'energy' (ZZ's "
                         "energy-norm error, the default) or 'goal' (the von Mises error at "
                         "the probes, dual-weighted; one more solve per step)")
+    a.add_argument("--adapt-edges", choices=EDGES, metavar="RULE",
+                   help="with --adapt: the edge a marked tetrahedron is bisected at: "
+                        "'longest' (the default) or 'stress' (edges along directions in which "
+                        "the recovered stress hardly varies count shorter: no splits along a "
+                        "plane-strain part's axis)")
     a.add_argument("--adapt-probes", metavar="NAMES",
                    help="with --adapt-indicator goal: the probes to aim at, comma-separated "
                         "(default all of the [fea] table's)")
@@ -100,6 +105,7 @@ def check_adapt_args(args: argparse.Namespace) -> None:
                             ("--adapt-fraction", args.adapt_fraction),
                             ("--adapt-max-elements", args.adapt_max_elements),
                             ("--adapt-indicator", args.adapt_indicator),
+                            ("--adapt-edges", args.adapt_edges),
                             ("--adapt-probes", args.adapt_probes)) if v is not None]
     if args.adapt is None:
         if extra:
@@ -192,6 +198,7 @@ def run(args: argparse.Namespace) -> int:
                                   else args.adapt_fraction),
                         max_elements=args.adapt_max_elements,
                         indicator=args.adapt_indicator or "energy",
+                        edges=args.adapt_edges or "longest",
                         goal_probes=(None if args.adapt_probes is None
                                      else adapt_probe_names(args.adapt_probes)))
         result, mesh = adapted.result, adapted.mesh

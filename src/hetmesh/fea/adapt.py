@@ -362,6 +362,8 @@ class Adapted:
     threshold, tolerance, fraction : float
     indicator : str
         ``"energy"`` or ``"goal"``.
+    edges : str
+        ``"longest"`` or ``"stress"``: the edge rule of the bisections.
     """
 
     result: Any
@@ -374,11 +376,12 @@ class Adapted:
     seconds: float = math.nan
     indicator: str = "energy"
     info: Mapping[str, Any] = field(default_factory=dict)
+    edges: str = "longest"
 
     def report(self) -> dict[str, Any]:
         """JSON-ready: the settings, why it stopped and the steps."""
         return {"tolerance": self.tolerance, "fraction": self.fraction,
-                "indicator": self.indicator,
+                "indicator": self.indicator, "edges": self.edges,
                 "threshold": self.threshold, "reason": self.reason,
                 "steps": [dict(s) for s in self.steps], "seconds": self.seconds}
 
@@ -585,7 +588,7 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     return Adapted(result=result, mesh=cur_mesh, steps=records, reason=reason,
                    threshold=float(threshold), tolerance=float(tolerance),
                    fraction=float(fraction), seconds=time.perf_counter() - t_start,
-                   indicator=indicator)
+                   indicator=indicator, edges=edges)
 
 
 # ---------------------------------------------------------------------------- the study

@@ -520,7 +520,9 @@ def _refinement_lines(section) -> list[str]:
            "indicator `goal`: weighted by the ZZ error of the dual solution for the probes' "
            "von Mises stresses, `hetmesh.fea.goal`), the elements "
            "carrying half of the estimate (Dörfler marking) bisected along their longest "
-           "edge, new boundary vertices put on the exact surface, the mesh re-verified "
+           "edge (with the edges `stress`: lengths along the directions in which the "
+           "recovered stress hardly varies counted shorter), new boundary vertices put on "
+           "the exact surface, the mesh re-verified "
            "(δ_max < δ0), solved again; every step one mesh of the family.", ""]
     for name, r in section.refinements.items():
         if "error" in r:
@@ -536,6 +538,7 @@ def _refinement_lines(section) -> list[str]:
         out += [f"**{name}** (from δ0 = {r['threshold']:g}"
                 + ("" if start is None else f", chord tolerance {start:g}")
                 + f", indicator {r.get('indicator', 'energy')}"
+                + f", edges {r.get('edges') or 'longest'}"
                 + ("" if factor is None else f" (mollifier at least {factor:g} x the probe "
                    f"element's longest edge)")
                 + f", fraction {r['fraction']:g}, "
