@@ -38,6 +38,13 @@ Tables
      per side, capped at a quarter of the box and graded by 0.3 per unit length as the 2-D
      peers are; Delaunay, one thread), s lowered from 1.2 by 0.9 until delta_max < delta_0
      at the vertices, then bisected twice; tetrahedra and the ratio to hetmesh's.
+  7. Gmsh on mask and label volumes: the examples masked_part (48^3, a mask with a cavity)
+     and phase_volume (32^3, three phases) at delta_0 = --shaped-threshold (default 0.2),
+     same run: hetmesh, and Gmsh filling hetmesh's own boundary and interface triangles
+     (discrete surfaces kept as they are; one volume per face-connected piece of a phase)
+     with the size field of table 6, s searched as there, with the sizes from the field only
+     and with the surface triangles' sizes also extended into the volume; dihedral angles,
+     radius ratio, and checks that Gmsh's boundary is hetmesh's and the volumes agree.
 """
 
 from __future__ import annotations
