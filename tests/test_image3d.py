@@ -100,6 +100,20 @@ def test_volume_readers_origin_and_spacing(tmp_path):
         assert img.origin == pytest.approx(origin) and img.spacing == pytest.approx(spacing)
 
 
+def test_imagej_stack_without_axes_is_a_volume(tmp_path):
+    """tifffile's ImageJ writer files an unlabelled (nz, ny, nx) array as channels (CYX):
+    more than four are slices; three stay the channels of a colour image."""
+    a = ramp3(nz=6)
+    tifffile.imwrite(tmp_path / "s.tif", a[:, ::-1], imagej=True, resolution=(2.0, 2.0),
+                     metadata={"unit": "mm", "spacing": 0.5})
+    img = read_image(tmp_path / "s.tif")
+    assert img.dim == 3 and not img.channels and img.spacing == pytest.approx((0.5,) * 3)
+    np.testing.assert_array_equal(img.values, a)
+    tifffile.imwrite(tmp_path / "c.tif", (a[:3] * 255).astype(np.uint8), imagej=True)
+    img = read_image(tmp_path / "c.tif")
+    assert img.dim == 2 and img.channels and img.values.shape == (6, 7, 3)
+
+
 def test_volume_model_geometry_keys(tmp_path):
     np.save(tmp_path / "v.npy", (ramp3() * 65535).astype(np.uint16))
     m = load_model(model_file(tmp_path, 'image = "extent"', "v.npy", "spacing = [0.5, 1, 2]"))
@@ -342,6 +356,11 @@ def _bad_files(folder: Path) -> None:
     tifffile.imwrite(folder / "hot.tif", hot)
     good = (folder / "ball.tif").read_bytes()
     (folder / "trunc.tif").write_bytes(good[:len(good) // 3])
+    # an ImageJ stack cut short: tifffile logs the broken stack and falls back to page 0
+    tifffile.imwrite(folder / "ij.tif", np.round(sphere_volume() * 65535).astype(np.uint16),
+                     imagej=True, metadata={"axes": "ZYX"})
+    good = (folder / "ij.tif").read_bytes()
+    (folder / "trunc_ij.tif").write_bytes(good[:len(good) // 2])
     (folder / "corrupt.tif").write_bytes(b"II*\x00" + b"\x00" * 40)
     np.save(folder / "complex.npy", np.ones((4, 4, 4), np.complex64))
     np.save(folder / "trunc.npy", np.ones((8, 8, 8)))
@@ -353,6 +372,8 @@ BAD = [
     ('image = "extent"', "missing.tif", "", "missing.tif: no such image file"),
     ('image = "extent"', "corrupt.tif", "", "corrupt.tif: cannot read the TIF file"),
     ('image = "extent"', "trunc.tif", "", "trunc.tif: cannot read the TIF file"),
+    ('image = "extent"', "trunc_ij.tif", "", "trunc_ij.tif: cannot read the TIF file "
+                                             "(corrupt or truncated?): ImageJ series"),
     ('image = "extent"', "trunc.npy", "", "trunc.npy: cannot read the NPY file"),
     ('image = "extent"', "complex.npy", "", "complex.npy: unsupported pixel type complex64"),
     ('image = "extent"', "flat.vti", "", "flat.vti: spacing [1.0, 0.0, 1.0] must be positive"),

@@ -194,22 +194,47 @@ def _read_raster(p: Path, where: str) -> Image:
     return _default(_raster(v, channels), channels)
 
 
+class _Errors(logging.Handler):
+    """Collects the error records a reader logs instead of raising (tifffile logs a broken
+    page chain or an ImageJ stack cut short, and falls back to the pages it could read)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.ERROR)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = record.getMessage().strip().splitlines() or [record.levelname]
+        self.messages.append(text[0].split("> ", 1)[-1] if text[0].startswith("<") else text[0])
+
+
 def _read_tiff(p: Path, where: str) -> Image:
     import tifffile
 
-    with tifffile.TiffFile(p) as tif:
-        series = tif.series[0]
-        axes = series.axes
-        v = np.asarray(series.asarray())
-        page = tif.pages[0]
-        ij = tif.imagej_metadata or {}
-        tags = page.tags
-        spacing = None
-        unit = str(ij.get("unit", "")).strip().lower()
-        if unit and unit not in ("pixel", "pixels", "none") and "XResolution" in tags:
-            xr, yr = tags["XResolution"].value, tags["YResolution"].value
-            sx, sy = xr[1] / xr[0], yr[1] / yr[0]
-            spacing = [sx, sy]
+    errors = _Errors()
+    tlog = logging.getLogger("tifffile")
+    tlog.addHandler(errors)
+    try:
+        with tifffile.TiffFile(p) as tif:
+            series = tif.series[0]
+            axes = series.axes
+            v = np.asarray(series.asarray())
+            page = tif.pages[0]
+            ij = tif.imagej_metadata or {}
+            tags = page.tags
+    finally:
+        tlog.removeHandler(errors)
+    if errors.messages:
+        raise image_error(where, f"cannot read the TIF file (corrupt or truncated?): "
+                                 f"{errors.messages[0]}")
+    spacing = None
+    unit = str(ij.get("unit", "")).strip().lower()
+    if unit and unit not in ("pixel", "pixels", "none") and "XResolution" in tags:
+        xr, yr = tags["XResolution"].value, tags["YResolution"].value
+        spacing = [xr[1] / xr[0], yr[1] / yr[0]]
+    if "C" in axes and "Z" not in axes and v.shape[axes.index("C")] > 4:
+        # tifffile's ImageJ writer files an unlabelled 3-D array as channels (CYX); more than
+        # four of them are a stack of slices, as the other readers take them
+        axes = axes.replace("C", "Z")
     chan = [i for i, a in enumerate(axes) if a in "CS"]
     if len(chan) > 1:
         raise image_error(where, f"TIFF axes {axes!r}: more than one channel axis")
