@@ -139,7 +139,9 @@ def unique(a, return_index: bool = False, return_inverse: bool = False,
     else:
         flat = a.ravel()
         if return_index or return_inverse:
-            order = np.argsort(flat, kind="stable")
+            # the first occurrences need a stable sort; the inverse and the counts do not
+            # depend on the order among equal values (and introsort is faster)
+            order = np.argsort(flat, kind="stable" if return_index else None)
             s = flat[order]
         else:
             order, s = None, np.sort(flat)

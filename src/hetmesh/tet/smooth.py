@@ -69,6 +69,24 @@ def _colours(edges: np.ndarray, free: np.ndarray) -> np.ndarray:
     return col
 
 
+def _neighbour_centroids(pts: np.ndarray, edges: np.ndarray, deg: np.ndarray,
+                         vs: np.ndarray) -> np.ndarray:
+    """The centroid of the edge neighbours of each vertex ``vs`` ``(K, 3)``.
+
+    Summed over the edges that touch ``vs`` only, in the order of ``edges`` (the same
+    numbers as sums over every edge: a vertex's sum sees the same terms in the same
+    order), so that a colour of a few vertices costs no pass over every point."""
+    n = len(pts)
+    mine = np.zeros(n, dtype=bool)
+    mine[vs] = True
+    a = edges[mine[edges[:, 0]]]
+    b = edges[mine[edges[:, 1]]]
+    sums = np.column_stack([np.bincount(a[:, 0], weights=pts[a[:, 1], j], minlength=n)
+                            + np.bincount(b[:, 1], weights=pts[b[:, 0], j], minlength=n)
+                            for j in range(3)])
+    return sums[vs] / np.maximum(deg[vs], 1)[:, None]
+
+
 def _min_around(vs, start, inc_tet, values) -> np.ndarray:
     """The smallest of ``values`` (per tetrahedron) around each vertex of ``vs``."""
     cnt = start[vs + 1] - start[vs]
@@ -122,27 +140,23 @@ def smooth(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
                 vs = vs[_min_around(vs, start, inc_tet, q_tet) < POOR]
             if not len(vs):
                 continue
-            # the neighbours' centroid
-            sums = np.column_stack([np.bincount(edges[:, 0], weights=pts[edges[:, 1], j],
-                                                minlength=n)
-                                    + np.bincount(edges[:, 1], weights=pts[edges[:, 0], j],
-                                                  minlength=n) for j in range(3)])
-            target = sums[vs] / np.maximum(deg[vs], 1)[:, None]
+            target = _neighbour_centroids(pts, edges, deg, vs)
             cnt = start[vs + 1] - start[vs]
             owner = np.repeat(np.arange(len(vs)), cnt)
             first = np.concatenate([[0], np.cumsum(cnt)])[:-1]
             rows = inc_tet[start[vs][owner] + np.arange(len(owner)) - first[owner]]
             old_q = q_tet[rows]
-            trial = pts.copy()
-            trial[vs] = target
-            new_q = tet_quality(trial, tets[rows])
-            vol = simplex_measures(trial, tets[rows])
-            ctrial = c.copy()
-            ctrial[vs] = field.composition(target).reshape(len(vs), -1)
-            cc = ctrial[tets[rows]]
+            # the trial positions and compositions in place (no copy of every point per
+            # colour); the vertices whose move is refused get theirs back below
+            saved_p, saved_c = pts[vs], c[vs]
+            pts[vs] = target
+            c[vs] = field.composition(target).reshape(len(vs), -1)
+            new_q = tet_quality(pts, tets[rows])
+            vol = simplex_measures(pts, tets[rows])
+            cc = c[tets[rows]]
             delta = (cc.max(axis=1) - cc.min(axis=1)).max(axis=1)
             old_d = d_tet[rows]
-            new_d = min_dihedral(trial, tets[rows])
+            new_d = min_dihedral(pts, tets[rows])
             worst_old = np.full(len(vs), np.inf)
             worst_new = np.full(len(vs), np.inf)
             np.minimum.at(worst_old, owner, old_d)
@@ -156,8 +170,8 @@ def smooth(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
             keep = ok[owner]
             q_tet[rows[keep]] = new_q[keep]
             d_tet[rows[keep]] = new_d[keep]
-            pts[acc] = target[ok]
-            c[acc] = ctrial[acc]
+            pts[vs[~ok]] = saved_p[~ok]
+            c[vs[~ok]] = saved_c[~ok]
             moved_round += len(acc)
         moves += moved_round
         if not moved_round:
