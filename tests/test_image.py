@@ -514,6 +514,27 @@ def test_demo_image(tmp_path, capsys):
     assert (tmp_path / "graded_part.tif").exists()
 
 
+def test_demo_labels(tmp_path, capsys):
+    """``demo --labels``: the two-phase label image, its phase boundary embedded."""
+    from hetmesh.io.read import read_mesh
+    from hetmesh.material.field import element_subregions
+
+    code = main(["demo", "--labels", "--threshold", "0.1", "--quiet", "--out", str(tmp_path)])
+    assert code == 0, capsys.readouterr().err
+    mesh = read_mesh(tmp_path / "two_phase.vtu")
+    model = load_model(tmp_path / "two_phase.toml")
+    sub = np.asarray(mesh.cell_data["subregion"])
+    assert len(np.unique(sub)) >= 2
+    # every element lies in the phase it is labelled with (centroid test)
+    assert np.array_equal(element_subregions(model.material, mesh.points, mesh.cells), sub)
+    assert (tmp_path / "two_phase_uniform.vtu").exists()
+    capsys.readouterr()
+    code = main(["demo", "--labels", "--image", "--out", str(tmp_path / "x")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "choose one" in err
+    assert not (tmp_path / "x").exists()
+
+
 def test_label_field_pixel_delta_and_given_domain(tmp_path):
     """A label image inside a domain given by curves: the phase boundaries are traced from
     the field (embed_discontinuities) and the mesh follows them."""

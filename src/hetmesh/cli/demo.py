@@ -32,6 +32,10 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
     p.add_argument("--image", action="store_true",
                    help="mesh a synthetic 16-bit TIFF with 2%% noise instead (written into DIR "
                         "with its model file; docs/model-format.md, images)")
+    p.add_argument("--labels", action="store_true",
+                   help="mesh a synthetic two-phase label image instead (a graded phase "
+                        "around a constant one; the phase boundary is embedded, so no element "
+                        "straddles it; written into DIR with its model file)")
     p.add_argument("--volume", action="store_true",
                    help="mesh a synthetic 3D volume (a 16-bit TIFF stack with 2%% noise, "
                         "written into DIR with its model file) with tetrahedra instead")
@@ -45,6 +49,12 @@ def run(args: argparse.Namespace) -> int:
     if args.threshold is None:
         args.threshold = 0.1 if args.volume else 0.05
     check_threshold(args.threshold)
+    chosen = [f for f in ("--image", "--labels", "--volume")
+              if getattr(args, f[2:].replace("-", "_"))]
+    if len(chosen) > 1:
+        from ..errors import OptionError
+
+        raise OptionError(f"{chosen[0]} and {chosen[1]}: choose one demo")
     out: Path = output_dir(args.out)
     check_writable_dir(out, f"--out {out}")
 
@@ -56,10 +66,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.volume:
         return _volume(args, out)
-    if args.image:
+    if args.image or args.labels:
         from ..material.image import write_examples
 
-        model = load_model(write_examples(out)["graded_part_noisy"])
+        model = load_model(write_examples(out)["graded_part_noisy" if args.image
+                                               else "two_phase"])
     else:
         with resources.as_file(resources.files("hetmesh") / "examples" / f"{EXAMPLE}.toml") \
                 as path:
