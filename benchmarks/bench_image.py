@@ -451,6 +451,16 @@ def size_view_data(grid, lo: np.ndarray, hi: np.ndarray, threshold: float, s: fl
     return np.concatenate([cx, cy, cz, ch], axis=1)
 
 
+def sized_tets(gmsh, data):
+    """Gmsh's tetrahedra of the current model with the size view ``data`` as background
+    field: ``(node tags, coordinates (flat), element node tags (flat))``."""
+    size_background(gmsh, data)
+    gmsh.model.mesh.generate(3)
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    _, enodes = gmsh.model.mesh.getElementsByType(4)
+    return tags, xyz, enodes
+
+
 def size_background(gmsh, data: np.ndarray) -> None:
     """``data`` (:func:`size_view_data`) as a post-processing view, Gmsh's background
     field."""
@@ -481,10 +491,7 @@ def gmsh_box_mesh(model, grid, threshold: float, s: float):
             gmsh.option.setNumber(f"Mesh.{key}", 0)
         gmsh.option.setNumber("Mesh.Algorithm", peers.GMSH_ALGORITHM)
         gmsh.option.setNumber("Mesh.Algorithm3D", 1)
-        size_background(gmsh, data)
-        gmsh.model.mesh.generate(3)
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        _, enodes = gmsh.model.mesh.getElementsByType(4)
+        tags, xyz, enodes = sized_tets(gmsh, data)
     finally:
         gmsh.finalize()
     tets = peers._cells_by_index(tags, enodes, 4)
@@ -670,10 +677,7 @@ def gmsh_shell_mesh(points: np.ndarray, pieces, data: np.ndarray, extend: bool =
             gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", int(extend))
             gmsh.option.setNumber("Mesh.Algorithm3D", 1)
             gmsh.option.setNumber("Mesh.Renumber", 0)  # keep the surface nodes' tags
-            size_background(gmsh, data)
-            gmsh.model.mesh.generate(3)
-            tags, xyz, _ = gmsh.model.mesh.getNodes()
-            _, enodes = gmsh.model.mesh.getElementsByType(4)
+            tags, xyz, enodes = sized_tets(gmsh, data)
         finally:
             gmsh.finalize()
         tags = tags.astype(np.int64)
