@@ -50,8 +50,10 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
                    help="write a picture of the von Mises stress (.png, .pdf, .svg)")
     a = p.add_argument_group(
         "solution-adaptive refinement (tetrahedral meshes)",
-        "Solve, estimate every element's error by Zienkiewicz-Zhu stress recovery, refine the "
-        "elements carrying FRACTION of it (Doerfler marking) by longest-edge bisection, "
+        "Solve, estimate every element's error by Zienkiewicz-Zhu stress recovery (or, with "
+        "--adapt-indicator goal, its share of the probes' error), refine the elements "
+        "carrying FRACTION of it (Doerfler marking) by longest-edge bisection (or the "
+        "--adapt-edges stress rule), "
         "re-verify (delta_max < delta_0, faces on the solid), repeat; --output gets the last "
         "mesh with its results and the cell data error_indicator (docs/fea.md).")
     a.add_argument("--adapt", type=float, metavar="TOL",
