@@ -188,12 +188,6 @@ def run(args: argparse.Namespace) -> int:
                               f"mesh; {args.mesh} is {mesh.dim}-D")
         from ..fea.adapt import adapt
 
-        if args.adapt_probes is not None:  # named before any solve
-            known = list(getattr(model.fea, "probes", None) or {})
-            unknown = [n for n in adapt_probe_names(args.adapt_probes) if n not in known]
-            if unknown:
-                raise OptionError(f"--adapt-probes: model {model.name!r} has no probe named "
-                                  f"{unknown[0]!r} (its probes: {', '.join(known) or 'none'})")
         adapted = adapt(mesh, model, args.threshold, tolerance=args.adapt,
                         steps=DEFAULT_STEPS if args.adapt_steps is None else args.adapt_steps,
                         fraction=(DEFAULT_FRACTION if args.adapt_fraction is None

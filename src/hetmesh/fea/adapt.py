@@ -493,6 +493,12 @@ def adapt(mesh, model, threshold: float, *, tolerance: float, steps: int = DEFAU
     if indicator == "goal" and (cfg is None or not getattr(cfg, "probes", None)):
         raise FEAError(f"model {getattr(model, 'name', '')!r}: the goal-oriented indicator "
                        f"needs probes in the [fea] table")
+    if indicator == "goal" and goal_probes is not None:  # named before any solve
+        known = list(cfg.probes)
+        unknown = [n for n in goal_probes if n not in known]
+        if unknown:
+            raise OptionError(f"goal probes: model {getattr(model, 'name', '')!r} has no probe "
+                              f"named {unknown[0]!r} (its probes: {', '.join(known)})")
     if getattr(mesh, "dim", None) != 3:
         raise MeshDataError("solution-adaptive refinement needs a tetrahedral (3-D) mesh")
     solid, field_ = getattr(model, "solid", None), model.material
