@@ -17,6 +17,8 @@ from .features import LeafFeature, PointFeature, reached, walk
 
 __all__ = ["HFTField", "OUTSIDE_TOL"]
 
+#: threads whose last evaluation :meth:`HFTField.evaluate` keeps (the pool's and the caller's)
+_CACHED_THREADS = 16
 OUTSIDE_TOL = 1e-6  # a feature sample farther than this x diameter outside the domain is an error
 
 
@@ -90,6 +92,8 @@ class HFTField(Shiftable):
         key = (p.shape, hash(p.tobytes()), None if r is None else hash(r.tobytes()))
         caches = self.__dict__.setdefault("_cache", {})
         thread = threading.get_ident()
+        if thread not in caches and len(caches) >= _CACHED_THREADS:
+            caches.clear()  # threads that have ended keep no arrays alive
         cached = caches.get(thread)
         if cached is None or cached[0] != key:
             ev = self.root.evaluate(p, r)
