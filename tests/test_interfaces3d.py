@@ -40,13 +40,13 @@ path = [{ to = [5, 4] }]
 constituents = ["ceramic", "metal"]
 
 [material.composition]
-metal = "where(x < 5, 0.1 + 0.03*x + 0.1*z, 0.9 - 0.04*x - 0.08*z)"
+metal = "where(x < 5, 0.1 + 0.06*y*z, 0.8 - 0.05*y*z)"
 """
 
 
 def metal_extruded(p: np.ndarray, left: np.ndarray) -> np.ndarray:
-    x, z = p[:, 0], p[:, 2]
-    return np.where(left, 0.1 + 0.03 * x + 0.1 * z, 0.9 - 0.04 * x - 0.08 * z)
+    y, z = p[:, 1], p[:, 2]
+    return np.where(left, 0.1 + 0.06 * y * z, 0.8 - 0.05 * y * z)
 
 
 REVOLVED = """
@@ -72,13 +72,18 @@ path = [{ to = [25, 10] }]
 constituents = ["ceramic", "metal"]
 
 [material.composition]
-metal = "where(x**2 + y**2 < 625, 0.1 + 0.3*atan2(y, x), 0.9 - 0.3*atan2(y, x))"
+metal = "where(x**2 + y**2 < 625, 0.5 + 0.45*sin(6*atan2(y, x)), 0.3 + 0.02*z)"
 """
 
 
 def metal_revolved(p: np.ndarray, inner: np.ndarray) -> np.ndarray:
     a = np.arctan2(p[:, 1], p[:, 0])
-    return np.where(inner, 0.1 + 0.3 * a, 0.9 - 0.3 * a)
+    return np.where(inner, 0.5 + 0.45 * np.sin(6 * a), 0.3 + 0.02 * p[:, 2])
+
+
+def with_metal(text: str, formula: str) -> str:
+    """``text`` with another metal formula."""
+    return re.sub(r'^metal = ".*"$', f'metal = "{formula}"', text, flags=re.M)
 
 
 def faces_held(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -100,8 +105,9 @@ def coordinate_set(points, tris) -> set:
 
 def check(res, metal, side, on_surface):
     """Validity, conformity, delta per side and the interface surface, from the arrays:
-    ``side(points) -> (N,)`` -1 / 0 (on the interface) / 1, ``metal(points, first_side)``
-    the formula of each side, ``on_surface(points) -> bool`` the interface's surface."""
+    ``side(points) -> (N,)`` -1 / 0 (on the interface, or within the chord tolerance of a
+    curved one) / 1, ``metal(points, first_side)`` the formula of each side,
+    ``on_surface(points) -> bool`` the interface's surface."""
     p, t = np.asarray(res.points), np.asarray(res.tets, np.int64)
     a, b, c, d = (p[t[:, k]] for k in range(4))
     vol = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)) / 6.0
@@ -112,12 +118,12 @@ def check(res, metal, side, on_surface):
     # no tetrahedron straddles the interface; each is labelled with its side's subregion
     s = side(p)[t]
     assert not ((s.max(axis=1) > 0) & (s.min(axis=1) < 0)).any()
-    first = (s <= 0).all(axis=1)
     regions = np.asarray(res.mesh.regions)
-    assert len(np.unique(regions[first])) == 1 and len(np.unique(regions[~first])) == 1
-    assert regions[first][0] != regions[~first][0]
-    cen = p[t].mean(axis=1)
-    assert (side(cen)[first] < 0).all() and (side(cen)[~first] > 0).all()
+    cs = side(p[t].mean(axis=1))
+    (r_first,), (r_second,) = np.unique(regions[cs < 0]), np.unique(regions[cs > 0])
+    assert r_first != r_second and set(np.unique(regions)) == {r_first, r_second}
+    first = regions == r_first
+    assert not (s[first] > 0).any() and not (s[~first] < 0).any()
     # delta from the formulas, every corner with its tetrahedron's side
     f = metal(p[t].reshape(-1, 3), np.repeat(first, 4)).reshape(len(t), 4)
     delta = f.max(axis=1) - f.min(axis=1)
@@ -158,8 +164,11 @@ def test_extrusion_keeps_the_seam_with_a_z_dependent_composition(extruded):
     q = res.points[rec]
     area = 0.5 * np.linalg.norm(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]), axis=1)
     assert area.sum() == pytest.approx(4.0 * 3.0, rel=1e-12)  # the plane x = 5, 4 x 3
-    # the repair split the seam's triangles (the sweep alone has only column points)
-    assert len(res.points) > res.info["section_triangles"]
+    # the repair split seam triangles: seam points off the columns of the section's seam
+    # vertices (a column has a point on the bottom, z = 0)
+    v = np.unique(rec)
+    y0 = set(res.points[v][res.points[v, 2] == 0.0, 1].tolist())
+    assert any(y not in y0 for y in res.points[v, 1].tolist())
 
 
 def test_revolution_keeps_the_bond_with_an_angle_dependent_composition(revolved):
@@ -172,8 +181,10 @@ def test_revolution_keeps_the_bond_with_an_angle_dependent_composition(revolved)
         return np.hypot(q[:, 0], q[:, 1])
 
     rec = check(res, metal_revolved,
-                lambda q: np.sign(np.where(np.abs(r(q) - 25) <= 1e-9 * 25, 0.0, r(q) - 25)),
+                lambda q: np.sign(np.where(np.abs(r(q) - 25) <= chord, 0.0, r(q) - 25)),
                 lambda q: np.abs(r(q) - 25) <= chord)
+    # the repair split bond triangles: midpoints of angular chords, inside the cylinder
+    assert (np.abs(r(res.points[np.unique(rec)]) - 25.0) > 1e-9).any()
     # the bond's triangles lie on the cylinder r = 25 within the chord tolerance, edge
     # midpoints too, and none leaves 0 <= z <= 10
     q = res.points[rec]
@@ -217,7 +228,7 @@ def test_a_piecewise_composition_without_interfaces_records_its_discontinuity(tm
     path = tmp_path / "jump.toml"
     text = EXTRUDED.replace('[[domain.interfaces]]\nname = "seam"\nstart = [5, 0]\n'
                             'path = [{ to = [5, 4] }]\n', "")
-    text = text.replace("x < 5", "x < 4")
+    text = with_metal(text, "where(x < 4, 0.1 + 0.06*y*z, 0.8 - 0.05*y*z)")
     path.write_text(text)
     res = mesh_model(hetmesh.load_model(path), THRESHOLD)
     assert res.face_names[-1] == "discontinuity[0]"
@@ -249,3 +260,47 @@ def test_deterministic(tmp_path):
     a, b = mesh_model(model, 0.3), mesh_model(model, 0.3)
     assert np.array_equal(a.points, b.points) and np.array_equal(a.tets, b.tets)
     assert np.array_equal(a.faces, b.faces) and np.array_equal(a.face_markers, b.face_markers)
+
+
+def test_an_axisymmetric_jump_in_a_revolution_is_embedded_and_recorded(tmp_path):
+    """A formula jump at r = 25 (the same at every angle, no interface in the domain): the
+    profile's mesh embeds it, the sweep keeps it, and it is the face discontinuity[0]."""
+    text = REVOLVED.replace('[[domain.interfaces]]\nname = "bond"\nstart = [25, 0]\n'
+                            'path = [{ to = [25, 10] }]\n', "")
+    text = with_metal(text, "where(x**2 + y**2 < 625, 0.2, 0.6 + 0.01*z)")
+    path = tmp_path / "ring_jump.toml"
+    path.write_text(text)
+    res = mesh_model(hetmesh.load_model(path), THRESHOLD)
+    assert res.info["placement"] == "revolved" and res.face_names[-1] == "discontinuity[0]"
+    p, t = res.points, np.asarray(res.tets, np.int64)
+    r = np.hypot(p[:, 0], p[:, 1])
+    s = np.sign(np.where(np.abs(r - 25) <= 1e-6 * 25, 0.0, r - 25))[t]
+    assert not ((s.max(axis=1) > 0) & (s.min(axis=1) < 0)).any()
+    rec = res.faces[res.face_markers == len(res.face_names)]
+    faces, held = faces_held(t)
+    on = (np.abs(r[faces] - 25) <= 1e-6 * 25).all(axis=1)
+    assert len(rec) and as_set(rec) == as_set(faces[on]) and (held[on] == 2).all()
+    inner = (s <= 0).all(axis=1)
+    metal = np.where(inner[:, None], 0.2, 0.6 + 0.01 * p[t][..., 2])
+    assert (metal.max(axis=1) - metal.min(axis=1)).max() < THRESHOLD
+
+
+def test_a_seam_in_a_smooth_z_dependent_composition_stays_a_plane(tmp_path):
+    """No jump (one subregion): the seam x = 5 is kept through the repair and the quality
+    pass all the same, and delta is over the vertices."""
+    path = tmp_path / "seam_smooth.toml"
+    path.write_text(with_metal(EXTRUDED, "x*z/30"))
+    res = mesh_model(hetmesh.load_model(path), THRESHOLD)
+    assert res.info["placement"] == "swept+repair" and "regions" not in res.info
+    p, t = res.points, np.asarray(res.tets, np.int64)
+    rec = res.faces[res.face_markers == res.face_names.index("seam[0]") + 1]
+    faces, held = faces_held(t)
+    on = (p[faces][..., 0] == 5.0).all(axis=1)
+    assert len(rec) and as_set(rec) == as_set(faces[on]) and (held[on] == 2).all()
+    q = p[rec]
+    area = 0.5 * np.linalg.norm(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(12.0, rel=1e-12)
+    f = (p[:, 0] * p[:, 2] / 30)[t]
+    assert (f.max(axis=1) - f.min(axis=1)).max() < THRESHOLD
+    s = np.sign(np.where(p[:, 0] == 5.0, 0.0, p[:, 0] - 5.0))[t]
+    assert not ((s.max(axis=1) > 0) & (s.min(axis=1) < 0)).any()

@@ -14,8 +14,10 @@ surfaces). The section's interface curves (``[domain] interfaces``), embedded in
 sweep into interface surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`),
 recorded with the boundary faces under their curves' names (markers ``3 +`` the curve's
 index in ``section.curves``, as the side faces), so every format writes them and the
-verification checks their areas; an interface needs the swept placement (a composition that
-does not vary along the axis): the repair would split its faces unrecorded.
+verification checks their areas; the discontinuity curves the 2D mesher embedded follow as
+faces ``discontinuity[k]`` (markers after the solid's faces). With a composition that also
+varies along the axis, :mod:`hetmesh.tet.sweep_regions` keeps interfaces and subregions
+through the repair.
 
 :func:`prism_tets` is the sweep through common layers (every triangular prism cut in three
 tetrahedra: on each side quadrilateral the diagonal from the lower-numbered bottom vertex to
@@ -148,10 +150,14 @@ def _axial_gradient(field3d, solid, n: int = 24) -> float:
 
 def mid_section_field(solid, field3d):
     """The composition on the prism's middle section as a 2D field (section coordinates):
-    what the section is meshed with when the composition also varies along the axis."""
+    what the section is meshed with when the composition also varies along the axis. A
+    piecewise field's keeps its subregions (:class:`~hetmesh.tet.sweep_regions.PlaneField`),
+    so that the 2D mesher embeds its jumps."""
     from ..material import CallableField
 
     s_mid = 0.5 * (solid.s0 + solid.s1)
+    if has_subregions(field3d):
+        return PlaneField(field3d, lambda q: solid.to3d(q, np.full(len(q), s_mid)), solid.uv)
 
     def f2(x, y):
         q = np.column_stack([np.ravel(x), np.ravel(y)])
@@ -191,9 +197,9 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     if not swept and has_subregions(field3d):  # its jumps embedded in the section's mesh
         check_swept_regions(field3d, sec, solid.to3d,
                             np.linspace(solid.s0, solid.s1, 9), "z")
-        s_mid = 0.5 * (solid.s0 + solid.s1)
-        section_model = replace(section_model, material=PlaneField(
-            field3d, lambda q: solid.to3d(q, np.full(len(q), s_mid)), solid.uv))
+        if not has_subregions(section_model.material):
+            section_model = replace(section_model,
+                                    material=mid_section_field(solid, field3d))
     field2d = section_model.material
     kw = {}
     if chord_tol is not None:

@@ -16,8 +16,9 @@ angle (an axisymmetric field), every tetrahedron's vertices are copies of one tr
 its delta is at most the triangle's, exactly; otherwise the violators are repaired by edge
 bisection. The profile's interface curves, embedded in the 2D mesh, sweep into interface
 surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`), recorded with the
-boundary faces under their curves' names; they need an axisymmetric composition (the repair
-would split their faces unrecorded).
+boundary faces under their curves' names, then the embedded discontinuities as faces
+``discontinuity[k]``; with a composition that varies with the angle,
+:mod:`hetmesh.tet.sweep_regions` keeps them (and the subregions) through the repair.
 
 >>> from hetmesh.tri.geometry import Loop, make_domain
 >>> ring = Revolution(make_domain(Loop.polygon([(1, 0), (2, 0), (2, 1), (1, 1)], "p")))
@@ -198,8 +199,12 @@ def is_axisymmetric(field, solid: Revolution, n: int = 16) -> bool:
 
 
 def profile_field(field, solid):
-    """The composition in the plane at angle 0 as a 2D field of ``(r, z)``."""
+    """The composition in the plane at angle 0 as a 2D field of ``(r, z)`` (a piecewise
+    field's with its subregions: :class:`~hetmesh.tet.sweep_regions.PlaneField`)."""
     from ..material import CallableField
+
+    if has_subregions(field):
+        return PlaneField(field, lambda q: solid.to3d(q, np.zeros(len(q))), (0, 2))
 
     def f2(x, y):
         q = np.column_stack([np.ravel(x), np.ravel(y)])
@@ -230,9 +235,9 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     if not axisym and has_subregions(field):  # its jumps embedded in the profile's mesh
         check_swept_regions(field, prof, solid.to3d, np.linspace(0.0, solid.sweep, 9),
                             "the angle")
-        profile_model = replace(profile_model, material=PlaneField(
-            field, lambda q: solid.to3d(q, np.zeros(len(q))), (0, 2)))
-        f2 = profile_model.material
+        if not has_subregions(f2):
+            profile_model = replace(profile_model, material=profile_field(field, solid))
+            f2 = profile_model.material
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
     # across both deviates by at most the sum
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
@@ -356,7 +361,9 @@ def angular_counts(solid: Revolution, p2: np.ndarray, t2: np.ndarray, chord: flo
 
 
 def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
-    """Face marker (1 + index in ``face_names``) of boundary triangles; 0 for none."""
+    """Face marker (1 + index in ``face_names``) of boundary triangles; 0 for none: the end
+    planes' to 1e-9 of the diameter, else the nearest curve's surface within ``chord`` (a
+    repair's midpoints of angular chords lie inside the surface by up to their sagitta)."""
     q, th = solid.to2d(points)
     tol = 1e-9 * solid.diameter
     k = len(faces)
@@ -377,7 +384,7 @@ def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
             d = np.max([c.curve.distance(q[faces[rest, j]]) for j in range(3)], axis=0)
             better = d < best
             best[better], arg[better] = d[better], i
-        ok = best <= tol
+        ok = best <= max(tol, chord)
         out[rest[ok]] = 3 + arg[ok]
     return out
 

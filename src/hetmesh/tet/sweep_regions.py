@@ -117,7 +117,10 @@ def check_swept_regions(field3d, section, place, params: np.ndarray, what: str) 
         if len(bad):
             i = int(bad[0])
             x, y, z = p[i]
-            raise MaterialError(f"{field3d.describe_jump(int(ref[i]), int(r[i]))}: the "
+            describe = getattr(field3d, "describe_jump", None)
+            head = describe(int(ref[i]), int(r[i])) if callable(describe) else \
+                "material.composition"
+            raise MaterialError(f"{head}: the "
                                 f"subregion changes with {what} near ({x:.6g}, {y:.6g}, "
                                 f"{z:.6g}); in a sweep the jumps must not depend on {what} "
                                 f"(they are embedded as swept section curves)")
