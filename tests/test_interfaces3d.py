@@ -304,3 +304,30 @@ def test_a_seam_in_a_smooth_z_dependent_composition_stays_a_plane(tmp_path):
     assert (f.max(axis=1) - f.min(axis=1)).max() < THRESHOLD
     s = np.sign(np.where(p[:, 0] == 5.0, 0.0, p[:, 0] - 5.0))[t]
     assert not ((s.max(axis=1) > 0) & (s.min(axis=1) < 0)).any()
+
+
+def test_a_repaired_revolution_keeps_its_curved_faces(tmp_path):
+    """Where the repair splits angular chords on the cylinders r = 20 and r = 30, the
+    midpoints lie inside them by up to their sagitta: those boundary triangles still belong
+    to their faces, within the chord tolerance."""
+    text = re.sub(r"\[\[domain\.interfaces\]\].*?\n\n", "", REVOLVED, flags=re.S)
+    path = tmp_path / "ring_sin.toml"
+    path.write_text(with_metal(text, "0.5 + 0.45*sin(12*atan2(y, x))"))
+    res = mesh_model(hetmesh.load_model(path), 0.3)
+    assert res.info["placement"] == "revolved+repair" and res.info["repair_passes"] > 0
+    p, t = res.points, np.asarray(res.tets, np.int64)
+    a, b, c, d = (p[t[:, k]] for k in range(4))
+    assert (np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)) > 0).all()
+    f = 0.5 + 0.45 * np.sin(12 * np.arctan2(p[:, 1], p[:, 0]))
+    assert (f[t].max(axis=1) - f[t].min(axis=1)).max() < 0.3
+    faces, held = faces_held(t)
+    bnd = faces[held == 1]
+    assert as_set(bnd) == as_set(res.faces) and (res.face_markers >= 1).all()
+    chord = 2e-3 * np.linalg.norm([60.0, 60.0, 10.0])
+    r = np.hypot(p[:, 0], p[:, 1])
+    for name, dist in (("outside", np.abs(r - 30)), ("inside", np.abs(r - 20))):
+        sel = res.faces[res.face_markers == res.face_names.index(name) + 1]
+        assert len(sel) and dist[sel].max() <= chord
+    # some split: boundary points strictly inside the outer cylinder
+    outer = res.faces[res.face_markers == res.face_names.index("outside") + 1]
+    assert (np.abs(r[np.unique(outer)] - 30) > 1e-9).any()
