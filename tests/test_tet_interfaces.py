@@ -265,11 +265,11 @@ metal = "{formula}"
      "extrusion length must be positive, got 0"),
     (EXTRUDED.format(length=-2, formula="x/10"), "solid.length",
      "extrusion length must be positive, got -2"),
-    (EXTRUDED.format(length=3, formula="x*z/30"), "domain.interfaces",
-     "interfaces in an extrusion need a composition that does not depend on z"),
-    (REVOLVED.format(formula="(1 + x/30)/3"), "domain.interfaces",
-     "interfaces in a revolution need a composition that does not vary with the angle"),
-], ids=["length-0", "length-negative", "extrusion-z", "revolution-angle"])
+    (EXTRUDED.format(length=3, formula="where(z < 1, 0.2, 0.6) + 0.01*x"),
+     "material.composition.metal", "the subregion changes with z near"),
+    (REVOLVED.format(formula="where(atan2(y, x) < 0.5, 0.2, 0.6)"),
+     "material.composition.metal", "the subregion changes with the angle near"),
+], ids=["length-0", "length-negative", "extrusion-jump-in-z", "revolution-jump-in-angle"])
 def test_bad_interface_models_fail_in_one_line(tmp_path, capsys, text, key, message):
     path = tmp_path / "m.toml"
     path.write_text(text)

@@ -64,7 +64,7 @@ def test_the_3d_examples_exist():
 
 
 #: the examples meshed in the default run; the others (larger at any threshold) run with -m slow
-FAST_3D = ("unit_cube", "graded_rod")
+FAST_3D = ("unit_cube", "graded_rod", "seamed_plate_z")
 
 
 @pytest.mark.parametrize("path", [p if p.stem in FAST_3D else
@@ -96,8 +96,11 @@ def check_model_mesh(m, d0):
     for j in range(len(m.constituents)):
         if "regions" in res.info:
             # vertices on a material discontinuity take their element's side
-            f2 = m.material2d
-            q, _ = m.solid.to2d(res.points[res.tets].reshape(-1, 3))
+            f2, q = m.material2d, res.points[res.tets].reshape(-1, 3)
+            if f2 is None:  # a piecewise formula varying along the sweep: the 3D field's
+                f2 = m.material
+            else:
+                q, _ = m.solid.to2d(q)
             c = f2.composition(q, region=np.repeat(res.info["regions"], 4))[:, j]
             c = c.reshape(-1, 4)
             assert (c.max(axis=1) - c.min(axis=1)).max() < d0
@@ -112,7 +115,8 @@ def check_model_mesh(m, d0):
     dom = getattr(m.solid, "section", None) or getattr(m.solid, "profile", None)
     inter = np.zeros(len(res.faces), bool)
     if dom is not None:
-        kinds = np.array(["", ""] + [c.kind for c in dom.curves])
+        kinds = ["", ""] + [c.kind for c in dom.curves]  # then the discontinuities'
+        kinds = np.array(kinds + ["interface"] * (len(res.face_names) - len(kinds)))
         inter = kinds[res.face_markers - 1] == "interface"
     assert len(faces) == len(res.faces) - int(inter.sum())
     assert not inter[:len(faces)].any()

@@ -492,10 +492,6 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
             raise ctx.fail("material.type", "a solid of primitives or a surface takes an "
                                             "analytic material (formulas in x, y, z)")
     material, material2d = _material(ctx, top["material"], solid, parameters, top)
-    if isinstance(solid, Prism) and solid.section.interfaces and material2d is None:
-        raise ctx.fail("domain.interfaces", "interfaces in an extrusion need a composition "
-                                            "that does not depend on z (the swept 2D mesh "
-                                            "keeps them)")
     if check:
         samples = solid.sample(20)
         try:

@@ -38,6 +38,16 @@ lie in the columns of ``a`` and ``b`` (:func:`strip_faces`), each shared by two 
 >>> f, k = strip_faces(tets, col, np.array([[1, 2]]))
 >>> len(f), k.tolist(), strip_problems(tets, f)
 (2, [0, 0], [])
+
+After an edge-bisection repair the points are no longer all in columns: a midpoint lies in
+the strip of a section edge when both ends of its edge do (:func:`carriers`), and the strip's
+faces are the tetrahedron faces whose three points lie in one interface edge's strip
+(:func:`carried_strip_faces`): the repair splits strip triangles within the strip (a child
+lies in its parent), and no tetrahedron lies in a strip (every one keeps a point off it).
+
+>>> c = carriers(col, np.array([[2, 5]]), np.array([[1, 2]]))  # point 8: mid of 2 and 5
+>>> c[[2, 5, 8]].tolist()
+[[1, 1], [2, 2], [1, 2]]
 """
 
 from __future__ import annotations
@@ -48,7 +58,7 @@ from ..topology import edge_keys, unique
 from .quality import TET_FACES
 
 __all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", "strip_faces",
-           "strip_problems", "swept_interfaces"]
+           "strip_problems", "swept_interfaces", "carriers", "carried_strip_faces"]
 
 
 def vertex_size(points2: np.ndarray, tris2: np.ndarray) -> np.ndarray:
@@ -118,14 +128,16 @@ def column_tets(points2: np.ndarray, tris2: np.ndarray, counts: np.ndarray, s0: 
 
 
 def section_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: np.ndarray,
-                       tol: float, chord: float) -> tuple[np.ndarray, np.ndarray]:
+                       tol: float, chord: float, only=None) -> tuple[np.ndarray, np.ndarray]:
     """The edges of a section's mesh that lie on its interface curves: ``(edges (E, 2),
     curve (E,))``, ``curve`` the index in ``section.curves``. ``edges2 (K, 2)`` are the
     mesh's constrained edges (its facets); an edge qualifies when it is inside the mesh (two
     triangles hold it), both ends lie within ``tol`` of one interface curve and its midpoint
     within ``chord + tol`` of it (a chord of an arc). Edges of embedded material
-    discontinuities, on no curve of ``section``, are not among them."""
-    curves = [i for i, c in enumerate(section.curves) if c.kind == "interface"]
+    discontinuities, on no curve of ``section``, are not among them. ``only``: the indices
+    of the interface curves to look at (default: all)."""
+    curves = [i for i, c in enumerate(section.curves) if c.kind == "interface"
+              and (only is None or i in only)]
     e = np.sort(np.asarray(edges2, dtype=np.int64).reshape(-1, 2), axis=1)
     empty = (np.zeros((0, 2), np.int64), np.zeros(0, np.int64))
     if not curves or not len(e):
@@ -204,3 +216,74 @@ def swept_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: np
     e2, curve = section_interfaces(section, points2, tris2, edges2, tol, chord)
     faces, k = strip_faces(tets, column, e2)
     return faces, 3 + curve[k]
+
+
+def _edge_lookup(edges: np.ndarray, n: int):
+    e = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
+    key = e[:, 0] * n + e[:, 1]
+    order = np.argsort(key, kind="stable")
+    return key[order], order
+
+
+def _carried_by(vals: np.ndarray, skey: np.ndarray, order: np.ndarray, n: int):
+    """For rows of carrier values ``vals (K, q)``: ``(lo, hi, edge)`` where every value is
+    ``lo`` or ``hi`` (``edge``: the index of the interface edge ``(lo, hi)``, -1 if there is
+    none or a value is -1)."""
+    lo, hi = vals.min(axis=1), vals.max(axis=1)
+    two = ((vals == lo[:, None]) | (vals == hi[:, None])).all(axis=1) & (lo >= 0)
+    edge = np.full(len(vals), -1, dtype=np.int64)
+    if len(skey):
+        k = lo * n + hi
+        pos = np.minimum(np.searchsorted(skey, k), len(skey) - 1)
+        hit = two & (lo < hi) & (skey[pos] == k)
+        edge[hit] = order[pos[hit]]
+    return lo, hi, two, edge
+
+
+def carriers(column: np.ndarray, ends: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Where every point of a repaired sweep lies with respect to the interface strips:
+    ``(P, 2)`` sorted section vertices, ``(a, a)`` for a point of column ``a``, ``(a, b)``
+    for a point inside the strip of the interface edge ``(a, b)`` (one of ``edges (E, 2)``),
+    ``(-1, -1)`` elsewhere. ``column (N,)``: the section vertex of the sweep's points;
+    ``ends (P - N, 2)``: the edge whose midpoint every later point is
+    (:class:`hetmesh.tet.refine.RepairTrace`)."""
+    col = np.asarray(column, dtype=np.int64)
+    ends = np.asarray(ends, dtype=np.int64).reshape(-1, 2)
+    out = np.full((len(col) + len(ends), 2), -1, dtype=np.int64)
+    out[:len(col)] = col[:, None]
+    n = int(max(col.max(initial=0), np.asarray(edges).max(initial=0))) + 1
+    skey, order = _edge_lookup(edges, n)
+    known, k = len(col), 0
+    while k < len(ends):  # the midpoints of one pass depend on earlier points only
+        later = np.flatnonzero(ends[k:].max(axis=1) >= known)
+        stop = k + (int(later[0]) if len(later) else len(ends) - k)
+        vals = np.concatenate([out[ends[k:stop, 0]], out[ends[k:stop, 1]]], axis=1)
+        lo, hi, two, edge = _carried_by(vals, skey, order, n)
+        one = two & (lo == hi)
+        rows = known + np.arange(stop - k)
+        out[rows[one]] = lo[one, None]
+        on = edge >= 0
+        out[rows[on], 0], out[rows[on], 1] = lo[on], hi[on]
+        known += stop - k
+        k = stop
+    return out
+
+
+def carried_strip_faces(tets: np.ndarray, carrier: np.ndarray, edges: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """The faces of ``tets`` inside the strips of ``edges (E, 2)``: the triangles whose three
+    points' :func:`carriers` lie in one edge's two columns. ``(faces (F, 3), edge (F,))``,
+    every face once, in the order of its first tetrahedron and oriented as a face of it (as
+    :func:`strip_faces`, which it equals on an unrepaired sweep)."""
+    f = np.asarray(tets, dtype=np.int64)[:, TET_FACES].reshape(-1, 3)
+    if not len(edges) or not len(f):
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    c = np.asarray(carrier, dtype=np.int64)
+    n = int(max(c.max(), np.asarray(edges).max())) + 1
+    skey, order = _edge_lookup(edges, n)
+    vals = c[f].reshape(len(f), 6)
+    _, _, _, edge = _carried_by(vals, skey, order, n)
+    rows = np.flatnonzero(edge >= 0)
+    _, first = unique(np.sort(f[rows], axis=1), axis=0, return_index=True)
+    keep = rows[np.sort(first)]
+    return f[keep], edge[keep]

@@ -14,8 +14,10 @@ surfaces). The section's interface curves (``[domain] interfaces``), embedded in
 sweep into interface surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`),
 recorded with the boundary faces under their curves' names (markers ``3 +`` the curve's
 index in ``section.curves``, as the side faces), so every format writes them and the
-verification checks their areas; an interface needs the swept placement (a composition that
-does not vary along the axis): the repair would split its faces unrecorded.
+verification checks their areas; the discontinuity curves the 2D mesher embedded follow as
+faces ``discontinuity[k]`` (markers after the solid's faces). With a composition that also
+varies along the axis, :mod:`hetmesh.tet.sweep_regions` keeps interfaces and subregions
+through the repair.
 
 :func:`prism_tets` is the sweep through common layers (every triangular prism cut in three
 tetrahedra: on each side quadrilateral the diagonal from the lower-numbered bottom vertex to
@@ -36,15 +38,18 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 
-from ..errors import BudgetError, GeometryError
+from ..errors import BudgetError
+from ..material import has_subregions
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from .columns import (
     column_counts,
     column_tets,
+    strip_faces,
     strip_problems,
     swept_interfaces,
     vertex_size,
@@ -53,6 +58,15 @@ from .faces import boundary_faces
 from .mesher import BETA, TetResult
 from .refine import repair
 from .smooth import smooth
+from .sweep_regions import (
+    PlaneField,
+    check_swept_regions,
+    interface_edges,
+    interface_faces,
+    region_problems,
+    repaired_sweep,
+    surface_problems,
+)
 from .verify import tet_problems
 
 __all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]
@@ -136,10 +150,14 @@ def _axial_gradient(field3d, solid, n: int = 24) -> float:
 
 def mid_section_field(solid, field3d):
     """The composition on the prism's middle section as a 2D field (section coordinates):
-    what the section is meshed with when the composition also varies along the axis."""
+    what the section is meshed with when the composition also varies along the axis. A
+    piecewise field's keeps its subregions (:class:`~hetmesh.tet.sweep_regions.PlaneField`),
+    so that the 2D mesher embeds its jumps."""
     from ..material import CallableField
 
     s_mid = 0.5 * (solid.s0 + solid.s1)
+    if has_subregions(field3d):
+        return PlaneField(field3d, lambda q: solid.to3d(q, np.full(len(q), s_mid)), solid.uv)
 
     def f2(x, y):
         q = np.column_stack([np.ravel(x), np.ravel(y)])
@@ -176,11 +194,12 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
 
     t0 = time.perf_counter()
     sec = solid.section
-    if sec.interfaces and not swept:
-        pre = f"{solid.where}: " if solid.where else ""
-        raise GeometryError(f"{pre}domain.interfaces: interfaces in an extrusion need a "
-                            f"composition that does not vary along its axis (the swept 2D mesh "
-                            f"keeps them)")
+    if not swept and has_subregions(field3d):  # its jumps embedded in the section's mesh
+        check_swept_regions(field3d, sec, solid.to3d,
+                            np.linspace(solid.s0, solid.s1, 9), "z")
+        if not has_subregions(section_model.material):
+            section_model = replace(section_model,
+                                    material=mid_section_field(solid, field3d))
     field2d = section_model.material
     kw = {}
     if chord_tol is not None:
@@ -209,8 +228,17 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
     regions = None if sub2 is None else np.asarray(sub2)[tri_of]
     comp = None
+    chord_abs = _chord_abs(kw.get("chord_tol", CHORD_TOL), sec)
+    tol = 1e-9 * solid.diameter
+    ie, imark, disc = interface_edges(sec, r2.model.domain, p2, t2, m2.facets, tol, chord_abs,
+                                      len(solid.face_names))
+    traced = not swept and len(ie) + (regions is not None) > 0
+    carrier = None
     if swept:
         delta = _swept_delta(field2d, p2, col[tets], regions)
+    elif traced:  # interfaces or subregions kept through the repair
+        points, tets, regions, delta, comp, carrier, _ = repaired_sweep(
+            points, tets, col, field3d, threshold, regions, ie, max_elements=max_elements)
     else:
         points, tets, comp, delta, _ = repair(points, tets, field3d, threshold,
                                               max_elements=max_elements)
@@ -219,15 +247,20 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
-    chord_abs = _chord_abs(kw.get("chord_tol", CHORD_TOL), sec)
     inter = np.zeros((0, 3), np.int64)
-    if sec.interfaces:  # the interface curves' sweeps, after the boundary
-        inter, im = swept_interfaces(sec, p2, t2, m2.facets, tets, col,
-                                     1e-9 * solid.diameter, chord_abs)
+    if traced:  # the interface strips, found again after the repair
+        inter, im = interface_faces(tets, carrier, ie, imark)
+    elif sec.interfaces or disc:  # the interface curves' sweeps, after the boundary
+        inter, im = swept_interfaces(sec, p2, t2, m2.facets, tets, col, tol, chord_abs)
+        if disc:  # then the embedded discontinuities'
+            d = imark > len(solid.face_names)
+            f2, k2 = strip_faces(tets, col, ie[d])
+            inter, im = np.concatenate([inter, f2]), np.concatenate([im, imark[d][k2]])
+    if len(inter):
         faces = np.concatenate([faces, inter])
         markers = np.concatenate([markers, im])
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
-                    tuple(solid.face_names), delta, float(threshold),
+                    tuple(solid.face_names) + disc, delta, float(threshold),
                     {"placement": "swept" if swept else "swept+repair",
                      "layers": (int(counts.min()), int(counts.max())),
                      "section_triangles": ntri, "time_total": 0.0})
@@ -238,6 +271,12 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     if check:
         probs = tet_problems(points, tets, res.faces, res.face_markers, solid, delta,
                              threshold, chord_abs) + strip_problems(tets, inter)
+        if traced:  # every tetrahedron in its subregion, the strips on their surfaces
+            probs += region_problems(field3d, points, tets, regions)
+            probs += surface_problems(solid.to2d(points)[0], inter, im,
+                                      _surface_curves(sec, r2.model.domain, solid.face_names,
+                                                      disc),
+                                      tol, chord_abs)
         if probs:
             from ..errors import VerificationError
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
@@ -246,6 +285,15 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
              int(counts.min()), int(counts.max()),
              len(tets), res.info["time_total"])
     return res
+
+
+def _surface_curves(sec, domain2, names, disc) -> dict:
+    """The section curves of every interface face marker: a section interface's own curve,
+    a discontinuity's curves in the 2D mesher's domain."""
+    out = {3 + i: [c] for i, c in enumerate(sec.curves) if c.kind == "interface"}
+    for j, name in enumerate(disc):
+        out[len(names) + 1 + j] = [c for c in domain2.curves if c.name == name]
+    return out
 
 
 def _chord_abs(rel, sec) -> float:

@@ -17,6 +17,8 @@ so the mesh stays conforming, and orientations are kept.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import MeshingError
@@ -28,7 +30,8 @@ from .quality import TET_EDGES
 #: repair passes before giving up
 MAX_PASSES = 60
 
-__all__ = ["unique_edges", "bisect_edges", "select_edges", "repair"]
+__all__ = ["unique_edges", "bisect_edges", "select_edges", "repair", "RepairTrace",
+           "corner_compositions"]
 
 
 def unique_edges(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -41,13 +44,20 @@ def unique_edges(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return edges, inv.reshape(-1, 6)
 
 
-def select_edges(tets: np.ndarray, comp: np.ndarray, bad: np.ndarray
-                 ) -> np.ndarray:
+def select_edges(tets: np.ndarray, comp: np.ndarray, bad: np.ndarray, *,
+                 corners: np.ndarray | None = None) -> np.ndarray:
     """Edges ``(K, 2)`` to bisect together: one per violating tetrahedron ``bad (M,) bool``
-    at most, none two in a tetrahedron."""
+    at most, none two in a tetrahedron. An edge's jump is the range of ``comp`` over its
+    ends or, with ``corners (M, 4, m)`` (every tetrahedron's own corner compositions, e.g.
+    each in its subregion), the largest range over the tetrahedra holding it."""
     edges, te = unique_edges(tets)
-    c = comp if comp.ndim == 2 else comp[:, None]
-    jump = np.abs(c[edges[:, 0]] - c[edges[:, 1]]).max(axis=1)
+    if corners is None:
+        c = comp if comp.ndim == 2 else comp[:, None]
+        jump = np.abs(c[edges[:, 0]] - c[edges[:, 1]]).max(axis=1)
+    else:
+        tj = np.abs(corners[:, TET_EDGES[:, 0]] - corners[:, TET_EDGES[:, 1]]).max(axis=2)
+        jump = np.zeros(len(edges))
+        np.maximum.at(jump, te.ravel(), tj.ravel())
     rows = np.flatnonzero(bad)
     if not len(rows):
         return np.empty((0, 2), dtype=np.int64)
@@ -109,11 +119,47 @@ def bisect_edges(points: np.ndarray, tets: np.ndarray, split: np.ndarray,
     return pts, out
 
 
+@dataclass(frozen=True)
+class RepairTrace:
+    """What :func:`repair` did, for carrying data to the refined mesh.
+
+    ``parent (M,)``: the index in the input tetrahedra of every output tetrahedron (each
+    lies in its parent); ``ends (P, 2)``: the two points of the edge whose midpoint every
+    new point is (new point ``k`` is point ``n_input + k``; its ends come before it)."""
+
+    parent: np.ndarray
+    ends: np.ndarray
+
+
+def corner_compositions(field, points: np.ndarray, tets: np.ndarray, regions: np.ndarray
+                        ) -> np.ndarray:
+    """``(M, 4, m)``: every tetrahedron's four corners evaluated in its subregion
+    ``regions (M,)`` (a vertex on a discontinuity takes each side's value in that side's
+    tetrahedra)."""
+    t = np.asarray(tets, dtype=np.int64)
+    c = field.composition(points[t.ravel()], region=np.repeat(np.asarray(regions), 4))
+    return np.asarray(c, dtype=np.float64).reshape(len(t), 4, -1)
+
+
+def _corner_delta(cc: np.ndarray) -> np.ndarray:
+    return (cc.max(axis=1) - cc.min(axis=1)).max(axis=1)
+
+
 def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
-           comp: np.ndarray | None = None, max_elements: int | None = None):
+           comp: np.ndarray | None = None, max_elements: int | None = None,
+           regions: np.ndarray | None = None, trace: bool = False):
     """Bisect largest-jump edges of the tetrahedra with delta >= ``threshold`` until there
     are none: ``(points, tets, comp, delta, passes)``. :class:`BudgetError` past
-    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes."""
+    ``max_elements``, :class:`MeshingError` after :data:`MAX_PASSES` passes.
+
+    With ``regions (M,)`` (the subregion of every tetrahedron of a piecewise field, none
+    straddling a discontinuity) every tetrahedron's corners are evaluated in its subregion
+    and the children keep their parent's: ``comp`` is then ``(M', 4, m)``, the corner
+    compositions of the output tetrahedra (a point has no single composition on a
+    discontinuity), and the output tetrahedra's subregions are ``regions[trace.parent]``.
+    With ``trace`` (or ``regions``) a :class:`RepairTrace` is returned last."""
+    if regions is not None or trace:
+        return _repair_traced(points, tets, field, threshold, comp, max_elements, regions)
     comp = field.composition(points) if comp is None else comp
     delta = delta_vertices(comp, tets)
     passes = 0
@@ -131,3 +177,48 @@ def repair(points: np.ndarray, tets: np.ndarray, field, threshold: float, *,
         delta = delta_vertices(comp, tets)
         passes += 1
     return points, tets, comp, delta, passes
+
+
+def _repair_traced(points, tets, field, threshold, comp, max_elements, regions):
+    """:func:`repair` with a :class:`RepairTrace` (and corner compositions per subregion
+    with ``regions``): the same edges are chosen and split, the parents composed over the
+    passes."""
+    tets = np.asarray(tets, dtype=np.int64)
+    parent = np.arange(len(tets))
+    ends = [np.zeros((0, 2), dtype=np.int64)]
+    if regions is None:
+        comp = field.composition(points) if comp is None else comp
+        cc = None
+        delta = delta_vertices(comp, tets)
+    else:
+        regions = np.asarray(regions)
+        cc = corner_compositions(field, points, tets, regions)
+        delta = _corner_delta(cc)
+    passes = 0
+    while (delta >= threshold).any():
+        if passes >= MAX_PASSES:
+            raise MeshingError(f"delta repair did not converge in {MAX_PASSES} passes "
+                               f"({int((delta >= threshold).sum())} tetrahedra left)")
+        if max_elements is not None:
+            check_budget(len(tets), max_elements)
+        split = select_edges(tets, comp, delta >= threshold, corners=cc)
+        n0 = len(points)
+        points, tets, par = bisect_edges(points, tets, split, with_parents=True)
+        check_progress(n0, len(points), passes, int((delta >= threshold).sum()), 0, threshold)
+        if len(split):
+            ends.append(np.sort(split, axis=1).astype(np.int64))
+        parent = parent[par]
+        if cc is None:
+            comp = np.concatenate([comp, field.composition(points[n0:])])
+            delta = delta_vertices(comp, tets)
+        else:
+            cc = cc[par]
+            new = tets >= n0  # the midpoints, evaluated in their tetrahedron's subregion
+            rows, k = np.nonzero(new)
+            if len(rows):
+                cc[rows, k] = field.composition(points[tets[rows, k]],
+                                                region=regions[parent[rows]])
+            delta = _corner_delta(cc)
+        passes += 1
+    out = cc if cc is not None else comp
+    return points, tets, out, delta, passes, RepairTrace(parent, np.concatenate(ends))

@@ -16,8 +16,9 @@ angle (an axisymmetric field), every tetrahedron's vertices are copies of one tr
 its delta is at most the triangle's, exactly; otherwise the violators are repaired by edge
 bisection. The profile's interface curves, embedded in the 2D mesh, sweep into interface
 surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`), recorded with the
-boundary faces under their curves' names; they need an axisymmetric composition (the repair
-would split their faces unrecorded).
+boundary faces under their curves' names, then the embedded discontinuities as faces
+``discontinuity[k]``; with a composition that varies with the angle,
+:mod:`hetmesh.tet.sweep_regions` keeps them (and the subregions) through the repair.
 
 >>> from hetmesh.tri.geometry import Loop, make_domain
 >>> ring = Revolution(make_domain(Loop.polygon([(1, 0), (2, 0), (2, 1), (1, 1)], "p")))
@@ -30,22 +31,32 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 
 from ..errors import GeometryError, VerificationError
+from ..material import has_subregions
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
-from .columns import column_tets, strip_problems, swept_interfaces, vertex_size
+from .columns import column_tets, strip_faces, strip_problems, swept_interfaces, vertex_size
 from .extrude import COLUMN_RATIO, SectionField
 from .faces import boundary_faces
 from .mesher import TetResult
-from .refine import repair
+from .refine import corner_compositions, repair
 from .smooth import smooth
 from .solid import grid_inside
+from .sweep_regions import (
+    PlaneField,
+    check_swept_regions,
+    interface_edges,
+    interface_faces,
+    region_problems,
+    repaired_sweep,
+    surface_problems,
+)
 from .verify import validity_problems
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
@@ -188,8 +199,12 @@ def is_axisymmetric(field, solid: Revolution, n: int = 16) -> bool:
 
 
 def profile_field(field, solid):
-    """The composition in the plane at angle 0 as a 2D field of ``(r, z)``."""
+    """The composition in the plane at angle 0 as a 2D field of ``(r, z)`` (a piecewise
+    field's with its subregions: :class:`~hetmesh.tet.sweep_regions.PlaneField`)."""
     from ..material import CallableField
+
+    if has_subregions(field):
+        return PlaneField(field, lambda q: solid.to3d(q, np.zeros(len(q))), (0, 2))
 
     def f2(x, y):
         q = np.column_stack([np.ravel(x), np.ravel(y)])
@@ -217,11 +232,12 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     axisym = axisymmetric
     f2 = profile_model.material
     prof = solid.profile
-    if prof.interfaces and not axisym:
-        pre = f"{solid.where}: " if solid.where else ""
-        raise GeometryError(f"{pre}domain.interfaces: interfaces in a revolution need a "
-                            f"composition that does not vary with the angle (the swept 2D mesh "
-                            f"keeps them)")
+    if not axisym and has_subregions(field):  # its jumps embedded in the profile's mesh
+        check_swept_regions(field, prof, solid.to3d, np.linspace(0.0, solid.sweep, 9),
+                            "the angle")
+        if not has_subregions(f2):
+            profile_model = replace(profile_model, material=profile_field(field, solid))
+            f2 = profile_model.material
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
     # across both deviates by at most the sum
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
@@ -257,6 +273,11 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
     regions = None if sub2 is None else np.asarray(sub2)[tri_of]
     prof_ids = np.repeat(np.arange(n2), counts + 1)[used]  # the 2D vertex of every point
+    tol = 1e-9 * solid.diameter
+    pchord = kw["chord_tol"] * prof.diameter
+    ie, imark, disc = interface_edges(prof, r2.model.domain, p2, t2, m2.facets, tol, pchord,
+                                      len(solid.face_names))
+    traced = not axisym and len(ie) + (regions is not None) > 0
     if axisym:
         if regions is None:
             delta = delta_vertices(f2.composition(p2)[prof_ids], tets)
@@ -265,6 +286,9 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
             c = c.reshape(len(tets), 4, -1)
             delta = (c.max(axis=1) - c.min(axis=1)).max(axis=1)
         passes = 0
+    elif traced:  # interfaces or subregions kept through the repair
+        points, tets, regions, delta, comp, carrier, passes = repaired_sweep(
+            points, tets, prof_ids, field, threshold, regions, ie, max_elements=max_elements)
     else:
         points, tets, comp, delta, passes = repair(points, tets, field, threshold,
                                                    max_elements=max_elements)
@@ -274,23 +298,39 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = _classify(solid, points, faces, chord)
-    if prof.interfaces:  # the interface curves' sweeps, after the boundary
-        inter, im = swept_interfaces(prof, p2, t2, m2.facets, tets, prof_ids,
-                                     1e-9 * solid.diameter, kw["chord_tol"] * prof.diameter)
+    inter = np.zeros((0, 3), np.int64)
+    if traced:  # the interface strips, found again after the repair
+        inter, im = interface_faces(tets, carrier, ie, imark)
+    elif prof.interfaces or disc:  # the interface curves' sweeps, after the boundary
+        inter, im = swept_interfaces(prof, p2, t2, m2.facets, tets, prof_ids, tol, pchord)
+        if disc:  # then the embedded discontinuities'
+            d = imark > len(solid.face_names)
+            f2d, k2 = strip_faces(tets, prof_ids, ie[d])
+            inter, im = np.concatenate([inter, f2d]), np.concatenate([im, imark[d][k2]])
+    if len(inter):
         faces = np.concatenate([faces, inter])
         markers = np.concatenate([markers, im])
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
-                    tuple(solid.face_names), delta, float(threshold),
+                    tuple(solid.face_names) + disc, delta, float(threshold),
                     {"placement": "revolved" if axisym else "revolved+repair",
                      "angular_steps": (int(counts[~on_axis].min()), int(counts.max())),
                      "section_triangles": len(t2),
                      "repair_passes": passes})
     if regions is not None:
         res.info["regions"] = regions.astype(np.int32)
-    if not axisym:
+    if not axisym and comp is not None:
         res.info["composition"] = comp
     if check:
-        probs = revolution_problems(res, solid, field if not axisym else None, chord)
+        probs = revolution_problems(res, solid, field if not axisym else None, chord,
+                                    regions=regions if traced else None)
+        if traced:  # every tetrahedron in its subregion, the strips on their surfaces
+            curves = {3 + i: [c] for i, c in enumerate(prof.curves) if c.kind == "interface"}
+            for j, name in enumerate(disc):
+                curves[len(solid.face_names) + 1 + j] = [
+                    c for c in r2.model.domain.curves if c.name == name]
+            probs += region_problems(field, points, tets, regions)
+            probs += surface_problems(solid.to2d(points)[0], inter, im, curves, tol, chord,
+                                      chord_all=True)
         if probs:
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
     res.info["time_total"] = time.perf_counter() - t0
@@ -321,7 +361,9 @@ def angular_counts(solid: Revolution, p2: np.ndarray, t2: np.ndarray, chord: flo
 
 
 def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
-    """Face marker (1 + index in ``face_names``) of boundary triangles; 0 for none."""
+    """Face marker (1 + index in ``face_names``) of boundary triangles; 0 for none: the end
+    planes' to 1e-9 of the diameter, else the nearest curve's surface within ``chord`` (a
+    repair's midpoints of angular chords lie inside the surface by up to their sagitta)."""
     q, th = solid.to2d(points)
     tol = 1e-9 * solid.diameter
     k = len(faces)
@@ -342,20 +384,24 @@ def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
             d = np.max([c.curve.distance(q[faces[rest, j]]) for j in range(3)], axis=0)
             better = d < best
             best[better], arg[better] = d[better], i
-        ok = best <= tol
+        ok = best <= max(tol, chord)
         out[rest[ok]] = 3 + arg[ok]
     return out
 
 
-def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str]:
+def revolution_problems(res, solid: Revolution, field, chord: float, *,
+                        regions: np.ndarray | None = None) -> list[str]:
     """Broken claims of a swept mesh of revolution: positive volumes, conformity, every
     point used, boundary triangles on the solid's faces with every edge's midpoint within
     the chord tolerance of its face, interface triangles faces of two tetrahedra, each
     edge's midpoint within the chord tolerance of its curve's surface, the volume within
-    the chord tolerance, delta."""
+    the chord tolerance, delta (recomputed from ``field``, every tetrahedron's corners in its
+    subregion with ``regions``). Markers past the solid's faces (discontinuities) are
+    interfaces."""
     p, t = res.points, res.tets
     out = validity_problems(p, t)
-    kinds = np.array(["", ""] + [c.kind for c in solid.profile.curves])
+    kinds = ["", ""] + [c.kind for c in solid.profile.curves]
+    kinds = np.array(kinds + ["interface"] * (len(res.face_names) - len(kinds)))
     out += strip_problems(t, res.faces[kinds[res.face_markers.clip(1) - 1] == "interface"])
     v = simplex_measures(p, t)
     if (res.face_markers <= 0).any():
@@ -379,7 +425,13 @@ def revolution_problems(res, solid: Revolution, field, chord: float) -> list[str
     if abs(float(v.sum()) - solid.volume) > slack:
         out.append(f"volume {float(v.sum()):.9g} differs from the solid's "
                    f"{solid.volume:.9g} by more than the chord tolerance allows")
-    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
+    if field is None:
+        delta = res.delta
+    elif regions is not None:
+        cc = corner_compositions(field, p, t, regions)
+        delta = (cc.max(axis=1) - cc.min(axis=1)).max(axis=1)
+    else:
+        delta = delta_vertices(field.composition(p), t)
     if not float(delta.max()) < res.threshold:
         out.append(f"delta_max = {float(delta.max()):.6g} is not below {res.threshold:g}")
     return out
