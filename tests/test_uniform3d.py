@@ -149,6 +149,34 @@ def test_a_feature_tree_extrusion_keeps_its_subregions():
     assert _delta_independent(model, r.mesh).max() < 0.4
 
 
+def test_a_feature_tree_extrusion_records_its_discontinuities_as_faces():
+    """As in the adaptive sweep: the material discontinuities the section mesher embedded
+    follow the solid's faces as faces discontinuity[k], every triangle a face of two
+    tetrahedra on either side of a jump (their subregions differ), none on the boundary."""
+    model = _model("fgm_plate_3d")
+    res = uniform_model(model, 0.4)
+    k = len(model.solid.face_names)
+    assert res.face_names[:k] == tuple(model.solid.face_names)
+    assert res.face_names[k:] and all(n.startswith("discontinuity[") for n in
+                                      res.face_names[k:])
+    disc = res.face_markers > k
+    assert disc.any() and not disc[:np.argmax(disc)].any()
+    # every recorded triangle is shared by two tetrahedra of different subregions
+    t = res.tets.astype(np.int64)
+    tf = np.sort(t[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3), axis=1)
+    owner = np.repeat(np.arange(len(res.tets)), 4)
+    n = len(res.points)
+    key = (tf[:, 0] * n + tf[:, 1]) * n + tf[:, 2]
+    order = np.argsort(key, kind="stable")
+    rf = np.sort(res.faces[disc].astype(np.int64), axis=1)
+    rk = (rf[:, 0] * n + rf[:, 1]) * n + rf[:, 2]
+    lo = np.searchsorted(key[order], rk, "left")
+    hi = np.searchsorted(key[order], rk, "right")
+    assert (hi - lo == 2).all()
+    sub = res.info["regions"]
+    assert (sub[owner[order[lo]]] != sub[owner[order[lo + 1]]]).all()
+
+
 def test_a_revolution_is_swept_about_its_axis():
     model = _model("graded_ring")
     res = uniform_model(model, 0.3)

@@ -45,7 +45,7 @@ from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
 from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
-from .columns import swept_interfaces
+from .columns import strip_faces, swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
 from .general import (
@@ -67,6 +67,7 @@ from .masked import (
 )
 from .mesher import TetResult
 from .surface import SurfaceSolid
+from .sweep_regions import interface_edges
 from .verify import raise_problems
 
 __all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
@@ -241,15 +242,23 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
     column = info.pop("column")  # the section vertex of every point
+    tol, chord2 = 1e-9 * solid.diameter, sec_rel * dom.diameter
     if dom.interfaces:  # the interface curves' sweeps, after the boundary
-        inter, im = swept_interfaces(dom, p2, t2, m2.facets, tets, column,
-                                     1e-9 * solid.diameter, sec_rel * dom.diameter)
+        inter, im = swept_interfaces(dom, p2, t2, m2.facets, tets, column, tol, chord2)
         faces, markers = np.concatenate([faces, inter]), np.concatenate([markers, im])
+    # then the material discontinuities the section mesher embedded, as the adaptive
+    # sweeps record them: faces discontinuity[k] after the solid's
+    ie, imark, disc = interface_edges(dom, sections.model2d.domain, p2, t2, m2.facets, tol,
+                                      chord2, len(solid.face_names))
+    if disc:
+        d = imark > len(solid.face_names)
+        f2, k2 = strip_faces(tets, column, ie[d])
+        faces, markers = np.concatenate([faces, f2]), np.concatenate([markers, imark[d][k2]])
     info.update({"placement": "uniform swept" if not revolved else "uniform revolved",
                  "size": float(h), "section_triangles": int(len(t2)), "estimate": est,
                  "chord_tol": chord, "section_chord_tol": sec_rel * dom.diameter})
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
-                    tuple(solid.face_names), delta, float(threshold), info)
+                    tuple(solid.face_names) + disc, delta, float(threshold), info)
     if regions is not None:
         res.info["regions"] = regions
     return res
