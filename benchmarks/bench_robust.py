@@ -35,6 +35,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import logging  # noqa: E402
 import math  # noqa: E402
 import multiprocessing as mp  # noqa: E402
@@ -442,6 +443,15 @@ def table_peers(records: list[dict], have_gmsh) -> dict:
     return summary
 
 
+def stored_peers(path: Path) -> dict:
+    """The Gmsh records of an earlier run's ``--json`` file by case id, and the versions
+    they were made with."""
+    data = json.loads(Path(path).read_text(encoding="utf-8"))
+    env = data.get("environment", {})
+    return {"runs": {r["id"]: r["gmsh"] for r in data.get("runs", []) if r.get("gmsh")},
+            "hetmesh": env.get("git", "?"), "gmsh": env.get("gmsh", "?")}
+
+
 # ----------------------------------------------------------------------------- main
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0],
@@ -457,6 +467,10 @@ def main(argv=None) -> int:
                         "tag or part of a name (repeatable)")
     p.add_argument("--no-examples", action="store_true", help="random models only")
     p.add_argument("--no-peers", action="store_true", help="skip Gmsh (table b)")
+    p.add_argument("--peers-from", type=Path, metavar="JSON",
+                   help="table b from the Gmsh figures stored in an earlier run's --json "
+                        "(matched by case id; Gmsh is not run): a hetmesh change is compared "
+                        "in minutes, not the hour the Gmsh searches take")
     p.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--repeats", type=int, default=1,
                    help="generate() runs per case, the time is their median (default 1)")
@@ -473,7 +487,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     n = a.models if a.models is not None else (QUICK_MODELS if a.quick else N_MODELS)
     have_gmsh = peers.available()["gmsh"]
-    use_peers = not a.no_peers and bool(have_gmsh)
+    use_peers = not a.no_peers and a.peers_from is None and bool(have_gmsh)
     opts = dict(timeout=a.timeout, peer_timeout=a.peer_timeout, peers=use_peers,
                 repeats=a.repeats, mem_limit_gb=a.mem_limit_gb, max_elements=a.max_elements)
     env = environment()
@@ -493,7 +507,15 @@ def main(argv=None) -> int:
           f"{'on' if use_peers else ('off' if a.no_peers else 'not installed')}", flush=True)
     records = run_cases(cases, opts, max(1, a.jobs))
     fam = table_families(records)
-    peer = table_peers(records, have_gmsh) if use_peers else None
+    if a.peers_from is not None:
+        stored = stored_peers(a.peers_from)
+        for r in records:
+            r["gmsh"] = stored["runs"].get(r["id"])
+        print(f"\nGmsh figures from {a.peers_from} (hetmesh {stored['hetmesh']}, "
+              f"gmsh {stored['gmsh']}), matched by case id")
+        peer = table_peers(records, stored["gmsh"])
+    else:
+        peer = table_peers(records, have_gmsh) if use_peers else None
     env["loadavg_end"] = os.getloadavg()
     total = time.perf_counter() - t_all
     print(f"\ntotal benchmark time {total:.0f} s; load average at end "
