@@ -56,10 +56,9 @@ from .columns import (
 )
 from .faces import boundary_faces
 from .mesher import BETA, TetResult
-from .quality import quality_summary
-from .refine import corner_compositions, repair
+from .refine import repair
 from .smooth import smooth
-from .sweep_mmg import TARGETS, better, mmg_improve, targets_met
+from .sweep_mmg import improve_result
 from .sweep_regions import (
     PlaneField,
     check_swept_regions,
@@ -300,60 +299,18 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
 
 def _mmg_pass(res: TetResult, solid, sec, field3d, threshold: float, curves: dict,
               chord_abs: float, problems, max_elements) -> TetResult:
-    """``res`` (a verified swept + repaired mesh) if it meets every quality target
-    (:data:`~hetmesh.tet.sweep_mmg.TARGETS`); else ``res`` remeshed by MMG and repaired
-    again (:func:`hetmesh.tet.sweep_mmg.mmg_improve`) if the result passes ``problems``
-    (the same verification) and its quality is better
-    (:func:`~hetmesh.tet.sweep_mmg.better`), else ``res``. ``curves``: the section curves
-    of every interface marker."""
-    t0 = time.perf_counter()
-    q_old = quality_summary(res.points, res.tets)
-    if targets_met(q_old) == len(TARGETS):
-        return res
-    regions = res.info.get("regions")
+    """:func:`hetmesh.tet.sweep_mmg.improve_result` of a verified swept + repaired prism
+    mesh: the triangles of arcs' sweeps required, the others' vertices snapped back
+    (:func:`_snap`). ``curves``: the section curves of every interface marker."""
     nb = len(solid.face_names)
     curved = {m for m in range(3, nb + 1)
               if hasattr(sec.curves[m - 3].curve, "radius")}
     curved |= {m for m, cs in curves.items() if any(hasattr(c.curve, "radius") for c in cs)}
-    out = mmg_improve(res.points, res.tets, regions, res.faces, res.face_markers, curved,
-                      field3d, threshold, chord_abs, max_elements=max_elements,
-                      snap=lambda p, f, m: _snap(solid, curves, p, f, m))
-    if out is None:
-        log.info("MMG pass over the element budget: the repaired sweep is kept")
-        return res
-    points, tets, regions, f, mk, rounds = out
-    tets = tets.astype(np.int32)
-    faces, _ = boundary_faces(tets)
-    markers = solid.classify_faces(points[faces]) + 1
-    on = np.isin(mk, list(curves))
-    inter, im = f[on], mk[on]
-    comp = None
-    if regions is None:
-        comp = np.asarray(field3d.composition(points), dtype=np.float64)
-        delta = delta_vertices(comp, tets)
-    else:
-        cc = corner_compositions(field3d, points, tets, regions)
-        delta = (cc.max(axis=1) - cc.min(axis=1)).max(axis=1)
-    info = {k: v for k, v in res.info.items() if k not in ("regions", "composition")}
-    new = TetResult(points, tets, np.concatenate([faces, inter]).astype(np.int32),
-                    np.concatenate([markers, im]).astype(np.int32), res.face_names, delta,
-                    float(threshold), info)
-    if regions is not None:
-        new.info["regions"] = regions.astype(np.int32)
-    if comp is not None:
-        new.info["composition"] = comp
-    probs = problems(new, inter, im)
-    q_new = quality_summary(points, tets)
-    fig = (f"{len(res.tets)} -> {len(tets)} tetrahedra, dihedral min {q_old['dihedral_min']:.1f}"
-           f" -> {q_new['dihedral_min']:.1f}, 1st pct {q_old['dihedral_p1']:.1f} -> "
-           f"{q_new['dihedral_p1']:.1f}, mean radius ratio {q_old['radius_ratio_mean']:.3f} "
-           f"-> {q_new['radius_ratio_mean']:.3f}, {time.perf_counter() - t0:.2f} s")
-    if probs or not better(q_new, q_old):
-        log.info("MMG pass not kept (%s): %s", probs[0] if probs else "not better", fig)
-        return res
-    log.info("MMG pass (%d rounds) kept: %s", rounds, fig)
-    new.info["mmg_rounds"] = rounds  # the placement stays "swept+repair"
-    return new
+    return improve_result(res, field3d, threshold, curved=curved, interfaces=set(curves),
+                          hausd=chord_abs,
+                          snap=lambda p, f, m: _snap(solid, curves, p, f, m),
+                          classify=lambda p, f: solid.classify_faces(p[f]) + 1,
+                          problems=problems, max_elements=max_elements)
 
 
 def _snap(solid, curves: dict, points, faces, markers) -> np.ndarray:

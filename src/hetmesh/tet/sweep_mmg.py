@@ -32,15 +32,20 @@ single-threaded and deterministically: the same input gives the same mesh.
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 
 from ..errors import BudgetError, MeshingError
+from ..metrics import delta_vertices
+from .faces import boundary_faces
 from .general import orient_positive, quiet_mmg
+from .mesher import TetResult
+from .quality import quality_summary
 from .refine import corner_compositions, repair, unique_edges
 
-__all__ = ["mmg_improve", "split_faces", "better", "targets_met", "S", "SHRINK", "ROUNDS",
-           "TARGETS"]
+__all__ = ["mmg_improve", "improve_result", "split_faces", "better", "targets_met", "S",
+           "SHRINK", "ROUNDS", "TARGETS"]
 
 log = logging.getLogger(__name__)
 
@@ -225,6 +230,60 @@ def _pieces(tets, faces) -> np.ndarray:
     pair = np.flatnonzero((k[1:] == k[:-1]) & ~c[1:])
     g = coo_matrix((np.ones(len(pair)), (o[pair], o[pair + 1])), shape=(len(t), len(t)))
     return connected_components(g, directed=False)[1].astype(np.int64)
+
+
+def improve_result(res, field, threshold: float, *, curved: set, interfaces: set,
+                   hausd: float, snap, classify, problems, max_elements: int | None = None):
+    """``res`` (a verified swept + repaired :class:`~hetmesh.tet.mesher.TetResult`) if it
+    meets every quality target (:data:`TARGETS`); else ``res`` remeshed by MMG and repaired
+    again (:func:`mmg_improve`) if the result passes ``problems(result, interface faces,
+    their markers) -> list[str]`` (the caller's verification) and is :func:`better`, else
+    ``res``. ``curved``: the markers whose triangles MMG must keep; ``interfaces``: the
+    interface markers (the others are boundary faces, named again by ``classify(points,
+    faces) -> markers``); ``snap``: as :func:`mmg_improve`. The kept result has
+    ``info["mmg_rounds"]``."""
+    t0 = time.perf_counter()
+    q_old = quality_summary(res.points, res.tets)
+    if targets_met(q_old) == len(TARGETS):
+        return res
+    regions = res.info.get("regions")
+    out = mmg_improve(res.points, res.tets, regions, res.faces, res.face_markers, curved,
+                      field, threshold, hausd, max_elements=max_elements, snap=snap)
+    if out is None:
+        log.info("MMG pass over the element budget: the repaired sweep is kept")
+        return res
+    points, tets, regions, f, mk, rounds = out
+    tets = tets.astype(np.int32)
+    faces, _ = boundary_faces(tets)
+    markers = classify(points, faces)
+    on = np.isin(mk, sorted(interfaces))
+    inter, im = f[on], mk[on]
+    comp = None
+    if regions is None:
+        comp = np.asarray(field.composition(points), dtype=np.float64)
+        delta = delta_vertices(comp, tets)
+    else:
+        delta = _delta(field, points, tets, regions)
+    info = {k: v for k, v in res.info.items() if k not in ("regions", "composition")}
+    new = TetResult(points, tets, np.concatenate([faces, inter]).astype(np.int32),
+                    np.concatenate([markers, im]).astype(np.int32), res.face_names, delta,
+                    float(threshold), info)
+    if regions is not None:
+        new.info["regions"] = regions.astype(np.int32)
+    if comp is not None:
+        new.info["composition"] = comp
+    probs = problems(new, inter, im)
+    q_new = quality_summary(points, tets)
+    fig = (f"{len(res.tets)} -> {len(tets)} tetrahedra, dihedral min {q_old['dihedral_min']:.1f}"
+           f" -> {q_new['dihedral_min']:.1f}, 1st pct {q_old['dihedral_p1']:.1f} -> "
+           f"{q_new['dihedral_p1']:.1f}, mean radius ratio {q_old['radius_ratio_mean']:.3f} "
+           f"-> {q_new['radius_ratio_mean']:.3f}, {time.perf_counter() - t0:.2f} s")
+    if probs or not better(q_new, q_old):
+        log.info("MMG pass not kept (%s): %s", probs[0] if probs else "not better", fig)
+        return res
+    log.info("MMG pass (%d rounds) kept: %s", rounds, fig)
+    new.info["mmg_rounds"] = rounds  # the placement stays the caller's
+    return new
 
 
 def targets_met(q: dict) -> int:
