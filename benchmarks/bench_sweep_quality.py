@@ -5,10 +5,13 @@ measure, never assert.
     PYTHONPATH=src python benchmarks/bench_sweep_quality.py [--repeats N]
 
 For examples/seamed_plate_z.toml at delta_0 = 0.2, 0.1, 0.05, the unit cube with metal
-fraction (x + z)/2 at 0.1 and 0.05, and a quarter ring with metal fraction
-((r - 20)/10)^2 (0.5 + x/60) at 0.1: Ne, Ne / N_iso3, delta_max, the minimum and
-1st-percentile dihedral angle, the mean radius ratio 3 r_in / R_circ, the wall time (median
-of the repeats) and the sha1 of the mesh's points and tetrahedra.
+fraction (x + z)/2 at 0.1 and 0.05, and a quarter ring bonded at r = 25 (the ring of
+tests/test_interfaces3d.py: 20 <= r <= 30, 10 high, `0.5 + 0.45 sin(6 theta)` inside,
+`0.3 + 0.02 z` outside) at 0.2 and 0.1, each without the MMG pass after the repair
+(hetmesh.tet.sweep_mmg; "repair") and with it ("mmg", the default): Ne, Ne / N_iso3,
+delta_max, the minimum and 1st-percentile dihedral angle, the mean radius ratio
+3 r_in / R_circ, the wall time (median of the repeats) and the sha1 of the mesh's points
+and tetrahedra.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import hashlib
 import logging
 import statistics
 import sys
+import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -43,7 +47,34 @@ def fingerprint(points, tets) -> str:
     return h.hexdigest()[:12]
 
 
-def cases():
+RING = """
+[model]
+name = "bonded_ring"
+
+[solid]
+type = "revolution"
+angle = 90
+
+[domain.outer]
+start = [20, 0]
+path = [{ to = [25, 0], name = "bottom" }, { to = [30, 0], name = "bottom" },
+        { to = [30, 10], name = "outside" }, { to = [25, 10], name = "top" },
+        { to = [20, 10], name = "top" }, { to = [20, 0], name = "inside" }]
+
+[[domain.interfaces]]
+name = "bond"
+start = [25, 0]
+path = [{ to = [25, 10] }]
+
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "where(x**2 + y**2 < 625, 0.5 + 0.45*sin(6*atan2(y, x)), 0.3 + 0.02*z)"
+"""
+
+
+def cases(tmp: Path):
     from hetmesh.tet.api import mesh_model
 
     plate = hetmesh.load_model(ROOT / "examples" / "seamed_plate_z.toml")
@@ -54,27 +85,37 @@ def cases():
     cube = replace(hetmesh.load_model(ROOT / "examples" / "unit_cube.toml"), material=f)
     for d0 in (0.1, 0.05):
         yield "cube (x+z)/2", d0, cube.solid, f, lambda d=d0: mesh_model(cube, d)
+    (tmp / "bonded_ring.toml").write_text(RING)
+    ring = hetmesh.load_model(tmp / "bonded_ring.toml")
+    for d0 in (0.2, 0.1):
+        yield "bonded ring", d0, ring.solid, ring.material, lambda d=d0: mesh_model(ring, d)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=1)
     a = ap.parse_args(argv)
-    print(f"  {'model':<16} {'d0':>5} {'Ne':>8} {'Ne/Niso3':>8} {'dmax':>8} {'dih_min':>7} "
-          f"{'dih_p1':>7} {'rr_mean':>7} {'time_s':>7}  sha1")
-    for name, d0, solid, field, run in cases():
-        times = []
-        for _ in range(a.repeats):
-            t0 = time.perf_counter()
-            res = run()
-            times.append(time.perf_counter() - t0)
-        q = quality_summary(res.points, res.tets)
-        niso = n_iso3(solid, field, d0)
-        print(f"  {name:<16} {d0:>5} {len(res.tets):>8,} {len(res.tets) / niso:>8.2f} "
-              f"{float(res.delta.max()):>8.5f} {q['dihedral_min']:>7.2f} "
-              f"{q['dihedral_p1']:>7.2f} {q['radius_ratio_mean']:>7.3f} "
-              f"{statistics.median(times):>7.2f}  {fingerprint(res.points, res.tets)}",
-              flush=True)
+    from hetmesh.tet import extrude, revolve
+
+    print(f"  {'model':<16} {'d0':>5} {'pass':<6} {'Ne':>8} {'Ne/Niso3':>8} {'dmax':>8} "
+          f"{'dih_min':>7} {'dih_p1':>7} {'rr_mean':>7} {'time_s':>7}  sha1")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, d0, solid, field, run in cases(Path(tmp)):
+            niso = n_iso3(solid, field, d0)
+            for mmg in (False, True):
+                extrude.MMG_PASS = revolve.MMG_PASS = mmg
+                times = []
+                for _ in range(a.repeats):
+                    t0 = time.perf_counter()
+                    res = run()
+                    times.append(time.perf_counter() - t0)
+                q = quality_summary(res.points, res.tets)
+                kind = "mmg" if "mmg_rounds" in res.info else "repair"
+                print(f"  {name:<16} {d0:>5} {kind:<6} {len(res.tets):>8,} "
+                      f"{len(res.tets) / niso:>8.2f} {float(res.delta.max()):>8.5f} "
+                      f"{q['dihedral_min']:>7.2f} {q['dihedral_p1']:>7.2f} "
+                      f"{q['radius_ratio_mean']:>7.3f} {statistics.median(times):>7.2f}  "
+                      f"{fingerprint(res.points, res.tets)}", flush=True)
     return 0
 
 

@@ -25,7 +25,8 @@ the higher-numbered top vertex, which the prism on the other side chooses too).
 
 When the composition also varies along the axis, the columns' spacing is at most
 :data:`BETA` delta_0 / max |df/ds| and the tetrahedra still over delta_0 are repaired by edge
-bisection.
+bisection; if the repaired mesh misses a quality target, MMG remeshes it
+(:func:`hetmesh.tet.sweep_mmg.improve_result`, kept only if verified and better).
 
 >>> import numpy as np
 >>> p2 = np.array([[0, 0], [1, 0], [0, 1.0]]); t2 = np.array([[0, 1, 2]])
