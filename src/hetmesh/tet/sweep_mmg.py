@@ -108,7 +108,10 @@ def _remesh(points, tets, refs, faces, markers, required, size, hausd):
         m.set_required_triangles(np.ascontiguousarray(np.flatnonzero(required),
                                                       dtype=np.int32))
     m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
-    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    try:
+        out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    except RuntimeError as exc:  # mmgpy's report of a failed remeshing
+        raise MeshingError(f"MMG remeshing failed: {exc}") from None
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
@@ -238,17 +241,21 @@ def improve_result(res, field, threshold: float, *, curved: set, interfaces: set
     meets every quality target (:data:`TARGETS`); else ``res`` remeshed by MMG and repaired
     again (:func:`mmg_improve`) if the result passes ``problems(result, interface faces,
     their markers) -> list[str]`` (the caller's verification) and is :func:`better`, else
-    ``res``. ``curved``: the markers whose triangles MMG must keep; ``interfaces``: the
-    interface markers (the others are boundary faces, named again by ``classify(points,
-    faces) -> markers``); ``snap``: as :func:`mmg_improve`. The kept result has
-    ``info["mmg_rounds"]``."""
+    ``res`` (also if MMG or the repair after it fails). ``curved``: the markers whose
+    triangles MMG must keep; ``interfaces``: the interface markers (the others are boundary
+    faces, named again by ``classify(points, faces) -> markers``); ``snap``: as
+    :func:`mmg_improve`. The kept result has ``info["mmg_rounds"]``."""
     t0 = time.perf_counter()
     q_old = quality_summary(res.points, res.tets)
     if targets_met(q_old) == len(TARGETS):
         return res
     regions = res.info.get("regions")
-    out = mmg_improve(res.points, res.tets, regions, res.faces, res.face_markers, curved,
-                      field, threshold, hausd, max_elements=max_elements, snap=snap)
+    try:
+        out = mmg_improve(res.points, res.tets, regions, res.faces, res.face_markers, curved,
+                          field, threshold, hausd, max_elements=max_elements, snap=snap)
+    except MeshingError as exc:  # MMG failed, or the repair after it: keep the repaired mesh
+        log.info("MMG pass failed (%s): the repaired sweep is kept", exc)
+        return res
     if out is None:
         log.info("MMG pass over the element budget: the repaired sweep is kept")
         return res
