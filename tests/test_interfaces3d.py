@@ -369,3 +369,24 @@ def test_seamed_plate_z_is_deterministic(seamed_example):
     b = mesh_model(model, 0.1)
     assert np.array_equal(a.points, b.points) and np.array_equal(a.tets, b.tets)
     assert np.array_equal(a.faces, b.faces) and np.array_equal(a.face_markers, b.face_markers)
+
+
+@pytest.mark.slow
+def test_the_bonded_ring_meets_the_quality_targets_at_0_1(tmp_path):
+    """The repaired revolution missed the targets at 0.1 (8.2 / 14.5 / 0.588); the MMG pass
+    meets them, the bond still a surface of faces within the chord tolerance of r = 25,
+    every tetrahedron on one side, delta per side under 0.1."""
+    path = tmp_path / "bonded_ring.toml"
+    path.write_text(REVOLVED)
+    res = mesh_model(hetmesh.load_model(path), 0.1)
+    assert res.info["placement"] == "revolved+repair" and res.info["mmg_rounds"] >= 1
+    chord = 2e-3 * np.linalg.norm([60.0, 60.0, 10.0])
+
+    def r(q):
+        return np.hypot(q[:, 0], q[:, 1])
+
+    check(res, metal_revolved,
+          lambda q: np.sign(np.where(np.abs(r(q) - 25) <= chord, 0.0, r(q) - 25)),
+          lambda q: np.abs(r(q) - 25) <= chord, threshold=0.1)
+    ang, rr = tet_quality(np.asarray(res.points), np.asarray(res.tets, np.int64))
+    assert ang.min() >= 10 and np.percentile(ang, 1) >= 20 and rr.mean() >= 0.75
