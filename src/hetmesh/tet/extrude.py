@@ -25,7 +25,8 @@ the higher-numbered top vertex, which the prism on the other side chooses too).
 
 When the composition also varies along the axis, the columns' spacing is at most
 :data:`BETA` delta_0 / max |df/ds| and the tetrahedra still over delta_0 are repaired by edge
-bisection.
+bisection; if the repaired mesh misses a quality target, MMG remeshes it
+(:func:`hetmesh.tet.sweep_mmg.improve_result`, kept only if verified and better).
 
 >>> import numpy as np
 >>> p2 = np.array([[0, 0], [1, 0], [0, 1.0]]); t2 = np.array([[0, 1, 2]])
@@ -58,6 +59,7 @@ from .faces import boundary_faces
 from .mesher import BETA, TetResult
 from .refine import repair
 from .smooth import smooth
+from .sweep_mmg import improve_result
 from .sweep_regions import (
     PlaneField,
     check_swept_regions,
@@ -77,6 +79,9 @@ log = logging.getLogger(__name__)
 #: tetrahedra than common layers at the median edge, and a better shape (1.0: more
 #: tetrahedra, about the same shape; 1.5: mean radius ratio under 0.8)
 COLUMN_RATIO = 1.25
+#: whether the swept + repaired meshes (compositions varying along the axis) get the MMG
+#: pass (:mod:`hetmesh.tet.sweep_mmg`), kept where it verifies and is better
+MMG_PASS = True
 
 
 class SectionField:
@@ -247,7 +252,7 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
-    inter = np.zeros((0, 3), np.int64)
+    inter, im = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
     if traced:  # the interface strips, found again after the repair
         inter, im = interface_faces(tets, carrier, ie, imark)
     elif sec.interfaces or disc:  # the interface curves' sweeps, after the boundary
@@ -268,23 +273,70 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         res.info["regions"] = regions.astype(np.int32)
     if comp is not None:
         res.info["composition"] = comp
-    if check:
-        probs = tet_problems(points, tets, res.faces, res.face_markers, solid, delta,
-                             threshold, chord_abs) + strip_problems(tets, inter)
+    curves = _surface_curves(sec, r2.model.domain, solid.face_names, disc) if traced else {}
+
+    def problems(r: TetResult, inter, im) -> list[str]:
+        out = tet_problems(r.points, r.tets, r.faces, r.face_markers, solid, r.delta,
+                           threshold, chord_abs) + strip_problems(r.tets, inter)
         if traced:  # every tetrahedron in its subregion, the strips on their surfaces
-            probs += region_problems(field3d, points, tets, regions)
-            probs += surface_problems(solid.to2d(points)[0], inter, im,
-                                      _surface_curves(sec, r2.model.domain, solid.face_names,
-                                                      disc),
-                                      tol, chord_abs)
+            out += region_problems(field3d, r.points, r.tets, r.info.get("regions"))
+            out += surface_problems(solid.to2d(r.points)[0], inter, im, curves, tol, chord_abs)
+        return out
+
+    if check:
+        probs = problems(res, inter, im)
         if probs:
             from ..errors import VerificationError
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
+    if not swept and MMG_PASS:
+        res = _mmg_pass(res, solid, sec, field3d, threshold, curves, chord_abs, problems,
+                        max_elements)
     res.info["time_total"] = time.perf_counter() - t0
     log.info("swept tet mesh: %d triangles, %d to %d layers -> %d tetrahedra, %.2f s", ntri,
              int(counts.min()), int(counts.max()),
-             len(tets), res.info["time_total"])
+             len(res.tets), res.info["time_total"])
     return res
+
+
+def _mmg_pass(res: TetResult, solid, sec, field3d, threshold: float, curves: dict,
+              chord_abs: float, problems, max_elements) -> TetResult:
+    """:func:`hetmesh.tet.sweep_mmg.improve_result` of a verified swept + repaired prism
+    mesh: the triangles of arcs' sweeps required, the others' vertices snapped back
+    (:func:`_snap`). ``curves``: the section curves of every interface marker."""
+    nb = len(solid.face_names)
+    curved = {m for m in range(3, nb + 1)
+              if hasattr(sec.curves[m - 3].curve, "radius")}
+    curved |= {m for m, cs in curves.items() if any(hasattr(c.curve, "radius") for c in cs)}
+    return improve_result(res, field3d, threshold, curved=curved, interfaces=set(curves),
+                          hausd=chord_abs,
+                          snap=lambda p, f, m: _snap(solid, curves, p, f, m),
+                          classify=lambda p, f: solid.classify_faces(p[f]) + 1,
+                          problems=problems, max_elements=max_elements)
+
+
+def _snap(solid, curves: dict, points, faces, markers) -> np.ndarray:
+    """``points`` with the vertices of the triangles ``faces`` on the caps (markers 1, 2)
+    at the cap's axis value and those on straight side faces or interfaces (``curves``:
+    the section curves of every interface marker) projected onto their segment, in
+    section coordinates (exact for the axis-aligned planes)."""
+    q, s = solid.to2d(points)
+    q, s = q.copy(), s.copy()
+    s[np.unique(faces[markers == 1])] = solid.s0
+    s[np.unique(faces[markers == 2])] = solid.s1
+    sec = solid.section
+    on = {m: [sec.curves[m - 3]] for m in range(3, len(solid.face_names) + 1)}
+    on.update(curves)
+    for m, cs in on.items():
+        lines = [c.curve for c in cs if not hasattr(c.curve, "radius")]
+        ids = np.unique(faces[markers == m])
+        if not lines or not len(ids):
+            continue
+        d = np.array([c.distance(q[ids]) for c in lines])
+        near = np.argmin(d, axis=0)
+        for k, c in enumerate(lines):
+            sel = ids[near == k]
+            q[sel] = c.point(c.project(q[sel]))
+    return solid.to3d(q, s)
 
 
 def _surface_curves(sec, domain2, names, disc) -> dict:

@@ -48,6 +48,7 @@ from .mesher import TetResult
 from .refine import corner_compositions, repair
 from .smooth import smooth
 from .solid import grid_inside
+from .sweep_mmg import improve_result
 from .sweep_regions import (
     PlaneField,
     check_swept_regions,
@@ -68,6 +69,9 @@ log = logging.getLogger(__name__)
 CHORD = 2e-3
 #: widest angular step of a column (radians): the fronts of a cell stay nearly planar
 MAX_STEP = math.pi / 6
+#: whether the repaired revolutions (compositions varying with the angle) get the MMG pass
+#: (:func:`hetmesh.tet.sweep_mmg.improve_result`), kept where it verifies and is better
+MMG_PASS = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,7 +302,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = _classify(solid, points, faces, chord)
-    inter = np.zeros((0, 3), np.int64)
+    inter, im = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
     if traced:  # the interface strips, found again after the repair
         inter, im = interface_faces(tets, carrier, ie, imark)
     elif prof.interfaces or disc:  # the interface curves' sweeps, after the boundary
@@ -320,19 +324,33 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
         res.info["regions"] = regions.astype(np.int32)
     if not axisym and comp is not None:
         res.info["composition"] = comp
-    if check:
-        probs = revolution_problems(res, solid, field if not axisym else None, chord,
-                                    regions=regions if traced else None)
+    curves = {}
+    if traced:
+        curves = {3 + i: [c] for i, c in enumerate(prof.curves) if c.kind == "interface"}
+        for j, name in enumerate(disc):
+            curves[len(solid.face_names) + 1 + j] = [
+                c for c in r2.model.domain.curves if c.name == name]
+
+    def problems(r, inter, im) -> list[str]:
+        out = revolution_problems(r, solid, field if not axisym else None, chord,
+                                  regions=r.info.get("regions") if traced else None)
         if traced:  # every tetrahedron in its subregion, the strips on their surfaces
-            curves = {3 + i: [c] for i, c in enumerate(prof.curves) if c.kind == "interface"}
-            for j, name in enumerate(disc):
-                curves[len(solid.face_names) + 1 + j] = [
-                    c for c in r2.model.domain.curves if c.name == name]
-            probs += region_problems(field, points, tets, regions)
-            probs += surface_problems(solid.to2d(points)[0], inter, im, curves, tol, chord,
-                                      chord_all=True)
+            out += region_problems(field, r.points, r.tets, r.info.get("regions"))
+            out += surface_problems(solid.to2d(r.points)[0], inter, im, curves, tol, chord,
+                                    chord_all=True)
+        return out
+
+    if check:
+        probs = problems(res, inter, im)
         if probs:
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
+    if not axisym and MMG_PASS:  # the end planes' vertices snapped back, the rest required
+        res = improve_result(res, field, threshold,
+                             curved=set(range(3, len(res.face_names) + 1)),
+                             interfaces=set(curves), hausd=chord,
+                             snap=lambda p, f, m: _snap_ends(solid, p, f, m),
+                             classify=lambda p, f: _classify(solid, p, f, chord),
+                             problems=problems, max_elements=max_elements)
     res.info["time_total"] = time.perf_counter() - t0
     return res
 
@@ -358,6 +376,19 @@ def angular_counts(solid: Revolution, p2: np.ndarray, t2: np.ndarray, chord: flo
     n = np.maximum(n, 3 if solid.full else 1)
     n[on_axis] = 0
     return n
+
+
+def _snap_ends(solid: Revolution, points, faces, markers) -> np.ndarray:
+    """``points`` with the vertices of the triangles ``faces`` on the end planes (markers 1
+    at angle 0, 2 at the sweep's end) turned back onto them exactly."""
+    if solid.full:
+        return points
+    out = np.array(points, dtype=np.float64)
+    for m, ang in ((1, 0.0), (2, solid.sweep)):
+        ids = np.unique(faces[markers == m])
+        q, _ = solid.to2d(out[ids])
+        out[ids] = solid.to3d(q, np.full(len(ids), ang))
+    return out
 
 
 def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:
