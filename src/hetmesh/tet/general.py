@@ -8,7 +8,11 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    ``-ls``, without remeshing) splits the tetrahedra along the piecewise-linear zero set of
    its function; multi-material references record on which side of each cut a tetrahedron
    lies. A tetrahedron is in the solid if its side of every surface and its grid cell (the
-   planes) say so; the others are dropped.
+   planes) say so; the others are dropped. Where two curved faces meet
+   (:attr:`~hetmesh.tet.implicit.CSGSolid.curved_edges`), MMG improves the tetrahedra
+   between two cuts (swaps and moves; the planes recorded in the references first), since
+   on the slivers an earlier cut leaves its level-set mode misplaces crossing points
+   (:func:`_cut_meeting`).
 3. *Faces*: every boundary triangle is given the face (surface and primitive) its corners
    lie on, and every boundary vertex is projected onto the exact surfaces of its faces
    (Gauss-Newton on their functions; planes exactly), so curved faces are within
@@ -21,14 +25,20 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    faces as ridges). The boundary vertices are projected onto their faces again. Then, in
    up to :data:`SIZE_ROUNDS` rounds, the size at the vertices of tetrahedra with
    ``delta >= delta_0`` is multiplied by :data:`SHRINK` and MMG remeshes again: the mesh
-   gets finer only where it violated.
+   gets finer only where it violated. Where curved faces meet, a vertex of both goes onto
+   the curve where their surfaces meet (the same Gauss-Newton on both functions); a move
+   that would leave a tetrahedron under :data:`MIN_VOLUME` is tried at the fractions
+   :data:`PARTIAL`, and the rounds go on until every boundary vertex is within a tenth of
+   the chord tolerance of its faces (MMG remeshes around what could not move yet).
 5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
    boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
    chords of curved faces do not get farther from them.
 6. *Verification* (:func:`solid_problems`): positive volumes, conformity, a closed boundary,
    every boundary triangle on a face (planar ones exactly, curved ones within the chord
-   tolerance at 12 points per triangle), the volume (exact where the solid has a closed
-   form, else within 1 % of a grid estimate), delta_max < delta_0.
+   tolerance at 12 points per triangle), every edge between two curved faces within the
+   chord tolerance of the exact curve where their surfaces meet (:func:`edge_problems`),
+   the volume (exact where the solid has a closed form, else within 1 % of a grid
+   estimate), delta_max < delta_0.
 
 The same input and seed give the same mesh (MMG runs single-threaded and deterministically).
 """
@@ -227,11 +237,13 @@ def _cut_meeting(solid: CSGSolid, p, t, spacing: float) -> tuple[np.ndarray, np.
     an earlier cut left (the references then no longer match the sides, and boundary
     triangles end up inside the solid): here MMG improves the tetrahedra between two cuts
     (swaps and moves, no insertion; Hausdorff distance :data:`BETWEEN_HAUSD` x the
-    spacing), the references keeping every interface so far as an internal boundary. The planes inside
-    the grid are recorded in the references before the first remeshing (one bit per
-    primitive: its side of all its planes, from the centroids in the grid cells), so the
-    remeshing keeps them as interfaces too. ``(p, t)``: the background grid's points and
-    the tetrahedra kept; returns ``(points, tets)`` of the solid."""
+    spacing), the references keeping every interface so far as an internal boundary. The
+    planes inside the grid are recorded in the references before the first improvement
+    (one bit per primitive: its side of all its planes, from the centroids in the grid
+    cells), so it keeps them as interfaces too. The two cuts' piecewise-linear surfaces
+    cross along a polyline near the exact curve: the edge stays sharp. ``(p, t)``: the
+    background grid's points and the tetrahedra kept; returns ``(points, tets)`` of the
+    solid."""
     mmgpy = _quiet_mmg()
     curved = solid.curved
     used = unique(t)
