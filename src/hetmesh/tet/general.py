@@ -808,7 +808,9 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     """The uniform baseline's mesh of a solid of primitives at size ``h``, not verified: the
     same start as :func:`generate_solid` (the cut background grid), remeshed once by MMG to
     the constant size ``h`` (capped on curved faces for the chord tolerance ``chord_tol``,
-    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces.
+    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces
+    (where curved faces meet, remeshed until they are on them, at most
+    :data:`SIZE_ROUNDS` more times).
     Nothing is refined for the material: ``delta`` over the vertices is measured,
     ``threshold`` recorded but not required (:func:`hetmesh.tet.uniform.uniform_model`
     searches ``h``)."""
@@ -823,6 +825,14 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
     p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size, 0.5 * chord,
                                            max(0.25 * h, 10 * chord))
+    # where curved faces meet, remeshed again until the projection has put the boundary
+    # vertices on their faces (as the size rounds of generate_solid go on)
+    for _ in range(SIZE_ROUNDS if solid.curved_edges else 0):
+        if off_faces(solid, p, faces, markers) <= 0.1 * chord:
+            break
+        size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
+        p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size,
+                                               0.5 * chord, max(0.25 * h, 10 * chord))
     if max_elements is not None and len(t) > max_elements:
         raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
                           f"over the budget of {max_elements:,}")
