@@ -28,7 +28,7 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    gets finer only where it violated. Where curved faces meet, a vertex of both goes onto
    the curve where their surfaces meet (the same Gauss-Newton on both functions); a move
    that would leave a tetrahedron under :data:`MIN_VOLUME` is tried at the fractions
-   :data:`PARTIAL`, and the rounds go on until every boundary vertex is within a tenth of
+   :data:`PARTIAL`, and the rounds go on until every boundary vertex is within :data:`SETTLED` x
    the chord tolerance of its faces (MMG remeshes around what could not move yet).
 5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
    boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
@@ -373,6 +373,9 @@ def project(solid: CSGSolid, points: np.ndarray, faces: np.ndarray, markers: np.
 #: where curved faces meet, the fractions of a projection tried in turn for the vertices
 #: whose whole move would flatten a tetrahedron
 PARTIAL = (1.0, 0.5, 0.25)
+#: where curved faces meet, the size rounds go on while a boundary vertex is farther than
+#: this fraction of the chord tolerance from a surface of its faces
+SETTLED = 0.25
 #: the smallest volume a projection may leave a tetrahedron of a solid whose curved faces
 #: meet, relative to the cube of the diameter (1000 x the validity check's floor)
 MIN_VOLUME = 1e-9
@@ -614,7 +617,7 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                  int(bad.sum()))
         # where curved faces meet, the rounds go on until the projection has put the
         # boundary vertices on their faces (MMG remeshes what it could not move)
-        settled = not solid.curved_edges or off_faces(solid, p, faces, markers) <= 0.1 * chord
+        settled = not solid.curved_edges or off_faces(solid, p, faces, markers) <= SETTLED * chord
         if (not bad.any() and settled) or rounds == SIZE_ROUNDS:
             break
         size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
@@ -828,7 +831,7 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     # where curved faces meet, remeshed again until the projection has put the boundary
     # vertices on their faces (as the size rounds of generate_solid go on)
     for _ in range(SIZE_ROUNDS if solid.curved_edges else 0):
-        if off_faces(solid, p, faces, markers) <= 0.1 * chord:
+        if off_faces(solid, p, faces, markers) <= SETTLED * chord:
             break
         size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
         p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size,
