@@ -8,7 +8,11 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    ``-ls``, without remeshing) splits the tetrahedra along the piecewise-linear zero set of
    its function; multi-material references record on which side of each cut a tetrahedron
    lies. A tetrahedron is in the solid if its side of every surface and its grid cell (the
-   planes) say so; the others are dropped.
+   planes) say so; the others are dropped. Where two curved faces meet
+   (:attr:`~hetmesh.tet.implicit.CSGSolid.curved_edges`), MMG improves the tetrahedra
+   between two cuts (swaps and moves; the planes recorded in the references first), since
+   on the slivers an earlier cut leaves its level-set mode misplaces crossing points
+   (:func:`_cut_meeting`).
 3. *Faces*: every boundary triangle is given the face (surface and primitive) its corners
    lie on, and every boundary vertex is projected onto the exact surfaces of its faces
    (Gauss-Newton on their functions; planes exactly), so curved faces are within
@@ -21,14 +25,20 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    faces as ridges). The boundary vertices are projected onto their faces again. Then, in
    up to :data:`SIZE_ROUNDS` rounds, the size at the vertices of tetrahedra with
    ``delta >= delta_0`` is multiplied by :data:`SHRINK` and MMG remeshes again: the mesh
-   gets finer only where it violated.
+   gets finer only where it violated. Where curved faces meet, a vertex of both goes onto
+   the curve where their surfaces meet (the same Gauss-Newton on both functions); a move
+   that would leave a tetrahedron under :data:`MIN_VOLUME` is tried at the fractions
+   :data:`PARTIAL`, and the rounds go on until every boundary vertex is within :data:`SETTLED` x
+   the chord tolerance of its faces (MMG remeshes around what could not move yet).
 5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
    boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
    chords of curved faces do not get farther from them.
 6. *Verification* (:func:`solid_problems`): positive volumes, conformity, a closed boundary,
    every boundary triangle on a face (planar ones exactly, curved ones within the chord
-   tolerance at 12 points per triangle), the volume (exact where the solid has a closed
-   form, else within 1 % of a grid estimate), delta_max < delta_0.
+   tolerance at 12 points per triangle), every edge between two curved faces within the
+   chord tolerance of the exact curve where their surfaces meet (:func:`edge_problems`),
+   the volume (exact where the solid has a closed form, else within 1 % of a grid
+   estimate), delta_max < delta_0.
 
 The same input and seed give the same mesh (MMG runs single-threaded and deterministically).
 """
@@ -53,7 +63,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
-           "SIZE_ROUNDS", "uniform_solid_at", "background_spacing"]
+           "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "edge_problems", "onto_curve"]
 
 log = logging.getLogger(__name__)
 
@@ -165,6 +175,8 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
             if s.curved:
                 keep &= ~(s.g(p)[t] > margin).all(axis=1)
     t = t[keep]
+    if solid.curved_edges:
+        return _cut_meeting(solid, p, t, spacing)
     used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
@@ -189,6 +201,106 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
         raise MeshingError("too many curved surfaces for the level-set references")
     inside = _membership(solid, p, t, refs, curved)
     t = t[inside]
+    used = unique(t)
+    remap = np.full(len(p), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return p[used], orient_positive(p[used], remap[t])
+
+
+#: where curved faces meet: MMG's Hausdorff distance for the improvement between two cuts,
+#: as a fraction of the background spacing
+BETWEEN_HAUSD = 0.03
+
+
+def _plane_bits(solid: CSGSolid, c: np.ndarray) -> dict:
+    """For every primitive with planes inside the background grid (a subtracted box or a
+    cylinder's ends), a reference bit and whether each centroid ``c`` lies on the
+    primitive's side of all its planes: ``{id(prim): (bit, inside)}``, bits above the
+    curved surfaces' two each."""
+    out = {}
+    bit = 2 * len(solid.curved) + 1
+    for prim in solid.primitives:
+        planes = [s for s in prim.surfaces if not s.curved]
+        if not planes:
+            continue
+        ok = np.ones(len(c), dtype=bool)
+        for s in planes:
+            ok &= s.g(c) < 0
+        out[id(prim)] = (bit, ok)
+        bit += 1
+    return out
+
+
+def _cut_meeting(solid: CSGSolid, p, t, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The cuts of :func:`cut_solid` for a solid whose curved faces meet. Cut after cut,
+    MMG's level-set mode misplaces the crossing points on some edges of the slivers that
+    an earlier cut left (the references then no longer match the sides, and boundary
+    triangles end up inside the solid): here MMG improves the tetrahedra between two cuts
+    (swaps and moves, no insertion; Hausdorff distance :data:`BETWEEN_HAUSD` x the
+    spacing), the references keeping every interface so far as an internal boundary. The
+    planes inside the grid are recorded in the references before the first improvement
+    (one bit per primitive: its side of all its planes, from the centroids in the grid
+    cells), so it keeps them as interfaces too. The two cuts' piecewise-linear surfaces
+    cross along a polyline near the exact curve: the edge stays sharp. ``(p, t)``: the
+    background grid's points and the tetrahedra kept; returns ``(points, tets)`` of the
+    solid."""
+    mmgpy = _quiet_mmg()
+    curved = solid.curved
+    used = unique(t)
+    remap = np.full(len(p), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    p, t = p[used], remap[t]
+    planes = _plane_bits(solid, p[t].mean(axis=1))
+    refs = np.ones(len(t), dtype=np.int64)
+    for bit, ok in planes.values():
+        refs += ok.astype(np.int64) << bit
+    if (refs >= 2 ** 30).any():
+        raise MeshingError("too many primitives for the level-set references")
+    for i, s in enumerate(curved):
+        if i:
+            m = mmgpy.MmgMesh3D()
+            m.set_mesh_size(vertices=len(p), tetrahedra=len(t))
+            m.set_vertices(np.ascontiguousarray(p))
+            m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                             np.ascontiguousarray(refs, dtype=np.int32))
+            out = m.remesh(verbose=-1, hausd=float(BETWEEN_HAUSD * spacing), noinsert=1)
+            if out.get("return_code", 0) != 0:
+                raise MeshingError(f"MMG remeshing between the cuts failed (code "
+                                   f"{out.get('return_code')})")
+            p = np.array(m.get_vertices(), dtype=np.float64)
+            tt, rr = m.get_tetrahedra_with_refs()
+            t, refs = np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+        codes = unique(refs)
+        m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
+        m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                         np.ascontiguousarray(refs, dtype=np.int32))
+        m.set_multi_materials([dict(ref=int(r), split=1, ref_minus=int(r + 2 ** (2 * i + 1)),
+                                    ref_plus=int(r + 2 ** (2 * i + 2))) for r in codes])
+        out = m.remesh_levelset(np.ascontiguousarray(s.g(p).reshape(-1, 1)), verbose=-1,
+                                noinsert=1, noswap=1, nomove=1)
+        if out.get("return_code", 0) != 0:
+            raise MeshingError(f"MMG's level-set cut failed (surface {i}, code "
+                               f"{out.get('return_code')})")
+        p = np.array(m.get_vertices(), dtype=np.float64)
+        tt, rr = m.get_tetrahedra_with_refs()
+        t, refs = np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+    neg = {id(s): ((refs >> (2 * i + 1)) & 1).astype(bool) for i, s in enumerate(curved)}
+
+    def inside(prim):
+        ok = np.ones(len(t), dtype=bool)
+        for s in prim.surfaces:
+            if s.curved:
+                ok &= neg[id(s)]
+        if id(prim) in planes:
+            ok &= ((refs >> planes[id(prim)][0]) & 1).astype(bool)
+        return ok
+
+    keep = inside(solid.base)
+    if solid.clip is not None:
+        keep &= inside(solid.clip)
+    for prim in solid.subtract:
+        keep &= ~inside(prim)
+    t = t[keep]
     used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
@@ -258,25 +370,58 @@ def project(solid: CSGSolid, points: np.ndarray, faces: np.ndarray, markers: np.
     return p
 
 
+#: where curved faces meet, the fractions of a projection tried in turn for the vertices
+#: whose whole move would flatten a tetrahedron
+PARTIAL = (1.0, 0.5, 0.25)
+#: where curved faces meet, the size rounds go on while a boundary vertex is farther than
+#: this fraction of the chord tolerance from a surface of its faces
+SETTLED = 0.25
+#: the smallest volume a projection may leave a tetrahedron of a solid whose curved faces
+#: meet, relative to the cube of the diameter (1000 x the validity check's floor)
+MIN_VOLUME = 1e-9
+
+
 def project_safely(solid, points, tets, faces, markers, rounds: int = 20) -> np.ndarray:
     """:func:`project`, except for the vertices whose move would leave a tetrahedron
     around them without a positive volume: those stay (a curved face's vertex then stays
     where MMG put it, within its Hausdorff distance of the surface; the verification
-    checks the chord tolerance)."""
-    q = project(solid, points, faces, markers)
-    q = keep_positive(points, q, tets, (q != points).any(axis=1), rounds)
+    checks the chord tolerance). Where curved faces meet (their edge vertices go onto the
+    curve, farther than the others), a volume of at least :data:`MIN_VOLUME` x the
+    diameter cubed."""
+    want = project(solid, points, faces, markers)
+    if not solid.curved_edges:
+        q = keep_positive(points, want, tets, (want != points).any(axis=1), rounds)
+        _check_positive(q, tets, "after projecting the boundary vertices")
+        return q
+    floor = MIN_VOLUME * solid.diameter ** 3
+    q = points.copy()
+    pending = (want != points).any(axis=1)
+    for frac in PARTIAL:
+        cand = q.copy()
+        cand[pending] = q[pending] + frac * (want[pending] - q[pending])
+        new = keep_positive(q, cand, tets, pending, rounds, min_volume=floor)
+        pending &= ~(new != q).any(axis=1)
+        q = new
+    back = (q != want).any(axis=1)
+    if back.any():
+        log.info("projection: %d of %d moves not made in full (largest %.3g)",
+                 int(back.sum()), int((want != points).any(axis=1).sum()),
+                 float(np.linalg.norm(want[back] - q[back], axis=1).max()))
     _check_positive(q, tets, "after projecting the boundary vertices")
     return q
 
 
 def keep_positive(old: np.ndarray, new: np.ndarray, tets: np.ndarray, moved: np.ndarray,
-                  rounds: int = 20) -> np.ndarray:
+                  rounds: int = 20, min_volume: float = 0.0) -> np.ndarray:
     """``new``, except the ``moved`` vertices whose move leaves a tetrahedron around them
-    without a positive volume: those go back to ``old`` (round by round, at most
-    ``rounds``; the caller checks what is left)."""
+    without a positive volume (above ``min_volume``, or above zero for a tetrahedron
+    already under it): those go back to ``old`` (round by round, at most ``rounds``; the
+    caller checks what is left)."""
     q, moved = new.copy(), moved.copy()
+    # a tetrahedron already under min_volume need only keep a positive volume
+    floor = np.minimum(min_volume, simplex_measures(old, tets)) if min_volume > 0 else 0.0
     for _ in range(rounds):
-        bad = simplex_measures(q, tets) <= 0
+        bad = simplex_measures(q, tets) <= floor
         if not bad.any():
             break
         back = unique(tets[bad])
@@ -360,6 +505,16 @@ def remesh_solid(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol:
     p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
     faces, markers = _faces_after(solid, p, t, fm, rm, tol)
     return project_safely(solid, p, t, faces, markers), t, faces, markers, h_mmg
+
+
+def off_faces(solid: CSGSolid, p, faces, markers) -> float:
+    """The largest ``|g|`` of a boundary vertex for the surface of a face it is on."""
+    off = 0.0
+    for fi, f in enumerate(solid.faces):
+        ids = unique(faces[markers == fi])
+        if len(ids):
+            off = max(off, float(np.abs(f.surface.g(p[ids])).max()))
+    return off
 
 
 def _faces_after(solid, p, t, f_mmg, r_mmg, tol):
@@ -460,7 +615,10 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
         bad = delta >= threshold
         log.info("solid: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
-        if not bad.any() or rounds == SIZE_ROUNDS:
+        # where curved faces meet, the rounds go on until the projection has put the
+        # boundary vertices on their faces (MMG remeshes what it could not move)
+        settled = not solid.curved_edges or off_faces(solid, p, faces, markers) <= SETTLED * chord
+        if (not bad.any() and settled) or rounds == SIZE_ROUNDS:
             break
         size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
                           faces, markers, chord)
@@ -545,6 +703,7 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
         if float(dev.max()) > lim * (1 + 1e-9):
             out.append(f"face {f.name!r}: a triangle is {float(dev.max()):.3g} off its "
                        f"surface (allowed {lim:.3g})")
+    out += edge_problems(p, faces, markers, solid, chord_tol)
     vol = float(simplex_measures(p, t).sum())
     if solid.exact_volume is not None:
         area = 0.5 * np.linalg.norm(np.cross(p[faces[:, 1]] - p[faces[:, 0]],
@@ -556,6 +715,75 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
         out.append(f"volume {vol:.12g} differs from the solid's (grid estimate "
                    f"{solid.volume:.12g}) by more than 1 %")
     return out + centroid_and_delta_problems(res, solid, field, chord_tol, "the solid")
+
+
+def onto_curve(s1, s2, x: np.ndarray, iters: int = 50) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the curve ``s1.g = s2.g = 0`` reached from ``x (N, 3)`` by Gauss-Newton
+    with the least-norm step, and whether each converged (to ``1e-12`` of the larger
+    coordinate). A point of the curve is at least as far from ``x`` as the curve is, so
+    ``|x - result|`` bounds the distance to the curve from above."""
+    y = np.asarray(x, dtype=np.float64).reshape(-1, 3).copy()
+    ok = np.zeros(len(y), dtype=bool)
+    scale = max(1.0, float(np.abs(y).max())) if len(y) else 1.0
+    for _ in range(iters):
+        g = np.stack([s1.g(y), s2.g(y)], axis=1)
+        J = np.stack([s1.grad(y), s2.grad(y)], axis=1)
+        JJ = np.einsum("nki,nli->nkl", J, J)
+        det = JJ[:, 0, 0] * JJ[:, 1, 1] - JJ[:, 0, 1] * JJ[:, 1, 0]
+        good = np.abs(det) > 1e-12
+        lam = np.zeros_like(g)
+        inv = np.stack([np.stack([JJ[:, 1, 1], -JJ[:, 0, 1]], 1),
+                        np.stack([-JJ[:, 1, 0], JJ[:, 0, 0]], 1)], 1)
+        lam[good] = np.einsum("nkl,nl->nk", inv[good], g[good]) / det[good, None]
+        step = np.einsum("nki,nk->ni", J, lam)
+        y -= step
+        ok = good & (np.abs(np.stack([s1.g(y), s2.g(y)], 1)).max(axis=1) <= 1e-12 * scale)
+        if ok.all():
+            break
+    return y, ok
+
+
+def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> list[str]:
+    """The edges between two curved faces (:attr:`CSGSolid.curved_edges`) against the
+    exact curve where their surfaces meet: every boundary edge with a triangle of each face
+    within ``chord_tol`` of that curve at its ends, quarter points and midpoint (the
+    distance bounded from above by a point of the curve, :func:`onto_curve`)."""
+    out = []
+    if not solid.curved_edges:
+        return out
+    f = np.asarray(faces, dtype=np.int64)
+    mk = np.asarray(markers, dtype=np.int64)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    em = np.tile(mk, 3)
+    n = int(f.max()) + 1
+    key = e[:, 0] * n + e[:, 1]
+    order = np.lexsort((em, key))
+    key, em, e = key[order], em[order], e[order]
+    first = np.r_[True, key[1:] != key[:-1]]
+    # each boundary edge in two triangles: its two faces are the markers of the pair
+    a_idx = np.flatnonzero(first)
+    b_idx = a_idx + 1
+    b_idx = b_idx[b_idx < len(key)]
+    a_idx = a_idx[:len(b_idx)]
+    pair = key[a_idx] == key[b_idx]
+    a_idx, b_idx = a_idx[pair], b_idx[pair]
+    fa, fb = em[a_idx], em[b_idx]
+    ts = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    for i, j in solid.curved_edges:
+        sel = ((fa == i) & (fb == j)) | ((fa == j) & (fb == i))
+        if not sel.any():
+            continue
+        ed = e[a_idx[sel]]
+        x0, x1 = points[ed[:, 0]], points[ed[:, 1]]
+        x = (x0[:, None, :] + ts[None, :, None] * (x1 - x0)[:, None, :]).reshape(-1, 3)
+        y, ok = onto_curve(solid.faces[i].surface, solid.faces[j].surface, x)
+        d = np.where(ok, np.linalg.norm(x - y, axis=1), np.inf)
+        if float(d.max()) > chord_tol * (1 + 1e-9):
+            k = int(np.argmax(d))
+            out.append(f"edge {solid.faces[i].name!r}/{solid.faces[j].name!r}: a point "
+                       f"({x[k, 0]:.6g}, {x[k, 1]:.6g}, {x[k, 2]:.6g}) is {float(d[k]):.3g} "
+                       f"off the curve where the surfaces meet (allowed {chord_tol:.3g})")
+    return out
 
 
 def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) -> list[str]:
@@ -583,7 +811,9 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     """The uniform baseline's mesh of a solid of primitives at size ``h``, not verified: the
     same start as :func:`generate_solid` (the cut background grid), remeshed once by MMG to
     the constant size ``h`` (capped on curved faces for the chord tolerance ``chord_tol``,
-    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces.
+    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces
+    (where curved faces meet, remeshed until they are on them, at most
+    :data:`SIZE_ROUNDS` more times).
     Nothing is refined for the material: ``delta`` over the vertices is measured,
     ``threshold`` recorded but not required (:func:`hetmesh.tet.uniform.uniform_model`
     searches ``h``)."""
@@ -598,6 +828,14 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
     p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size, 0.5 * chord,
                                            max(0.25 * h, 10 * chord))
+    # where curved faces meet, remeshed again until the projection has put the boundary
+    # vertices on their faces (as the size rounds of generate_solid go on)
+    for _ in range(SIZE_ROUNDS if solid.curved_edges else 0):
+        if off_faces(solid, p, faces, markers) <= SETTLED * chord:
+            break
+        size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
+        p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size,
+                                               0.5 * chord, max(0.25 * h, 10 * chord))
     if max_elements is not None and len(t) > max_elements:
         raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
                           f"over the budget of {max_elements:,}")

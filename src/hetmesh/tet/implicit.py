@@ -29,10 +29,12 @@ import numpy as np
 from ..errors import GeometryError
 from .solid import grid_inside
 
-__all__ = ["Surface", "Box", "Cylinder", "Sphere", "CSGSolid", "BOX_FACES"]
+__all__ = ["Surface", "Box", "Cylinder", "Sphere", "CSGSolid", "BOX_FACES", "EDGE_SAMPLES"]
 
 #: the face names of a box, in the order of its planes (x = lo, x = hi, y = lo, ...)
 BOX_FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
+#: samples per parameter direction when looking for curved faces that meet
+EDGE_SAMPLES = 120
 
 
 def _fmt(v: float) -> str:
@@ -329,6 +331,35 @@ class CSGSolid:
         return bool(ok.any())
 
     @cached_property
+    def curved_edges(self) -> tuple[tuple[int, int], ...]:
+        """Pairs ``(i, j)``, ``i < j``, of faces (indices into :attr:`faces`) on two
+        different curved surfaces that may meet on the solid's boundary: a sample of face
+        ``i``'s points (:data:`EDGE_SAMPLES` squared over its surface) has one within a
+        sample step of surface ``j`` where face ``j``'s primitive's other constraints hold
+        (within that step). The sample steps bound the distance from any point of the
+        surface to the nearest sample, so two faces that do meet are always found; two
+        that only come within a step of each other are listed too (harmless: their meshes
+        then take the path for meeting faces)."""
+        out = []
+        curved = [fi for fi, f in enumerate(self.faces) if f.surface.curved]
+        for a, i in enumerate(curved):
+            for j in curved[a + 1:]:
+                if self.faces[i].surface == self.faces[j].surface:
+                    continue
+                if self._faces_meet(i, j) or self._faces_meet(j, i):
+                    out.append((i, j))
+        return tuple(out)
+
+    def _faces_meet(self, i: int, j: int) -> bool:
+        fi, fj = self.faces[i], self.faces[j]
+        prim = self.primitives[fi.primitive]
+        pts, step = _surface_sample_step(fi.surface, prim, EDGE_SAMPLES)
+        ok = prim.on_face(fi.k, pts, step) & self.contains(pts, step)
+        ok &= np.abs(fj.surface.g(pts)) <= step
+        ok &= self.primitives[fj.primitive].on_face(fj.k, pts, step)
+        return bool(ok.any())
+
+    @cached_property
     def exact_volume(self) -> float | None:
         """The volume when it has a closed form (no clip, or a sphere clipped to an octant-
         aligned box through its centre; subtracted primitives inside the base and apart):
@@ -401,6 +432,24 @@ def _grid_volume(solid, n: int) -> float:
         p = np.column_stack([np.full(yy.size, x), yy.ravel(), zz.ravel()])
         vol += float(solid.contains(p).sum())
     return vol * float(np.prod(h))
+
+
+def _surface_sample_step(s: Surface, prim, n: int) -> tuple[np.ndarray, float]:
+    """:func:`_surface_sample` and a bound on the distance from any point of the sampled
+    piece of the surface to its nearest sample (the diagonal of a parameter cell)."""
+    lo, hi = prim.bounds
+    ext = float((np.asarray(hi, float) - np.asarray(lo, float)).max())
+    if s.kind == "sphere":
+        # a cell spans pi R / n in the polar direction (at most: arccos spacing is finest at
+        # the equator, coarsest at the poles, where the arc of 2/n in cos is about
+        # R sqrt(2/n)) and 2 pi R / n around
+        du = s.radius * max(math.pi / n, 2.0 * math.sqrt(1.0 / n))
+        dv = 2.0 * math.pi * s.radius / n
+    elif s.kind == "cylinder":
+        du, dv = 2.0 * math.pi * s.radius / n, ext / n
+    else:
+        du = dv = ext / n
+    return _surface_sample(s, prim, n), math.hypot(du, dv)
 
 
 def _surface_sample(s: Surface, prim, n: int) -> np.ndarray:
