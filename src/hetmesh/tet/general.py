@@ -45,6 +45,7 @@ The same input and seed give the same mesh (MMG runs single-threaded and determi
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
@@ -583,7 +584,43 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                    max_size: float | None = None, check: bool = True) -> TetResult:
     """Tetrahedralise a :class:`~hetmesh.tet.implicit.CSGSolid` with every element's delta
     below ``threshold`` (see the module docstring). ``seed`` is accepted for the common
-    interface; the mesh does not depend on it (MMG is deterministic)."""
+    interface; the mesh does not depend on it (MMG is deterministic). ``info["meeting_path"]``
+    says which path made the mesh.
+
+    Where curved faces meet (:attr:`~hetmesh.tet.implicit.CSGSolid.curved_edges`), the
+    plain path (one level-set cut after the other, no improvement between them) is tried
+    first and kept if its mesh passes the whole verification, the edges between curved
+    faces included: its tetrahedra are better shaped and it is faster (a bore through a
+    ball at 0.2: smallest dihedral angle 13.1 against 1.5 degrees, 9 against 43 s). The
+    path for meeting faces meshes the solids where it fails (a cylinder with a wider
+    spherical cavity, two crossing bores)."""
+    kw = dict(seed=seed, chord_tol=chord_tol, max_elements=max_elements, max_size=max_size)
+    if solid.curved_edges:
+        plain = copy.copy(solid)
+        plain.__dict__["curved_edges"] = ()  # the cached pairs: none, for the mesher
+        chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+        try:
+            res = _generate_solid(plain, field, threshold, check=False, **kw)
+            problems = solid_problems(res, solid, field, chord) if check else []
+        except BudgetError:
+            raise
+        except (MeshingError, ArithmeticError, ValueError) as exc:
+            problems = [str(exc).splitlines()[0] if str(exc) else type(exc).__name__]
+        if not problems:
+            res.info["meeting_path"] = False
+            return res
+        log.info("solid: the plain path's mesh is not kept (%s); the path for meeting "
+                 "curved faces", problems[0])
+    res = _generate_solid(solid, field, threshold, check=check, **kw)
+    res.info["meeting_path"] = bool(solid.curved_edges)
+    return res
+
+
+def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chord_tol,
+                    max_elements, max_size, check: bool) -> TetResult:
+    """:func:`generate_solid` on one path: the one for meeting curved faces when
+    ``solid.curved_edges`` lists any."""
+    del seed
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     est = estimate_solid(solid, field, threshold)
