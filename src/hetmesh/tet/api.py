@@ -77,6 +77,7 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     solid = model.solid
     chord = None if chord_tol is None else chord_tol * solid.diameter
     from ..io.model import Model
+    from .carve import CarvedSolid
     from .extrude import mid_section_field
     from .implicit import CSGSolid
     from .masked import VoxelSolid
@@ -89,6 +90,10 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     elif isinstance(solid, VoxelSolid):  # the non-zero voxels of a mask volume
         from .masked import generate_masked
         res = generate_masked(solid, model.material, threshold, seed=seed, chord_tol=chord,
+                              max_elements=max_elements, max_size=max_size, check=check)
+    elif isinstance(solid, CarvedSolid):  # an extrusion or a revolution minus primitives
+        from .carve import generate_carved
+        res = generate_carved(solid, model.material, threshold, seed=seed, chord_tol=chord,
                               max_elements=max_elements, max_size=max_size, check=check)
     elif isinstance(solid, CSGSolid):
         from .general import generate_solid
