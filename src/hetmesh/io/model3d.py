@@ -530,7 +530,7 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
     material, material2d = _material(ctx, top["material"], swept, parameters, top)
     if swept is not solid:  # carved: meshed as a whole, not as a swept section
         from ..tet.carve import carve_refusal
-        if (why := carve_refusal(swept, material2d)) is not None:
+        if (why := carve_refusal(swept, material if material2d is None else material2d)):
             raise ctx.fail(*why)
         material2d = None
     if isinstance(solid, Prism) and solid.section.interfaces and material2d is None:

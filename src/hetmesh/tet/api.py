@@ -14,6 +14,9 @@
 * a solid of primitives (a sphere, a clipped primitive, subtractions that are not
   through-holes): level-set cuts of a background grid, MMG remeshing to the material's size
   (:func:`hetmesh.tet.general.generate_solid`);
+* an extrusion or a revolution minus primitives that are not through-holes: level-set cuts
+  of its swept mesh, MMG remeshing to the material's size
+  (:func:`hetmesh.tet.carve.generate_carved`);
 * a solid bounded by a triangulated surface (STL, OBJ, PLY): Gmsh fills it, MMG remeshes
   it to the material's size (:func:`hetmesh.tet.surface_mesh.generate_surface`);
 * the non-zero voxels of a mask volume: the level-set cut of the voxel-centre grid, MMG

@@ -308,7 +308,8 @@ class CarvedSolid:
         if self.prism:
             ok &= (s >= sw.s0 - tol) & (s <= sw.s1 + tol)
         elif not sw.full:
-            th = np.where(s > sw.sweep + math.pi, s - 2 * math.pi, s)  # angles in (-pi, ...)
+            # angles past the middle of the gap count from the start backwards
+            th = np.where(s > 0.5 * sw.sweep + math.pi, s - 2 * math.pi, s)
             arc = np.maximum(q[:, 0], 0.0)
             ok &= (th * arc >= -tol) & ((th - sw.sweep) * arc <= tol) | (q[:, 0] <= tol)
         return ok
@@ -533,16 +534,16 @@ def _revolution_part(solid: CarvedSolid, prim) -> float | None:
     return float(prim.volume)
 
 
-def carve_refusal(swept, material2d) -> tuple[str, str] | None:
+def carve_refusal(swept, field) -> tuple[str, str] | None:
     """Why a swept solid cannot be carved, as ``(key, message)``, or None: interface curves
-    (the remeshing does not keep embedded surfaces) or a composition with jumps (its
-    subregions)."""
+    (the remeshing does not keep embedded surfaces) or a composition ``field`` (2D or 3D)
+    with jumps (its subregions)."""
     from ..material import has_subregions
     dom = swept.section if isinstance(swept, Prism) else swept.profile
     if dom.interfaces:
         return ("domain.interfaces", "interfaces are not available with subtractions that are "
                                      "not through-holes (the remeshing does not keep them)")
-    if material2d is not None and has_subregions(material2d):
+    if field is not None and has_subregions(field):
         return ("material", "a composition with jumps (subregions) is not available with "
                             "subtractions that are not through-holes (the remeshing does not "
                             "keep its discontinuities)")
@@ -613,47 +614,57 @@ def _resolved(solid, p, t, chord) -> bool:
     return True
 
 
-def _cut(p, t, surface, refs, bit: int, snap: float):
-    """MMG's level-set split of ``(p, t)`` along ``surface`` (no remeshing): every
-    tetrahedron's reference gets ``2**(2 bit + 1)`` on the negative side, ``2**(2 bit + 2)``
-    on the positive one. The vertices within ``snap`` of the surface count as on it (no
-    slivers between them and the cut; the projection moves those on the boundary)."""
+def _cut(p, t, ls, refs, bit: int):
+    """MMG's level-set split of ``(p, t)`` along the zero set of the vertex values ``ls``
+    (no remeshing): every tetrahedron's reference gets ``2**(2 bit + 1)`` on the negative
+    side, ``2**(2 bit + 2)`` on the positive one. ``(points, tets, refs)``: the points are
+    ``p`` (as given, not MMG's rounding of them) followed by the new ones."""
     mmgpy = quiet_mmg()
     m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
     m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
                      np.ascontiguousarray(refs, dtype=np.int32))
     m.set_multi_materials([dict(ref=int(r), split=1, ref_minus=int(r + 2 ** (2 * bit + 1)),
                                 ref_plus=int(r + 2 ** (2 * bit + 2))) for r in unique(refs)])
-    ls = surface.g(p)
-    ls[np.abs(ls) < snap] = 0.0
-    out = m.remesh_levelset(np.ascontiguousarray(ls.reshape(-1, 1)), verbose=-1,
-                            noinsert=1, noswap=1, nomove=1)
+    out = m.remesh_levelset(np.ascontiguousarray(ls, dtype=np.float64).reshape(-1, 1),
+                            verbose=-1, noinsert=1, noswap=1, nomove=1)
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG's level-set cut failed (code {out.get('return_code')})")
-    p = np.array(m.get_vertices(), dtype=np.float64)
+    q = np.array(m.get_vertices(), dtype=np.float64)
+    scale = 1e-12 * (1.0 + float(np.abs(p).max()))
+    if len(q) < len(p) or not np.abs(q[:len(p)] - p).max() <= scale:
+        raise MeshingError("MMG's level-set cut did not keep the vertices in their order")
+    q[:len(p)] = p  # MMG's scaling rounds them
     tt, rr = m.get_tetrahedra_with_refs()
-    return p, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+    return q, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+
+
+def _carve_one(prim, p, t, chord: float):
+    """The tetrahedra of ``(p, t)`` cut along the surfaces of one subtracted primitive,
+    those inside it dropped (the points not used any more stay). The vertices within
+    :data:`SNAP` x :func:`feature_size` of a surface count as on it."""
+    snap = SNAP * feature_size(prim, chord)
+    refs = np.ones(len(t), dtype=np.int64)
+    cut = []
+    for k, s in enumerate(prim.surfaces):
+        ls = s.g(p)
+        ls[np.abs(ls) < snap] = 0.0
+        if (ls >= 0).all():  # the mesh is outside this surface: nothing to drop
+            return p, t
+        if (ls < 0).all():  # the mesh is on the primitive's side of it
+            continue
+        p, t, refs = _cut(p, t, ls, refs, k)
+        cut.append(k)
+    inside = np.ones(len(t), dtype=bool)
+    for k in cut:
+        inside &= ((refs >> (2 * k + 1)) & 1).astype(bool)
+    return p, t[~inside]
 
 
 def carve(solid: CarvedSolid, p, t, chord: float) -> tuple[np.ndarray, np.ndarray]:
     """The tetrahedra of ``(p, t)`` cut along every surface of every subtracted primitive,
-    those inside one dropped: ``(points, tets)``."""
+    those inside one dropped (:func:`_carve_one`): ``(points, tets)``."""
     for prim in solid.subtract:
-        refs = np.ones(len(t), dtype=np.int64)
-        cut = []
-        for k, s in enumerate(prim.surfaces):
-            g = s.g(p)
-            if (g >= 0).all():  # the mesh is outside this surface: nothing to drop
-                break
-            if (g < 0).all():  # the mesh is on the primitive's side of it
-                continue
-            p, t, refs = _cut(p, t, s, refs, k, SNAP * feature_size(prim, chord))
-            cut.append(k)
-        else:
-            inside = np.ones(len(t), dtype=bool)
-            for k in cut:
-                inside &= ((refs >> (2 * k + 1)) & 1).astype(bool)
-            t = t[~inside]
+        p, t = _carve_one(prim, p, t, chord)
         used = unique(t)
         remap = np.full(len(p), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
