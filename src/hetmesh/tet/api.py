@@ -95,9 +95,12 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         res = generate_masked(solid, model.material, threshold, seed=seed, chord_tol=chord,
                               max_elements=max_elements, max_size=max_size, check=check)
     elif isinstance(solid, CarvedSolid):  # an extrusion or a revolution minus primitives
-        from .carve import generate_carved
-        res = generate_carved(solid, model.material, threshold, seed=seed, chord_tol=chord,
-                              max_elements=max_elements, max_size=max_size, check=check)
+        from .carve import generate_carved, section_field
+        f2 = section_field(solid, model.material)
+        res = generate_carved(solid, model.material, threshold,
+                              Model(name=model.name, domain=solid.domain, material=f2),
+                              seed=seed, chord_tol=chord, max_elements=max_elements,
+                              max_size=max_size, check=check)
     elif isinstance(solid, CSGSolid):
         from .general import generate_solid
         res = generate_solid(solid, model.material, threshold, seed=seed, chord_tol=chord,

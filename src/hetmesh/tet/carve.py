@@ -18,21 +18,27 @@ background instead of a grid:
 
 1. *Background*: the swept mesh of the solid without the subtractions
    (:func:`hetmesh.tet.extrude.generate_extruded`, :func:`hetmesh.tet.revolve.generate_revolved`):
-   planar faces exact, curved ones within the chord tolerance. MMG remeshes it once or twice
-   with the size capped near each subtracted primitive (a third of its smallest radius or
-   extent, growing by :data:`SLOPE` x the distance), so its level sets are resolved.
+   planar faces exact, curved ones within the chord tolerance. MMG remeshes it (up to
+   :data:`PRE_ROUNDS` times) with the size capped near each subtracted primitive
+   (:func:`feature_size`, growing by :data:`SLOPE` x the distance), until its level sets are
+   resolved (:data:`RESOLVED`).
 2. *Cuts*: MMG's level-set mode splits the tetrahedra along every surface of every
    subtracted primitive in turn (planes exactly, curved surfaces within interpolation
-   error); the references say on which side of each surface a tetrahedron lies, and the
-   tetrahedra inside the primitive are dropped.
-3. *Faces*: every boundary triangle is given the face its corners lie on and every boundary
-   vertex is projected onto the exact surfaces of its faces
-   (:func:`project_untangled`).
+   error; vertices within :data:`SNAP` x the size of a surface count as on it); the
+   references say on which side of each surface a tetrahedron lies, and the tetrahedra
+   inside the primitive are dropped (:func:`carve`).
+3. *Faces*: every boundary triangle is given the face its corners lie on
+   (:meth:`CarvedSolid.classify`) and every boundary vertex is projected onto the exact
+   surfaces of its faces; where that turns tetrahedra over, flips, untangling and the
+   collapse of short boundary edges repair it (:func:`project_untangled`).
 4. *Size* and 5. *repair*: MMG remeshing to ``S delta_0 / |grad f|`` (capped for the chord
    tolerance on curved faces), size rounds at the violators, edge bisection, projection
    (:func:`remesh_carved`, :func:`~hetmesh.tet.general.next_size`,
    :func:`hetmesh.tet.refine.repair`), as for solids of primitives.
-6. *Verification* (:func:`carved_problems`): :func:`hetmesh.tet.general.solid_problems`
+6. *Slivers*: short boundary edges of tetrahedra under :data:`SLIVER_COLLAPSE` degrees
+   collapsed (:func:`collapse_boundary`), flips and edge removals of those under
+   :data:`SLIVER` (:func:`hetmesh.tet.flips.flip_improve`), delta kept below delta_0.
+7. *Verification* (:func:`carved_problems`): :func:`hetmesh.tet.general.solid_problems`
    (validity, conformity, a closed boundary, planar faces exact and curved ones within the
    chord tolerance at 12 points per triangle, the volume, every centroid inside, delta)
    and every boundary triangle within the extent of its face (a bore's bottom triangle in
@@ -70,6 +76,7 @@ from .general import (
     REPROJECT,
     SIZE_ROUNDS,
     cap_curved,
+    estimate_solid,
     keep_positive,
     next_size,
     orient_positive,
@@ -552,25 +559,36 @@ def carve_refusal(swept, field) -> tuple[str, str] | None:
 
 # -- the mesher ---------------------------------------------------------------------------
 
-def _background(solid: CarvedSolid, field, threshold, seed, chord, max_size):
-    """The swept mesh of the solid without its subtractions: ``(points, tets)``."""
-    from ..io.model import Model
-    sw = solid.swept
+def section_field(solid: CarvedSolid, field):
+    """The 2D field the swept background is meshed with: an extruded or revolved 2D
+    material's own (``field.field2d``), else the composition on the middle section
+    (:func:`hetmesh.tet.extrude.mid_section_field`) or at angle 0
+    (:func:`hetmesh.tet.revolve.profile_field`)."""
     f2 = getattr(field, "field2d", None)
+    if f2 is not None:
+        return f2
     if solid.prism:
-        from .extrude import generate_extruded, mid_section_field
-        f2 = f2 if f2 is not None else mid_section_field(sw, field)
-        res = generate_extruded(sw, field, threshold,
-                                Model(name="background", domain=sw.section, material=f2),
-                                swept=True, seed=seed, chord_tol=chord, max_size=max_size,
-                                check=False)
+        from .extrude import mid_section_field
+        return mid_section_field(solid.swept, field)
+    from .revolve import profile_field
+    return profile_field(field, solid.swept)
+
+
+def _background(solid: CarvedSolid, field, threshold, section_model, seed, chord, max_size,
+                max_elements):
+    """The swept mesh of the solid without its subtractions: ``(points, tets)``;
+    ``section_model`` the 2D model of its section or profile (:func:`section_field`)."""
+    sw = solid.swept
+    if solid.prism:
+        from .extrude import generate_extruded
+        res = generate_extruded(sw, field, threshold, section_model, swept=True, seed=seed,
+                                chord_tol=chord, max_size=max_size,
+                                max_elements=max_elements, check=False)
     else:
-        from .revolve import generate_revolved, profile_field
-        f2 = f2 if f2 is not None else profile_field(field, sw)
-        res = generate_revolved(sw, field, threshold,
-                                Model(name="background", domain=sw.profile, material=f2),
-                                axisymmetric=True, seed=seed, chord_tol=chord,
-                                max_size=max_size, check=False)
+        from .revolve import generate_revolved
+        res = generate_revolved(sw, field, threshold, section_model, axisymmetric=True,
+                                seed=seed, chord_tol=chord, max_size=max_size,
+                                max_elements=max_elements, check=False)
     return res.points.astype(np.float64), res.tets.astype(np.int64)
 
 
@@ -798,12 +816,15 @@ def remesh_carved(solid: CarvedSolid, p, t, faces, markers, size, hausd: float, 
     return p, t, faces, markers, h_mmg[kept]
 
 
-def generate_carved(solid: CarvedSolid, field, threshold: float, *, seed: int = 0,
-                    chord_tol: float | None = None, max_elements: int | None = None,
-                    max_size: float | None = None, check: bool = True) -> TetResult:
+def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, *,
+                    seed: int = 0, chord_tol: float | None = None,
+                    max_elements: int | None = None, max_size: float | None = None,
+                    check: bool = True) -> TetResult:
     """Tetrahedralise a :class:`CarvedSolid` with every element's delta below ``threshold``
-    (see the module docstring); ``chord_tol`` absolute (default :data:`CHORD` x the
-    diameter), ``max_size`` the longest edge."""
+    (see the module docstring); ``section_model`` the 2D model (``hetmesh.io.model.Model``)
+    of its section or profile with :func:`section_field`, which the background is swept
+    from; ``chord_tol`` absolute (default :data:`CHORD` x the diameter), ``max_size`` the
+    longest edge."""
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     lo, hi = solid.bounds
@@ -813,8 +834,13 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, *, seed: int = 
     h_min = 1e-4 * solid.diameter
     hausd = 0.5 * chord
     exact = 1e-9 * solid.diameter
+    est = estimate_solid(solid, field, threshold)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
+                          f"but the budget is {max_elements}")
     # 1. the swept background, remeshed towards the primitives' sizes
-    p, t = _background(solid, field, threshold, seed, chord, max_size)
+    p, t = _background(solid, field, threshold, section_model, seed, chord, max_size,
+                       max_elements)
     faces, _ = boundary_faces(t)
     markers = solid.classify(p[faces], max(exact, chord))
     if (markers < 0).any():
@@ -897,7 +923,7 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, *, seed: int = 
         remap[used] = np.arange(len(used))
         p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
     delta = delta_vertices(comp, t)
-    info = {"placement": "carved", "background_rounds": pre, "size_rounds": rounds,
+    info = {"placement": "carved", "estimate": est, "background_rounds": pre, "size_rounds": rounds,
             "repair_passes": passes, "composition": comp, "time_place": t_place,
             "h_max": h_max}
     res = TetResult(p, t.astype(np.int32), faces.astype(np.int32),
