@@ -409,7 +409,7 @@ class CarvedSolid:
             if part is None:
                 return None
             v -= part
-        return v
+        return float(v)
 
     @cached_property
     def volume(self) -> float:
@@ -490,7 +490,7 @@ def _surface_points(prim, k: int, n: int) -> np.ndarray:
 
 
 def _overlap(a0, a1, b0, b1) -> tuple[float, float]:
-    return max(a0, b0), min(a1, b1)
+    return float(max(a0, b0)), float(min(a1, b1))
 
 
 def _prism_part(prism: Prism, prim) -> float | None:
