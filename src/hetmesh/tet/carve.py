@@ -704,14 +704,16 @@ def project_untangled(solid: CarvedSolid, p, t, faces, markers, ok=None):
     positive volume (a tetrahedron on three vertices of a curved ridge whose middle one moved
     out), flips and edge removals inside the solid (:func:`hetmesh.tet.flips.flip_improve`,
     the new tetrahedra passing ``ok(tets)``, default all), then the interior vertices of the
-    tetrahedra still tangled moved to their neighbours' mean, up to :data:`UNTANGLE` rounds;
-    whatever is still tangled goes back (:func:`hetmesh.tet.general.keep_positive`: the
-    verification names a vertex left off its face); where even that leaves some, short
-    boundary edges of theirs collapsed (:func:`collapse_boundary`). ``(points, tets, faces,
-    markers, kept)``: the points no longer used removed, ``kept`` the old indices of those
-    left."""
+    tetrahedra still tangled moved to their neighbours' mean, up to :data:`UNTANGLE` rounds,
+    then short boundary edges of theirs collapsed (:func:`collapse_boundary`); the vertices
+    of whatever is still tangled go back (:func:`hetmesh.tet.general.keep_positive`), and if
+    that does not settle it, the projection alone on the old tetrahedra with the blocked
+    vertices back (the verification names a vertex left off its face). ``(points, tets,
+    faces, markers, kept)``: the points no longer used removed, ``kept`` the old indices of
+    those left."""
     q = project(solid, p, faces, markers)
     moved = (q != p).any(axis=1)
+    first = (q.copy(), t, faces, markers, moved.copy())
     if (simplex_measures(q, t) <= 0).any():
         check = (lambda tets, phase: np.ones(len(tets), dtype=bool)) if ok is None else \
             (lambda tets, phase: ok(tets))
@@ -736,6 +738,11 @@ def project_untangled(solid: CarvedSolid, p, t, faces, markers, ok=None):
     if (simplex_measures(q, t) <= 0).any():
         t, faces, markers = collapse_boundary(q, t, faces, markers, ok)
     q = keep_positive(p, q, t, moved)
+    if (simplex_measures(q, t) <= 0).any():
+        # the flips and collapses suit the projected places, not the old ones: back to the
+        # old tetrahedra, the blocked vertices where they were
+        q0, t, faces, markers, moved = first
+        q = keep_positive(p, q0, t, moved)
     v = simplex_measures(q, t)
     if (v <= 0).any():
         c = q[t[int(np.argmin(v))]].mean(axis=0)
