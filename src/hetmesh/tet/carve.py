@@ -307,10 +307,7 @@ class CarvedSolid:
         negative)."""
         p = np.asarray(points, dtype=float).reshape(-1, 3)
         q, s = self._coords(p)
-        dom = self.domain
-        inside = dom.contains(q)
-        d = dom.distance_to_boundary(q)
-        ok = (inside & (d > -tol)) | (d <= tol) if tol >= 0 else inside & (d > -tol)
+        ok = _in_domain(self.domain, q, tol)
         sw = self.swept
         if self.prism:
             ok &= (s >= sw.s0 - tol) & (s <= sw.s1 + tol)
@@ -362,8 +359,7 @@ class CarvedSolid:
         if f.role == "end":  # the half-plane's signed radius, then the profile
             th = 0.0 if f.index == 0 else sw.sweep
             q = np.column_stack([p[:, 0] * math.cos(th) + p[:, 1] * math.sin(th), p[:, 2]])
-        dom = self.domain
-        return dom.contains(q) | (dom.distance_to_boundary(q) <= tol)
+        return _in_domain(self.domain, q, tol)
 
     def classify(self, tri, tol: float) -> np.ndarray:
         """Face index of boundary triangles ``tri (K, 3, 3)``: the face closest to all three
@@ -427,6 +423,17 @@ class CarvedSolid:
             p = np.column_stack([np.full(yy.size, x), yy.ravel(), zz.ravel()])
             count += int(self.contains(p).sum())
         return count * float(np.prod(h))
+
+
+def _in_domain(dom, q, tol: float) -> np.ndarray:
+    """Whether 2D points ``q`` lie in the domain widened by ``tol`` (narrowed if negative);
+    the distance to its boundary is computed only where it decides."""
+    ok = dom.contains(q)
+    sel = ~ok if tol >= 0 else ok
+    if sel.any():
+        d = dom.distance_to_boundary(q[sel])
+        ok[sel] = d <= tol if tol >= 0 else d > -tol
+    return ok
 
 
 def _meridian(curve, small: float):
