@@ -666,10 +666,7 @@ def _cut(p, t, ls, refs, bit: int):
 def _carve_one(prim, p, t, chord: float):
     """The tetrahedra of ``(p, t)`` cut along the surfaces of one subtracted primitive,
     those inside it dropped (the points not used any more stay). The vertices within
-    :data:`SNAP` x :func:`feature_size` of a surface count as on it. A tetrahedron is on the
-    side of a plane its centroid is on; on MMG's side of a curved surface, except one whose
-    four vertices all count as on it, or that MMG left across it (it does not split an edge
-    whose split it finds invalid): its centroid's side."""
+    :data:`SNAP` x :func:`feature_size` of a surface count as on it."""
     snap = SNAP * feature_size(prim, chord)
     refs = np.ones(len(t), dtype=np.int64)
     cut = []
@@ -680,16 +677,7 @@ def _carve_one(prim, p, t, chord: float):
             return p, t
         if (ls < 0).all():  # the mesh is on the primitive's side of it
             continue
-        n = len(p)
         p, t, refs = _cut(p, t, ls, refs, k)
-        v = np.r_[ls, np.zeros(len(p) - n)][t]
-        flat = (v == 0).all(axis=1) | ((v > 0).any(axis=1) & (v < 0).any(axis=1))
-        if not s.curved:  # a plane: its side is its centroid's, exactly
-            flat[:] = True
-        if flat.any():
-            minus, plus = 2 ** (2 * k + 1), 2 ** (2 * k + 2)
-            neg = s.g(p[t[flat]].mean(axis=1)) < 0
-            refs[flat] = (refs[flat] & ~(minus | plus)) | np.where(neg, minus, plus)
         cut.append(k)
     inside = np.ones(len(t), dtype=bool)
     for k in cut:
