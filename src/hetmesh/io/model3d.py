@@ -359,7 +359,7 @@ def _solid(ctx, value, top):
             return SurfaceSolid.read(Path(f) if os.path.isabs(f) else ctx.base / f,
                                      f"{ctx.pre}solid.file: {f}", angle)
         elif kind == "revolution":
-            t = ctx.table(value, key, optional=("type", "angle"))
+            t = ctx.table(value, key, optional=("type", "angle", "subtract"))
             angle = ctx.number(t.get("angle", 360.0), "solid.angle")
             if not 0 < angle <= 360:
                 raise GeometryError(f"{ctx.pre}solid.angle: revolution angle must be in "
@@ -371,7 +371,7 @@ def _solid(ctx, value, top):
             from ..tet.revolve import Revolution
             dom = ctx.parse_domain(ctx, top["domain"])
             try:
-                return Revolution(dom, angle, where=ctx.where)
+                solid = Revolution(dom, angle, where=ctx.where)
             except GeometryError as exc:
                 raise GeometryError(f"{ctx.pre}solid: {str(exc)[len(ctx.pre):]}") from None
         else:
@@ -380,8 +380,42 @@ def _solid(ctx, value, top):
     except (GeometryError, MaterialError) as exc:
         raise ctx.wrap("", exc) if not str(exc).startswith(ctx.pre or "\0") else exc from None
     if "subtract" in value:
-        solid = _with_holes(ctx, solid, value["subtract"], "solid.subtract")
+        solid = _subtract(ctx, solid, value["subtract"], "solid.subtract")
     return solid
+
+
+def _subtract(ctx, solid, subtract, key: str):
+    """A prism's through-holes into its section (:func:`_with_holes`); any other subtracted
+    primitive (every one of a revolution) carved out of the swept solid: a
+    :class:`~hetmesh.tet.carve.CarvedSolid`."""
+    from ..tet.carve import CarvedSolid
+    if not isinstance(subtract, list):
+        raise ctx.fail(key, "expected an array of tables [[solid.subtract]]")
+    for i, t in enumerate(subtract):
+        if not isinstance(t, Mapping):
+            raise ctx.fail(f"{key}[{i}]", "expected a table")
+    prism = isinstance(solid, Prism)
+    carved = [i for i, t in enumerate(subtract)
+              if not (prism and _is_through(t, solid.axis, solid.s0, solid.s1))]
+    if prism and len(carved) < len(subtract):
+        solid = _with_holes(ctx, solid, [t for i, t in enumerate(subtract) if i not in carved],
+                            key)
+    if not carved:
+        return solid
+    lo, hi = solid.bounds
+    prims = tuple(_primitive(ctx, subtract[i], f"{key}[{i}]", base=False,
+                             bounds=(np.asarray(lo), np.asarray(hi))) for i in carved)
+    out = CarvedSolid(solid, prims, where=ctx.where)
+    seen = {n for n in solid.face_names}
+    for n in out.face_names[len(out.face_names) - sum(f.role == "primitive"
+                                                        for f in out.faces):]:
+        if n in seen:
+            raise ctx.fail(key, f"two faces are named {n!r}: give the subtracted primitives "
+                                f"distinct names")
+        seen.add(n)
+    if not out.sample(24).size or out.volume <= 1e-9 * solid.volume:
+        raise GeometryError(f"{ctx.pre}{key}: the subtraction leaves nothing")
+    return out
 
 
 def _formula_names(formulas: Mapping[str, str], parameters) -> set[str]:
@@ -486,12 +520,19 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
         solid, ctx.volume = volume_solid(ctx, top["solid"], top["material"])
     else:
         solid = _solid(ctx, top["solid"], top)
-        if not isinstance(solid, Prism) and not hasattr(solid, "profile") and \
+        swept = getattr(solid, "swept", solid)  # a carved extrusion or revolution's
+        if not isinstance(swept, Prism) and not hasattr(swept, "profile") and \
                 isinstance(top["material"], Mapping) and \
                 top["material"].get("type", "analytic") != "analytic":
             raise ctx.fail("material.type", "a solid of primitives or a surface takes an "
                                             "analytic material (formulas in x, y, z)")
-    material, material2d = _material(ctx, top["material"], solid, parameters, top)
+    swept = getattr(solid, "swept", solid)
+    material, material2d = _material(ctx, top["material"], swept, parameters, top)
+    if swept is not solid:  # carved: meshed as a whole, not as a swept section
+        from ..tet.carve import carve_refusal
+        if (why := carve_refusal(swept, material if material2d is None else material2d)):
+            raise ctx.fail(*why)
+        material2d = None
     if check:
         samples = solid.sample(20)
         try:

@@ -14,6 +14,9 @@
 * a solid of primitives (a sphere, a clipped primitive, subtractions that are not
   through-holes): level-set cuts of a background grid, MMG remeshing to the material's size
   (:func:`hetmesh.tet.general.generate_solid`);
+* an extrusion or a revolution minus primitives that are not through-holes: level-set cuts
+  of its swept mesh, MMG remeshing to the material's size
+  (:func:`hetmesh.tet.carve.generate_carved`);
 * a solid bounded by a triangulated surface (STL, OBJ, PLY): Gmsh fills it, MMG remeshes
   it to the material's size (:func:`hetmesh.tet.surface_mesh.generate_surface`);
 * the non-zero voxels of a mask volume: the level-set cut of the voxel-centre grid, MMG
@@ -77,6 +80,7 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     solid = model.solid
     chord = None if chord_tol is None else chord_tol * solid.diameter
     from ..io.model import Model
+    from .carve import CarvedSolid
     from .extrude import mid_section_field
     from .implicit import CSGSolid
     from .masked import VoxelSolid
@@ -90,6 +94,13 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
         from .masked import generate_masked
         res = generate_masked(solid, model.material, threshold, seed=seed, chord_tol=chord,
                               max_elements=max_elements, max_size=max_size, check=check)
+    elif isinstance(solid, CarvedSolid):  # an extrusion or a revolution minus primitives
+        from .carve import generate_carved, section_field
+        f2 = section_field(solid, model.material)
+        res = generate_carved(solid, model.material, threshold,
+                              Model(name=model.name, domain=solid.domain, material=f2),
+                              seed=seed, chord_tol=chord, max_elements=max_elements,
+                              max_size=max_size, check=check)
     elif isinstance(solid, CSGSolid):
         from .general import generate_solid
         res = generate_solid(solid, model.material, threshold, seed=seed, chord_tol=chord,
