@@ -176,7 +176,7 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
             if s.curved:
                 keep &= ~(s.g(p)[t] > margin).all(axis=1)
     t = t[keep]
-    if solid.curved_edges:
+    if meeting_pairs(solid):
         return _cut_meeting(solid, p, t, spacing)
     used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
@@ -390,7 +390,7 @@ def project_safely(solid, points, tets, faces, markers, rounds: int = 20) -> np.
     curve, farther than the others), a volume of at least :data:`MIN_VOLUME` x the
     diameter cubed."""
     want = project(solid, points, faces, markers)
-    if not solid.curved_edges:
+    if not meeting_pairs(solid):
         q = keep_positive(points, want, tets, (want != points).any(axis=1), rounds)
         _check_positive(q, tets, "after projecting the boundary vertices")
         return q
@@ -579,6 +579,14 @@ def background_spacing(solid: CSGSolid) -> float:
     return spacing
 
 
+def meeting_pairs(solid) -> tuple:
+    """The pairs of curved faces of ``solid`` that meet
+    (:attr:`~hetmesh.tet.implicit.CSGSolid.curved_edges`); none for solids that do not
+    list them (the carved sweeps of :mod:`hetmesh.tet.carve`, which share the functions
+    here)."""
+    return getattr(solid, "curved_edges", ())
+
+
 def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                    chord_tol: float | None = None, max_elements: int | None = None,
                    max_size: float | None = None, check: bool = True) -> TetResult:
@@ -595,7 +603,7 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     path for meeting faces meshes the solids where it fails (a cylinder with a wider
     spherical cavity, two crossing bores)."""
     kw = dict(seed=seed, chord_tol=chord_tol, max_elements=max_elements, max_size=max_size)
-    if solid.curved_edges:
+    if meeting_pairs(solid):
         plain = copy.copy(solid)
         plain.__dict__["curved_edges"] = ()  # the cached pairs: none, for the mesher
         chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
@@ -612,14 +620,14 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
         log.info("solid: the plain path's mesh is not kept (%s); the path for meeting "
                  "curved faces", problems[0])
     res = _generate_solid(solid, field, threshold, check=check, **kw)
-    res.info["meeting_path"] = bool(solid.curved_edges)
+    res.info["meeting_path"] = bool(meeting_pairs(solid))
     return res
 
 
 def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chord_tol,
                     max_elements, max_size, check: bool) -> TetResult:
     """:func:`generate_solid` on one path: the one for meeting curved faces when
-    ``solid.curved_edges`` lists any."""
+    ``meeting_pairs(solid)`` lists any."""
     del seed
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
@@ -654,7 +662,7 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
                  int(bad.sum()))
         # where curved faces meet, the rounds go on until the projection has put the
         # boundary vertices on their faces (MMG remeshes what it could not move)
-        settled = not solid.curved_edges or off_faces(solid, p, faces, markers) <= SETTLED * chord
+        settled = not meeting_pairs(solid) or off_faces(solid, p, faces, markers) <= SETTLED * chord
         if (not bad.any() and settled) or rounds == SIZE_ROUNDS:
             break
         size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
@@ -786,7 +794,7 @@ def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> 
     within ``chord_tol`` of that curve at its ends, quarter points and midpoint (the
     distance bounded from above by a point of the curve, :func:`onto_curve`)."""
     out = []
-    if not solid.curved_edges:
+    if not meeting_pairs(solid):
         return out
     f = np.asarray(faces, dtype=np.int64)
     mk = np.asarray(markers, dtype=np.int64)
@@ -806,7 +814,7 @@ def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> 
     a_idx, b_idx = a_idx[pair], b_idx[pair]
     fa, fb = em[a_idx], em[b_idx]
     ts = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
-    for i, j in solid.curved_edges:
+    for i, j in meeting_pairs(solid):
         sel = ((fa == i) & (fb == j)) | ((fa == j) & (fb == i))
         if not sel.any():
             continue
@@ -867,7 +875,7 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
                                            max(0.25 * h, 10 * chord))
     # where curved faces meet, remeshed again until the projection has put the boundary
     # vertices on their faces (as the size rounds of generate_solid go on)
-    for _ in range(SIZE_ROUNDS if solid.curved_edges else 0):
+    for _ in range(SIZE_ROUNDS if meeting_pairs(solid) else 0):
         if off_faces(solid, p, faces, markers) <= SETTLED * chord:
             break
         size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
