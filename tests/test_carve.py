@@ -198,6 +198,7 @@ def test_random_blind_bore_and_sphere(tmp_path, seed, formula, text):
     assert ang.min() >= 10 and np.percentile(ang, 1) >= 20 and rr.mean() >= 0.75
 
 
+@pytest.mark.slow
 def test_same_mesh_twice(tmp_path):
     body, _ = random_case(3)
     m = load_model(write(tmp_path, body + MATERIAL.format(formula="(x*x + y*y) / 20")))

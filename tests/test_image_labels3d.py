@@ -151,6 +151,7 @@ def test_example_phase_volume(tmp_path):
 
 
 
+@pytest.mark.slow
 def test_label_volume_meets_the_angle_targets(tmp_path):
     """Three phases meeting along lines (the ball, the slab, the matrix, the notch): the
     smallest dihedral angle >= 10 degrees and its 1st percentile >= 20. (The mean radius
