@@ -86,7 +86,7 @@ from .general import (
     size_field,
     solid_problems,
 )
-from .implicit import Box, Cylinder, Sphere, Surface
+from .implicit import Box, Cylinder, Sphere, Surface, surface_sample
 from .mesher import CHORD, TetResult
 from .quality import min_dihedral
 from .refine import repair
@@ -289,7 +289,7 @@ class CarvedSolid:
         """Whether face ``k`` of subtracted primitive ``i`` bounds the solid somewhere
         (at sample points strictly inside the swept solid, outside the other primitives)."""
         prim = self.subtract[i]
-        pts = _surface_points(prim, k, FACE_SAMPLES)
+        pts = surface_sample(prim.surfaces[k], prim, FACE_SAMPLES)
         tol = 1e-9 * self.diameter
         ok = prim.on_face(k, pts, tol) & self._in_swept(pts, -tol)
         for j, other in enumerate(self.subtract):
@@ -467,35 +467,6 @@ def _strictly_in(prim, p, tol: float) -> np.ndarray:
     return ok
 
 
-def _surface_points(prim, k: int, n: int) -> np.ndarray:
-    """About ``n^2`` points on surface ``k`` of a primitive, over its extent."""
-    lo, hi = (np.asarray(b, float) for b in prim.bounds)
-    t = (np.arange(n) + 0.5) / n
-    s = prim.surfaces[k]
-    if s.kind == "plane":
-        o = [a for a in range(3) if a != s.axis]
-        u, v = np.meshgrid(lo[o[0]] + (hi[o[0]] - lo[o[0]]) * t,
-                           lo[o[1]] + (hi[o[1]] - lo[o[1]]) * t, indexing="ij")
-        p = np.empty((u.size, 3))
-        p[:, s.axis], p[:, o[0]], p[:, o[1]] = s.value, u.ravel(), v.ravel()
-        return p
-    c = np.asarray(s.center, float)
-    th = 2 * np.pi * t
-    if s.kind == "sphere":
-        ph = np.arccos(1 - 2 * t)
-        T, P = np.meshgrid(th, ph, indexing="ij")
-        d = np.column_stack([(np.sin(P) * np.cos(T)).ravel(), (np.sin(P) * np.sin(T)).ravel(),
-                             np.cos(P).ravel()])
-        return c + s.radius * d
-    u, v = {0: (1, 2), 1: (2, 0), 2: (0, 1)}[s.axis]
-    T, S = np.meshgrid(th, lo[s.axis] + (hi[s.axis] - lo[s.axis]) * t, indexing="ij")
-    p = np.empty((T.size, 3))
-    p[:, u] = c[u] + s.radius * np.cos(T).ravel()
-    p[:, v] = c[v] + s.radius * np.sin(T).ravel()
-    p[:, s.axis] = S.ravel()
-    return p
-
-
 def _overlap(a0, a1, b0, b1) -> tuple[float, float]:
     return float(max(a0, b0)), float(min(a1, b1))
 
@@ -541,7 +512,7 @@ def _revolution_part(solid: CarvedSolid, prim) -> float | None:
     surface, by more than 1e-9 x the diameter), else None."""
     tol = 1e-9 * solid.diameter
     for k in range(len(prim.surfaces)):
-        pts = _surface_points(prim, k, FACE_SAMPLES)
+        pts = surface_sample(prim.surfaces[k], prim, FACE_SAMPLES)
         pts = pts[prim.on_face(k, pts, tol)]
         if not solid._in_swept(pts, -tol).all():
             return None

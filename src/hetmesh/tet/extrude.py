@@ -50,9 +50,7 @@ from ..metrics import delta_vertices
 from .columns import (
     column_counts,
     column_tets,
-    strip_faces,
     strip_problems,
-    swept_interfaces,
     vertex_size,
 )
 from .faces import boundary_faces
@@ -64,10 +62,10 @@ from .sweep_regions import (
     PlaneField,
     check_swept_regions,
     interface_edges,
-    interface_faces,
     region_problems,
     repaired_sweep,
     surface_problems,
+    sweep_faces,
 )
 from .verify import tet_problems
 
@@ -252,15 +250,9 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
-    inter, im = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
-    if traced:  # the interface strips, found again after the repair
-        inter, im = interface_faces(tets, carrier, ie, imark)
-    elif sec.interfaces or disc:  # the interface curves' sweeps, after the boundary
-        inter, im = swept_interfaces(sec, p2, t2, m2.facets, tets, col, tol, chord_abs)
-        if disc:  # then the embedded discontinuities'
-            d = imark > len(solid.face_names)
-            f2, k2 = strip_faces(tets, col, ie[d])
-            inter, im = np.concatenate([inter, f2]), np.concatenate([im, imark[d][k2]])
+    inter, im = sweep_faces(sec, p2, t2, m2.facets, tets, col, tol, chord_abs, edges=ie,
+                            markers=imark, n_faces=len(solid.face_names),
+                            discontinuities=disc, traced=traced, carrier=carrier)
     if len(inter):
         faces = np.concatenate([faces, inter])
         markers = np.concatenate([markers, im])

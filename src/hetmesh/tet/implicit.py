@@ -29,7 +29,8 @@ import numpy as np
 from ..errors import GeometryError
 from .solid import grid_inside
 
-__all__ = ["Surface", "Box", "Cylinder", "Sphere", "CSGSolid", "BOX_FACES", "EDGE_SAMPLES"]
+__all__ = ["Surface", "Box", "Cylinder", "Sphere", "CSGSolid", "BOX_FACES", "EDGE_SAMPLES",
+           "surface_sample"]
 
 #: the face names of a box, in the order of its planes (x = lo, x = hi, y = lo, ...)
 BOX_FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
@@ -318,7 +319,7 @@ class CSGSolid:
         return grid_inside(self, n)
 
     def _face_present(self, i: int, k: int, s: Surface) -> bool:
-        pts = _surface_sample(s, self.primitives[i], 40)
+        pts = surface_sample(s, self.primitives[i], 40)
         if not len(pts):
             return False
         tol = 1e-9 * self.diameter
@@ -435,7 +436,7 @@ def _grid_volume(solid, n: int) -> float:
 
 
 def _surface_sample_step(s: Surface, prim, n: int) -> tuple[np.ndarray, float]:
-    """:func:`_surface_sample` and a bound on the distance from any point of the sampled
+    """:func:`surface_sample` and a bound on the distance from any point of the sampled
     piece of the surface to its nearest sample (the diagonal of a parameter cell)."""
     lo, hi = prim.bounds
     ext = float((np.asarray(hi, float) - np.asarray(lo, float)).max())
@@ -449,10 +450,10 @@ def _surface_sample_step(s: Surface, prim, n: int) -> tuple[np.ndarray, float]:
         du, dv = 2.0 * math.pi * s.radius / n, ext / n
     else:
         du = dv = ext / n
-    return _surface_sample(s, prim, n), math.hypot(du, dv)
+    return surface_sample(s, prim, n), math.hypot(du, dv)
 
 
-def _surface_sample(s: Surface, prim, n: int) -> np.ndarray:
+def surface_sample(s: Surface, prim, n: int) -> np.ndarray:
     """Points on surface ``s`` over the primitive's extent (``n`` x ``n``, interior)."""
     lo, hi = prim.bounds
     t = (np.arange(n) + 0.5) / n

@@ -41,7 +41,7 @@ from ..material import has_subregions
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
-from .columns import column_tets, strip_faces, strip_problems, swept_interfaces, vertex_size
+from .columns import column_tets, strip_problems, vertex_size
 from .extrude import COLUMN_RATIO, SectionField
 from .faces import boundary_faces
 from .mesher import TetResult
@@ -53,10 +53,10 @@ from .sweep_regions import (
     PlaneField,
     check_swept_regions,
     interface_edges,
-    interface_faces,
     region_problems,
     repaired_sweep,
     surface_problems,
+    sweep_faces,
 )
 from .verify import validity_problems
 
@@ -282,6 +282,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     ie, imark, disc = interface_edges(prof, r2.model.domain, p2, t2, m2.facets, tol, pchord,
                                       len(solid.face_names))
     traced = not axisym and len(ie) + (regions is not None) > 0
+    carrier = None
     if axisym:
         if regions is None:
             delta = delta_vertices(f2.composition(p2)[prof_ids], tets)
@@ -302,15 +303,9 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     tets = tets.astype(np.int32)
     faces, _ = boundary_faces(tets)
     markers = _classify(solid, points, faces, chord)
-    inter, im = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
-    if traced:  # the interface strips, found again after the repair
-        inter, im = interface_faces(tets, carrier, ie, imark)
-    elif prof.interfaces or disc:  # the interface curves' sweeps, after the boundary
-        inter, im = swept_interfaces(prof, p2, t2, m2.facets, tets, prof_ids, tol, pchord)
-        if disc:  # then the embedded discontinuities'
-            d = imark > len(solid.face_names)
-            f2d, k2 = strip_faces(tets, prof_ids, ie[d])
-            inter, im = np.concatenate([inter, f2d]), np.concatenate([im, imark[d][k2]])
+    inter, im = sweep_faces(prof, p2, t2, m2.facets, tets, prof_ids, tol, pchord, edges=ie,
+                            markers=imark, n_faces=len(solid.face_names),
+                            discontinuities=disc, traced=traced, carrier=carrier)
     if len(inter):
         faces = np.concatenate([faces, inter])
         markers = np.concatenate([markers, im])

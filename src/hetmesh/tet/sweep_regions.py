@@ -40,11 +40,18 @@ from ..material.analytic import Shiftable
 from ..material.field import thread_safe
 from ..metrics import delta_vertices
 from ..tri.discontinuity import DISCONTINUITY
-from .columns import carried_strip_faces, carriers, section_interfaces
+from .columns import (
+    carried_strip_faces,
+    carriers,
+    section_interfaces,
+    strip_faces,
+    swept_interfaces,
+)
 from .refine import corner_compositions, repair
 from .smooth import smooth
 
 __all__ = ["PlaneField", "check_swept_regions", "interface_edges", "repaired_sweep",
+           "sweep_faces",
            "interface_faces", "surface_problems", "region_problems"]
 
 
@@ -235,3 +242,23 @@ def region_problems(field3d, points, tets, regions) -> list[str]:
     i = int(bad[0])
     return [f"{len(bad)} tetrahedra straddle a discontinuity (e.g. tetrahedron {i}, "
             f"labelled {int(regions[i])}, centroid in {int(field3d.region(c[[i]])[0])})"]
+
+
+def sweep_faces(section, points2, tris2, facets, tets, column, tol: float, chord: float, *,
+                edges, markers, n_faces: int, discontinuities: tuple, traced: bool,
+                carrier=None) -> tuple[np.ndarray, np.ndarray]:
+    """The inner faces of a swept mesh, recorded after its boundary: with ``traced`` the
+    interface strips found again after the repair (:func:`interface_faces`, ``carrier``);
+    otherwise the sweeps of the section's interface curves, then those of the embedded
+    discontinuities (``edges``, ``markers`` of :func:`interface_edges`, whose markers above
+    ``n_faces`` are the discontinuities'). ``(faces (F, 3), markers (F,))``."""
+    if traced:
+        return interface_faces(tets, carrier, edges, markers)
+    if not (section.interfaces or discontinuities):
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    inter, im = swept_interfaces(section, points2, tris2, facets, tets, column, tol, chord)
+    if discontinuities:
+        d = markers > n_faces
+        f2, k2 = strip_faces(tets, column, edges[d])
+        inter, im = np.concatenate([inter, f2]), np.concatenate([im, markers[d][k2]])
+    return inter, im
