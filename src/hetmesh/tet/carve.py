@@ -78,13 +78,14 @@ from .general import (
     cap_curved,
     estimate_solid,
     keep_positive,
+    levelset_cut,
     next_size,
     orient_positive,
     project,
-    quiet_mmg,
     remesh_solid,
     size_field,
     solid_problems,
+    split_bits,
 )
 from .implicit import Box, Cylinder, Sphere, Surface, surface_sample
 from .mesher import CHORD, TetResult
@@ -615,23 +616,12 @@ def _cut(p, t, ls, refs, bit: int):
     (no remeshing): every tetrahedron's reference gets ``2**(2 bit + 1)`` on the negative
     side, ``2**(2 bit + 2)`` on the positive one. ``(points, tets, refs)``: the points are
     ``p`` (as given, not MMG's rounding of them) followed by the new ones."""
-    mmgpy = quiet_mmg()
-    m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
-    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                     np.ascontiguousarray(refs, dtype=np.int32))
-    m.set_multi_materials([dict(ref=int(r), split=1, ref_minus=int(r + 2 ** (2 * bit + 1)),
-                                ref_plus=int(r + 2 ** (2 * bit + 2))) for r in unique(refs)])
-    out = m.remesh_levelset(np.ascontiguousarray(ls, dtype=np.float64).reshape(-1, 1),
-                            verbose=-1, noinsert=1, noswap=1, nomove=1)
-    if out.get("return_code", 0) != 0:
-        raise MeshingError(f"MMG's level-set cut failed (code {out.get('return_code')})")
-    q = np.array(m.get_vertices(), dtype=np.float64)
+    q, tt, rr = levelset_cut(p, t, refs, ls, split_bits(refs, bit), "a subtracted primitive")
     scale = 1e-12 * (1.0 + float(np.abs(p).max()))
     if len(q) < len(p) or not np.abs(q[:len(p)] - p).max() <= scale:
         raise MeshingError("MMG's level-set cut did not keep the vertices in their order")
     q[:len(p)] = p  # MMG's scaling rounds them
-    tt, rr = m.get_tetrahedra_with_refs()
-    return q, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+    return q, tt, rr
 
 
 def _carve_one(prim, p, t, chord: float):

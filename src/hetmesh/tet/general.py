@@ -64,7 +64,8 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
-           "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "edge_problems", "onto_curve"]
+           "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
+           "edge_problems", "onto_curve"]
 
 log = logging.getLogger(__name__)
 
@@ -162,10 +163,43 @@ quiet_mmg = _quiet_mmg
 
 # -- 2. cuts ---------------------------------------------------------------------------
 
+def levelset_cut(p, t, refs, phi, split: dict, what: str):
+    """One MMG level-set cut (``mmg3d -ls`` without remeshing) of the tetrahedra whose
+    reference is a key of ``split`` (``{ref: (ref_minus, ref_plus)}``, the references of
+    their parts on the negative and the positive side of the zero set of the vertex values
+    ``phi``; the others are kept whole): ``(points, tets, refs)``, MMG's points (the input
+    ones first, then the new ones)."""
+    mmgpy = _quiet_mmg()
+    m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
+    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                     np.ascontiguousarray(refs, dtype=np.int32))
+    mats = []
+    for r in unique(refs).tolist():
+        lo, hi = split.get(r, (r, r))
+        mats.append(dict(ref=int(r), split=int(r in split), ref_minus=int(lo),
+                         ref_plus=int(hi)))
+    m.set_multi_materials(mats)
+    out = m.remesh_levelset(np.ascontiguousarray(phi, dtype=np.float64).reshape(-1, 1),
+                            verbose=-1, noinsert=1, noswap=1, nomove=1)
+    if out.get("return_code", 0) != 0:
+        raise MeshingError(f"MMG's level-set cut of {what} failed (code "
+                           f"{out.get('return_code')})")
+    p = np.array(m.get_vertices(), dtype=np.float64)
+    tt, rr = m.get_tetrahedra_with_refs()
+    return p, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+
+
+def split_bits(refs, bit: int) -> dict:
+    """The ``split`` of :func:`levelset_cut` that splits every tetrahedron and records its
+    side in the references: ``+ 2**(2 bit + 1)`` on the negative side, ``+ 2**(2 bit + 2)``
+    on the positive one."""
+    return {int(r): (int(r + 2 ** (2 * bit + 1)), int(r + 2 ** (2 * bit + 2)))
+            for r in unique(refs).tolist()}
+
+
 def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """The tetrahedra of the background grid cut by every curved surface, those in the solid
     kept: ``(points, tets)``."""
-    mmgpy = _quiet_mmg()
     p, t = kuhn_grid(*grid_lines(solid, spacing))
     curved = solid.curved
     # drop the cells that lie well outside the base's or the clip's curved surfaces
@@ -184,20 +218,7 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     p, t = p[used], remap[t]
     refs = np.ones(len(t), dtype=np.int64)
     for i, s in enumerate(curved):
-        codes = unique(refs)
-        m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
-        m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                         np.ascontiguousarray(refs, dtype=np.int32))
-        m.set_multi_materials([dict(ref=int(r), split=1, ref_minus=int(r + 2 ** (2 * i + 1)),
-                                    ref_plus=int(r + 2 ** (2 * i + 2))) for r in codes])
-        out = m.remesh_levelset(np.ascontiguousarray(s.g(p).reshape(-1, 1)), verbose=-1,
-                                noinsert=1, noswap=1, nomove=1)
-        if out.get("return_code", 0) != 0:
-            raise MeshingError(f"MMG's level-set cut failed (surface {i}, code "
-                               f"{out.get('return_code')})")
-        p = np.array(m.get_vertices(), dtype=np.float64)
-        tt, rr = m.get_tetrahedra_with_refs()
-        t, refs = np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+        p, t, refs = levelset_cut(p, t, refs, s.g(p), split_bits(refs, i), f"surface {i}")
     if (refs >= 2 ** 30).any():
         raise MeshingError("too many curved surfaces for the level-set references")
     inside = _membership(solid, p, t, refs, curved)
@@ -271,20 +292,7 @@ def _cut_meeting(solid: CSGSolid, p, t, spacing: float) -> tuple[np.ndarray, np.
             p = np.array(m.get_vertices(), dtype=np.float64)
             tt, rr = m.get_tetrahedra_with_refs()
             t, refs = np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
-        codes = unique(refs)
-        m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
-        m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                         np.ascontiguousarray(refs, dtype=np.int32))
-        m.set_multi_materials([dict(ref=int(r), split=1, ref_minus=int(r + 2 ** (2 * i + 1)),
-                                    ref_plus=int(r + 2 ** (2 * i + 2))) for r in codes])
-        out = m.remesh_levelset(np.ascontiguousarray(s.g(p).reshape(-1, 1)), verbose=-1,
-                                noinsert=1, noswap=1, nomove=1)
-        if out.get("return_code", 0) != 0:
-            raise MeshingError(f"MMG's level-set cut failed (surface {i}, code "
-                               f"{out.get('return_code')})")
-        p = np.array(m.get_vertices(), dtype=np.float64)
-        tt, rr = m.get_tetrahedra_with_refs()
-        t, refs = np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
+        p, t, refs = levelset_cut(p, t, refs, s.g(p), split_bits(refs, i), f"surface {i}")
     neg = {id(s): ((refs >> (2 * i + 1)) & 1).astype(bool) for i, s in enumerate(curved)}
 
     def inside(prim):

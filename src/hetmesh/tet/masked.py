@@ -369,36 +369,13 @@ def _compact(p, t):
     return (kept if isinstance(p, tuple) else kept[0]), remap[t]
 
 
-def _cut(mmgpy, p, t, refs, phi, split: dict, what: str):
-    """One MMG level-set cut of the tetrahedra whose ref is a key of ``split`` (``{ref:
-    (ref_minus, ref_plus)}``; the others are kept whole): ``(points, tets, refs)``."""
-    m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
-    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                     np.ascontiguousarray(refs, dtype=np.int32))
-    mats = []
-    for r in unique(refs).tolist():
-        lo, hi = split.get(r, (r, r))
-        mats.append(dict(ref=int(r), split=int(r in split), ref_minus=int(lo),
-                         ref_plus=int(hi)))
-    m.set_multi_materials(mats)
-    out = m.remesh_levelset(np.ascontiguousarray(phi, dtype=np.float64).reshape(-1, 1),
-                            verbose=-1, noinsert=1, noswap=1, nomove=1)
-    if out.get("return_code", 0) != 0:
-        raise MeshingError(f"MMG's level-set cut of {what} failed (code "
-                           f"{out.get('return_code')})")
-    p = np.array(m.get_vertices(), dtype=np.float64)
-    tt, rr = m.get_tetrahedra_with_refs()
-    return p, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
-
-
 def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Kuhn tetrahedra of the padded voxel-centre grid cut along the mask's contour and
     then, for a label volume, along the contour of every phase but the last in turn (each
     cut only through the tetrahedra no earlier phase took): ``(points, tets, phase)`` of
     the tetrahedra inside, ``phase`` the index into :attr:`VoxelSolid.phases`."""
-    from .general import kuhn_grid, orient_positive, quiet_mmg
+    from .general import kuhn_grid, levelset_cut, orient_positive
 
-    mmgpy = quiet_mmg()
     pad, org = solid.padded
     sp = np.asarray(solid.spacing)
     nz, ny, nx = pad.shape
@@ -410,13 +387,13 @@ def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # refs: 1 outside, 2 the mask before the cuts, 10 + k phase k, 100 + k undecided before
     # the cut of phase k (all distinct, as MMG asks)
     OUT = 1
-    p, t, refs = _cut(mmgpy, p, t, np.full(len(t), 2), phi, {2: (100, OUT)}, "the mask")
+    p, t, refs = levelset_cut(p, t, np.full(len(t), 2), phi, {2: (100, OUT)}, "the mask")
     n = solid.n_phases
     grid = solid.phase_grid
     for k in range(n if n > 1 else 0):
         if not (refs == 100 + k).any():
             break
-        p, t, refs = _cut(mmgpy, p, t, refs, 0.5 - solid.interpolate(grid == k, p),
+        p, t, refs = levelset_cut(p, t, refs, 0.5 - solid.interpolate(grid == k, p),
                           {100 + k: (10 + k, 101 + k)}, f"phase {solid.phases[k]}")
     # what no phase's indicator took (where three phases or more meet): the phase with the
     # largest indicator at the centroid, one whose voxel is a corner of its Kuhn tetrahedron
