@@ -45,7 +45,7 @@ from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
 from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
-from .columns import strip_faces, swept_interfaces
+from .columns import strip_faces, strip_problems, swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
 from .general import (
@@ -276,6 +276,13 @@ def verify_uniform(res: TetResult, solid) -> None:
         probs = tet_problems(res.points, res.tets, res.faces, res.face_markers, solid,
                              res.delta, res.threshold,
                              res.info["section_chord_tol"] * (1 + 1e-6))
+    # the recorded faces off the boundary (interfaces, discontinuities): each a face of two
+    # tetrahedra, as the adaptive sweeps check theirs
+    f = np.sort(np.asarray(res.faces, dtype=np.int64), axis=1)
+    b = np.sort(boundary_faces(res.tets)[0].astype(np.int64), axis=1)
+    n = np.int64(max(int(f.max(initial=0)), int(b.max(initial=0))) + 1)
+    inner = ~np.isin((f[:, 0] * n + f[:, 1]) * n + f[:, 2], (b[:, 0] * n + b[:, 1]) * n + b[:, 2])
+    probs = probs + strip_problems(res.tets, res.faces[inner])
     if probs:
         raise VerificationError(f"uniform tetrahedral mesh verification failed: {probs[0]}"
                                 + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
