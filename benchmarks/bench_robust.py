@@ -182,6 +182,7 @@ def worker(case: dict, opts: dict, conn) -> None:
             times.append(time.perf_counter() - t)
         rec.update(times=times, time=median(times), stats=result.stats.as_dict(),
                    method=result.options.get("method"), rounds=len(result.history),
+                   placements=result.options.get("placements"),
                    fallbacks=_fallbacks(result),
                    timings={k: v for k, v in result.timings.items() if not k.endswith("_s")})
         t = time.perf_counter()

@@ -19,11 +19,11 @@ from hetmesh.tri.discontinuity import embed_discontinuities
 from hetmesh.tri.workset import FREE, WorkSet
 
 
-def _repaired(model, threshold, method="layers"):
+def _repaired(model, threshold, method="layers", **prepare):
     """The work set, context, triangles, compositions and delta that generate() hands on
     after the repair loop."""
     model = embed_discontinuities(model)
-    ctx, _ = adapt.prepare(model, threshold, None)
+    ctx, _ = adapt.prepare(model, threshold, None, **prepare)
     if ctx.scalar is None:
         method = "cvt"
     ws = adapt.PLACEMENTS[method](ctx, np.random.default_rng(0), 1e-3 * ctx.domain.diameter)
@@ -33,8 +33,8 @@ def _repaired(model, threshold, method="layers"):
 
 
 def _bumps():
-    """A random model of the robustness set with two Gaussian bumps (its repair inserts many
-    nodes where the size changes fast)."""
+    """A random model of the robustness set with two Gaussian bumps (with ungraded sizes its
+    repair inserts many nodes where the size changes fast, which the collapse removes)."""
     rm = robust_suite(48)[25]
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
         f.write(rm.toml)
@@ -43,7 +43,7 @@ def _bumps():
 
 @pytest.fixture(scope="module")
 def bumps():
-    return _repaired(_bumps(), 0.098, method="cvt")
+    return _repaired(_bumps(), 0.098, method="cvt", gradation=0.0)
 
 
 @pytest.fixture(scope="module")

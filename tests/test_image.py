@@ -732,7 +732,8 @@ def test_pixel_sampling_sees_a_stripe_vertices_miss(stripe):
     a = stripe_image()
     seen = {}
     for sampling in ("vertices", "pixels"):
-        r = hetmesh.generate(m, 0.1, sampling=sampling, method="layers")
+        # ungraded: the coarse elements beside the stripe are what the vertices miss
+        r = hetmesh.generate(m, 0.1, sampling=sampling, method="layers", gradation=0)
         assert r.stats.delta_max < 0.1 and r.mesh.problems() == []
         seen[sampling] = pixel_variation(a, r.mesh.points, r.mesh.triangles)
         if sampling == "pixels":  # the mesh's delta covers the pixels and the vertices

@@ -71,7 +71,10 @@ def n_iso(field, domain, threshold: float, n: int = 400) -> float:
     return 4.0 / np.sqrt(3.0) * integrate(g ** 2, domain) / threshold ** 2
 
 
-def estimate_elements(field, domain, threshold: float, h_max: float, n: int = 200) -> float:
-    """A-priori element count: equilateral elements of side min(delta_0/g, h_max)."""
-    h = size_at(gradient_norm(field, background_points(domain, n)), threshold, h_max)
+def estimate_elements(field, domain, threshold: float, h_max: float, n: int = 200, *,
+                      g=None) -> float:
+    """A-priori element count: equilateral elements of side min(delta_0/g, h_max); ``g``
+    (``(K, 2) -> (K,)``) replaces :func:`gradient_norm` (a capped or graded one)."""
+    pts = background_points(domain, n)
+    h = size_at(gradient_norm(field, pts) if g is None else g(pts), threshold, h_max)
     return 4.0 / np.sqrt(3.0) * integrate(1.0 / h ** 2, domain)

@@ -13,7 +13,8 @@ from collections.abc import Mapping
 from .errors import OptionError
 
 __all__ = ["check_options", "DEFAULT_MAX_ELEMENTS", "DEFAULT_CHORD_TOL", "MIN_CHORD_TOL",
-           "MAX_CHORD_TOL", "DEFAULT_ROW_SPACING", "ROW_SPACING_RANGE", "SAMPLINGS", "LABELS",
+           "MAX_CHORD_TOL", "DEFAULT_ROW_SPACING", "ROW_SPACING_RANGE", "DEFAULT_GRADATION",
+           "MAX_GRADATION", "SAMPLINGS", "LABELS",
            "check_sampling"]
 
 DEFAULT_MAX_ELEMENTS = 5_000_000
@@ -29,13 +30,17 @@ MIN_CHORD_TOL, MAX_CHORD_TOL = 1e-7, 0.05
 #: spends on shape (q_avg +0.01 to +0.015 on the examples, for 15-35 % more elements)
 DEFAULT_ROW_SPACING = 0.85
 ROW_SPACING_RANGE = (0.3, 0.99)
+#: growth of the placement's element size per unit length (``gradation``; 0: not graded)
+DEFAULT_GRADATION = 0.3
+MAX_GRADATION = 10.0
 #: how delta(T) is measured: at the vertices (the paper's Eqs. 14-15), also on a lattice inside
 #: every element, as a certified upper bound, or (image fields) also at every pixel centre
 #: an element covers
 SAMPLINGS = ("vertices", "dense", "certified", "pixels")
 LABELS = {"threshold": "threshold", "min_angle": "min angle", "max_elements": "max elements",
           "max_size": "max size", "sampling": "sampling", "min_quality": "min quality",
-          "seed": "seed", "chord_tol": "chord tolerance", "row_spacing": "row spacing"}
+          "seed": "seed", "chord_tol": "chord tolerance", "row_spacing": "row spacing",
+          "gradation": "gradation"}
 
 
 def check_options(threshold, *, min_angle: float = 30.0,
@@ -43,6 +48,7 @@ def check_options(threshold, *, min_angle: float = 30.0,
                   sampling: str = "vertices", min_quality: float = 0.0, seed: int = 0,
                   chord_tol: float = DEFAULT_CHORD_TOL,
                   row_spacing: float = DEFAULT_ROW_SPACING,
+                  gradation: float = DEFAULT_GRADATION,
                   names: Mapping[str, str] | None = None) -> float:
     """Validate the options of ``generate``/``uniform``; returns the threshold as a float.
 
@@ -90,6 +96,13 @@ def check_options(threshold, *, min_angle: float = 30.0,
     if not lo <= rs <= hi:  # also rejects nan
         raise OptionError(f"{label['row_spacing']} {rs:g} is outside [{lo:g}, {hi:g}] (a "
                           "fraction of the threshold)")
+    try:
+        gr = float(gradation)
+    except (TypeError, ValueError):
+        raise OptionError(f"{label['gradation']} must be a number, got {gradation!r}") from None
+    if not 0.0 <= gr <= MAX_GRADATION:  # also rejects nan
+        raise OptionError(f"{label['gradation']} {gr:g} is outside [0, {MAX_GRADATION:g}] (the "
+                          "growth of the element size per unit length; 0: not graded)")
     return thr
 
 #: how :func:`check_sampling` names the fields without pixels

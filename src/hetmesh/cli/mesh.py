@@ -94,6 +94,11 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                             "placement, as a fraction of the threshold, 0.3 <= R <= 0.99: "
                             "lower gives more elements of better shape, 0.985 the fewest "
                             "(default: 0.85)")
+        p.add_argument("--gradation", type=float, metavar="G",
+                       help="how fast the element size may grow per unit length, 0 <= G <= "
+                            "10, as Gmsh's and MMG's size gradation: lower grades more "
+                            "smoothly from small elements to large ones; 0 does not grade "
+                            "(default: 0.3)")
         p.add_argument("--seed", type=int, metavar="S",
                        help="random seed, >= 0; same input and seed give the same mesh "
                             "(default: 0)")
@@ -124,7 +129,7 @@ def add_parser(subparsers, parents: list[argparse.ArgumentParser]) -> argparse.A
 #: how the CLI names the options in error messages
 FLAGS = {"threshold": "--threshold", "min_angle": "--min-angle", "max_elements": "--max-elements",
          "max_size": "--max-size", "sampling": "--sampling", "seed": "--seed",
-         "chord_tol": "--chord-tol", "row_spacing": "--row-spacing"}
+         "chord_tol": "--chord-tol", "row_spacing": "--row-spacing", "gradation": "--gradation"}
 
 
 def check_threshold(value: float) -> None:
@@ -139,7 +144,7 @@ def meshing_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """
     kw: dict[str, Any] = {}
     for key in ("min_angle", "max_size", "max_elements", "sampling", "method", "seed",
-                "chord_tol", "row_spacing"):
+                "chord_tol", "row_spacing", "gradation"):
         value = getattr(args, key, None)
         if value is not None:
             kw[key] = value

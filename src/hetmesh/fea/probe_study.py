@@ -158,7 +158,7 @@ def uniform_mesher(model) -> Callable[[float], Any]:
     from ..tri.pipeline import prepare
     from ..tri.uniform import uniform_at
 
-    ctx, frame = prepare(embed_discontinuities(model), 0.1, None)
+    ctx, frame = prepare(embed_discontinuities(model), 0.1, None, gradation=0.0)
 
     def mesh(h: float) -> Mesh:
         ws, tris = uniform_at(ctx, float(h) / frame.scale, max_elements=10_000_000)

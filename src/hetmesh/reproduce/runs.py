@@ -99,7 +99,7 @@ def uniform_like(model, threshold: float, n_elements: int, *, tol: float = 0.05,
     from ..tri.refine import evaluate
     from ..tri.uniform import uniform_at
 
-    ctx, frame = prepare(model, threshold, None)
+    ctx, frame = prepare(model, threshold, None, gradation=0.0)  # uniform: sizes not used
     h = math.sqrt(4.0 * model.domain.area / (math.sqrt(3.0) * max(int(n_elements), 1)))
     for _ in range(tries):
         ws, tris = uniform_at(ctx, h / frame.scale)

@@ -25,6 +25,7 @@ from typing import Any
 from ..errors import OptionError
 from ..options import (
     DEFAULT_CHORD_TOL,
+    DEFAULT_GRADATION,
     DEFAULT_MAX_ELEMENTS,
     DEFAULT_ROW_SPACING,
     SAMPLINGS,
@@ -47,7 +48,7 @@ DEFAULTS: dict[str, Any] = {
     "model": None, "threshold": None, "method": "auto", "sampling": "vertices", "seed": 0,
     "min_angle": 30.0, "max_size": None, "max_elements": DEFAULT_MAX_ELEMENTS,
     "min_quality": 0.6, "optimize": True, "chord_tol": DEFAULT_CHORD_TOL,
-    "row_spacing": DEFAULT_ROW_SPACING,
+    "row_spacing": DEFAULT_ROW_SPACING, "gradation": DEFAULT_GRADATION,
 }
 RUN_KEYS = tuple(DEFAULTS)
 #: options that :func:`hetmesh.uniform` takes (the others belong to the adaptive mesher)
@@ -366,10 +367,10 @@ def _spec(w: _Where, key: str, run: dict, model_name: str, model_file: Path | No
     try:
         threshold = check_options(threshold, **{k: options[k] for k in (
             "min_angle", "max_elements", "max_size", "sampling", "min_quality", "seed",
-            "chord_tol", "row_spacing")})
+            "chord_tol", "row_spacing", "gradation")})
     except OptionError as exc:
         raise w.fail(key, str(exc)) from None
-    for k in ("min_angle", "min_quality", "chord_tol", "row_spacing"):
+    for k in ("min_angle", "min_quality", "chord_tol", "row_spacing", "gradation"):
         options[k] = float(options[k])
     if options["max_size"] is not None:
         options["max_size"] = float(options["max_size"])

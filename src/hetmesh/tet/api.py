@@ -39,7 +39,7 @@ from ..errors import OptionError
 from ..kernel import Result
 from ..mesh import Mesh
 from ..metrics import delta_vertices, dihedral_angles, statistics, tet_quality
-from ..options import DEFAULT_ROW_SPACING
+from ..options import DEFAULT_GRADATION, DEFAULT_ROW_SPACING
 from .extrude import generate_extruded
 from .mesher import TetResult, generate_tets
 
@@ -184,7 +184,8 @@ def to_mesh(res: TetResult, constituents) -> Mesh:
 
 #: the options of :func:`hetmesh.generate` that only the 2D kernel has, and their defaults
 OPTIONS_2D = {"min_angle": 30.0, "method": "auto", "row_spacing": DEFAULT_ROW_SPACING,
-              "min_quality": 0.6, "optimize": True, "sampling": "vertices", "progress": None}
+              "gradation": DEFAULT_GRADATION, "min_quality": 0.6, "optimize": True,
+              "sampling": "vertices", "progress": None}
 
 
 def generate(model, threshold: float, *, seed: int = 0, chord_tol: float | None = None,

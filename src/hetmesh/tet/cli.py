@@ -21,7 +21,8 @@ from .quality import quality_summary
 __all__ = ["run_tet", "run_tet_stats", "tet_statistics", "plot_tets"]
 
 #: options of ``hetmesh mesh`` that the 2D mesher has and the 3D one does not
-_2D_ONLY = {"min_angle": "--min-angle", "method": "--method", "row_spacing": "--row-spacing"}
+_2D_ONLY = {"min_angle": "--min-angle", "method": "--method", "row_spacing": "--row-spacing",
+            "gradation": "--gradation"}
 
 
 def check_tet_options(args: argparse.Namespace, kwargs: dict) -> dict:

@@ -138,7 +138,8 @@ class SectionMesher:
         self.threshold = float(threshold)
         self.model2d = embed_discontinuities(Model(name=model.name, domain=domain,
                                                    material=f2))
-        self.ctx, self.frame = prepare(self.model2d, self.threshold, None, chord_rel)
+        self.ctx, self.frame = prepare(self.model2d, self.threshold, None, chord_rel,
+                                       gradation=0.0)
 
     def __call__(self, h: float, *, min_angle: float = 30.0, max_elements: int | None = None):
         from ..tri.finish import finish

@@ -88,7 +88,7 @@ def uniform(model, threshold: float, *, min_angle: float = 30.0,
                               sampling=sampling, min_quality=min_quality, chord_tol=chord_tol)
     t0 = time.perf_counter()
     model = embed_discontinuities(model)
-    ctx, frame = prepare(model, threshold, None, chord_tol)
+    ctx, frame = prepare(model, threshold, None, chord_tol, gradation=0.0)
     pts = background_points(ctx.domain, 200)
     gmax = float(gradient_norm(ctx.field, pts).max()) if len(pts) else 0.0
     h = threshold / gmax if gmax > 0 else ctx.domain.diameter / 10

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from ..material.field import MaterialField
     from .geometry import Curve, Domain
     from .geosize import BoundarySize
+    from .grading import GradientFloor
     from .sizecap import VariationCap
 
 __all__ = ["WorkSet", "Context", "triangulate", "lineage", "split_constraint_edges",
@@ -57,6 +58,9 @@ class Context:
     #: a local cap on |grad f| from the composition's sampled variation (a
     #: :class:`~hetmesh.tri.sizecap.VariationCap`), or None
     variation_cap: VariationCap | None = None
+    #: a local floor on |grad f| that grades the material sizes (a
+    #: :class:`~hetmesh.tri.grading.GradientFloor`), or None
+    gradient_floor: GradientFloor | None = None
     #: step in composition between the rows of the layers placement, over delta_0
     row_spacing: float = 0.985
     #: the geometric size bound near small boundary features (a
@@ -91,13 +95,21 @@ class Context:
         return self.threshold / self.h_min if self.h_min > 0 else np.inf
 
     def g(self, pts: np.ndarray) -> np.ndarray:
+        """The gradient norm the placement sizes by: :meth:`g_capped`, raised to the
+        :attr:`gradient_floor` where one is set (graded sizes)."""
+        g = self.g_capped(pts)
+        if self.gradient_floor is not None:
+            g = np.maximum(g, self.gradient_floor(pts))
+        return g
+
+    def g_capped(self, pts: np.ndarray) -> np.ndarray:
         """|grad f| (Eq. 5), capped at :attr:`g_cap` (also where it is nan or inf).
 
         The norm is :func:`hetmesh.density.gradient_norm`'s, the same numbers by elementwise
         passes over the constituents (its reductions over the short axes cost twice the
         gradient itself on a million points); by blocks of points."""
         if len(pts) > BLOCK:
-            return block_concat(lambda s: self.g(pts[s]), len(pts), serial=self.serial)
+            return block_concat(lambda s: self.g_capped(pts[s]), len(pts), serial=self.serial)
         gr = self.field.gradient(pts)
         g = None
         for j in range(gr.shape[1]):
