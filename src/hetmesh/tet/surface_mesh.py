@@ -48,10 +48,11 @@ from .general import (
 from .mesher import CHORD, TetResult
 from .refine import repair
 from .surface import SurfaceSolid, distance_to_triangles, distance_within
+from .surface_fill import fill_surface
 from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
-           "keep_markers", "EXTRA"]
+           "keep_markers", "EXTRA", "FILLS"]
 
 log = logging.getLogger(__name__)
 
@@ -59,19 +60,37 @@ log = logging.getLogger(__name__)
 EXTRA = "surface"
 
 
+#: the initial-volume methods: a conforming Delaunay fill with Qhull (the default), Gmsh
+FILLS = ("builtin", "gmsh")
+
+
 def _gmsh():
     try:
         import gmsh
     except Exception as exc:  # noqa: BLE001  (ImportError, or a broken shared library)
-        raise OptionError(f"meshing a triangulated surface needs Gmsh, which is not "
+        raise OptionError(f"the Gmsh fill of a triangulated surface needs Gmsh, which is not "
                           f"installed: pip install \"hetmesh[{EXTRA}]\" ({exc})") from None
     return gmsh
 
 
-def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
+def initial_volume(solid: SurfaceSolid, method: str = "builtin"
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """A first tetrahedral mesh of the inside of the surface whose boundary is the input
-    triangles (Gmsh's 3D Delaunay of them, one thread): ``(points, tets)``, tetrahedra
-    positively oriented."""
+    triangles, some split in their planes: ``(points, tets)``, tetrahedra positively
+    oriented. ``method`` "builtin": the conforming Delaunay fill
+    (:func:`hetmesh.tet.surface_fill.fill_surface`, Qhull); "gmsh": Gmsh's 3D Delaunay of
+    the triangles (one thread; the optional extra)."""
+    if method == "builtin":
+        p, t, _, _ = fill_surface(solid.V, solid.F, solid.source or "the surface")
+        return p, t
+    if method != "gmsh":
+        raise OptionError(f"unknown surface fill {method!r}: one of {', '.join(FILLS)}")
+    return _gmsh_volume(solid)
+
+
+def _gmsh_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
+    """Gmsh's 3D Delaunay mesh of the inside of the input triangles (one thread, no
+    optimisation, no size from the points): ``(points, tets)``, positive."""
     gmsh = _gmsh()
     V, F = solid.V, solid.F
     gmsh.initialize(readConfigFiles=False, interruptible=False)
@@ -137,11 +156,13 @@ def estimate_surface(solid: SurfaceSolid, field, threshold: float, h_max: float)
 
 def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int = 0,
                      chord_tol: float | None = None, max_elements: int | None = None,
-                     max_size: float | None = None, check: bool = True) -> TetResult:
+                     max_size: float | None = None, check: bool = True,
+                     fill: str = "builtin") -> TetResult:
     """Tetrahedralise a :class:`~hetmesh.tet.surface.SurfaceSolid` with every element's delta
     below ``threshold`` (module docstring). ``chord_tol`` in model units (default 2e-3 x the
     diameter); ``seed`` is accepted for the common interface (the mesh does not depend on
-    it)."""
+    it); ``fill`` the initial volume's method (:func:`initial_volume`), recorded in
+    ``info["fill"]``."""
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     lo, hi = solid.bounds
@@ -153,7 +174,12 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
                           f"but the budget is {max_elements}")
-    p, t = initial_volume(solid)
+    t_fill = time.perf_counter()
+    p, t = initial_volume(solid, fill)
+    t_fill = time.perf_counter() - t_fill
+    log.info("surface: %s fill, %d points, %d tetrahedra, %.3f s", fill, len(p), len(t),
+             t_fill)
+    n_fill = len(p)
     faces, _ = boundary_faces(t)
     markers = _classify(solid, p, faces, chord)
     size = size_field(field, p, threshold, h_max, h_min)
@@ -178,7 +204,8 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     if passes:  # bisected boundary triangles: the new ones take the face they lie on
         faces, markers = keep_markers(solid, p, t, faces, markers, chord)
     t = t.astype(np.int32)
-    info = {"placement": "surface", "size_rounds": rounds, "repair_passes": passes,
+    info = {"placement": "surface", "fill": fill, "fill_points": n_fill, "time_fill": t_fill,
+            "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place, "h_max": h_max,
             "chord_tol": chord, "hgrad": HGRAD}
     res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
