@@ -1,10 +1,13 @@
 """The surface-solid tetrahedral mesher: a solid bounded by a closed triangulated surface
 (:class:`~hetmesh.tet.surface.SurfaceSolid`), meshed to the material's size.
 
-1. *Initial volume*: Gmsh's 3D Delaunay mesher (``Mesh.Algorithm3D = 1``, one thread, no
-   optimisation) fills the surface without remeshing it: the input triangles are the
-   boundary (Gmsh may split some of them, in their plane). Gmsh is an optional dependency
-   (GPL, ``pip install "hetmesh[surface]"``); without it, a one-line error (exit 2) says so.
+1. *Initial volume* (:func:`initial_volume`): by default the builtin conforming Delaunay
+   fill (:func:`hetmesh.tet.surface_fill.fill_surface`; Qhull, permissive): the input
+   triangles, some split in their plane, are the boundary, with a coarse lattice of points
+   inside. ``fill="gmsh"`` uses Gmsh's 3D Delaunay mesher instead (``Mesh.Algorithm3D =
+   1``, one thread, no optimisation; GPL, the optional extra ``pip install
+   "hetmesh[surface]"``; without it, a one-line :class:`OptionError`). The method is
+   logged and recorded in ``info["fill"]``.
 2. *Size*: MMG remeshes to the isotropic size ``h = delta_0 / |grad f|`` (as for solids of
    primitives, :mod:`hetmesh.tet.general`), at most a quarter of the extent (or
    ``max_size``), with the Hausdorff distance ``hausd`` at half the chord tolerance: MMG
@@ -21,7 +24,8 @@
    boundary (no corner cut off), the volume within the chord tolerance x the surface's area
    of the surface's, every tetrahedron's centroid inside, delta_max < delta_0.
 
-Gmsh (one thread) and MMG are deterministic: the same model gives the same mesh, bit for bit.
+The fill (Qhull, a seeded perturbation), Gmsh (one thread) and MMG are deterministic: the
+same model gives the same mesh, bit for bit.
 """
 
 from __future__ import annotations
