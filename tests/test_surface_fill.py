@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import hetmesh
-from hetmesh.errors import MeshingError, OptionError
+from hetmesh.errors import MeshingError
 from hetmesh.io.model import load_model
 from hetmesh.tet import surface_fill
 from hetmesh.tet.api import mesh_model
@@ -92,12 +92,15 @@ def schonhardt():
     return V, F
 
 
+def l_bracket():
+    s = load_model(hetmesh.example_path("l_bracket")).solid
+    return s.V, s.F
+
+
 SURFACES = {"tetrahedron": lambda: (np.eye(4, 3, -1), np.array([[0, 2, 1], [0, 1, 3],
                                                                    [0, 3, 2], [1, 2, 3]])),
             "hollow_cube": hollow_cube, "wedge": wedge, "icosphere": lambda: icosphere(3),
-            "schonhardt": schonhardt, "torus": torus,
-            "l_bracket": lambda: (load_model(hetmesh.example_path("l_bracket")).solid.V,
-                                  load_model(hetmesh.example_path("l_bracket")).solid.F)}
+            "schonhardt": schonhardt, "torus": torus, "l_bracket": l_bracket}
 
 
 def check_fill(V, F, p, t):
@@ -166,14 +169,12 @@ def test_a_fill_that_does_not_converge_is_a_meshing_error(monkeypatch):
         fill_surface(s.V, s.F, "s.stl")
 
 
-def test_initial_volume_builtin_by_default_gmsh_refused_without_gmsh():
+def test_the_initial_volume_is_the_fill():
     s = SurfaceSolid.from_arrays(*hollow_cube(), "h.stl")
     p, t = initial_volume(s)
     check_fill(s.V, s.F, p, t)
-    with pytest.raises(OptionError, match=r'pip install "hetmesh\[surface\]"'):
-        initial_volume(s, "gmsh")
-    with pytest.raises(OptionError, match="unknown surface fill 'tetgen'"):
-        initial_volume(s, "tetgen")
+    q, u, _, _ = fill_surface(s.V, s.F, "h.stl")
+    assert np.array_equal(p, q) and np.array_equal(t, u)
 
 
 def test_l_bracket_meshes_without_gmsh():

@@ -54,8 +54,8 @@ triangles from their outer side.
 >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
 >>> F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
 >>> p, t, faces, parent = fill_surface(V, F)
->>> len(p), t.tolist(), sorted(parent.tolist())
-(4, [[0, 1, 2, 3]], [0, 1, 2, 3])
+>>> len(p), sorted(t[0].tolist()), sorted(parent.tolist())
+(4, [0, 1, 2, 3], [0, 1, 2, 3])
 """
 
 from __future__ import annotations
