@@ -400,7 +400,7 @@ def inner_points(V: np.ndarray, F: np.ndarray, spacing: float = INNER) -> np.nda
     step = spacing * float(vol / len(V)) ** (1 / 3)
     lo, hi = V.min(axis=0), V.max(axis=0)
     n = np.maximum(np.floor((hi - lo) / step).astype(np.int64), 1)
-    if int(np.prod(n)) > 20 * len(V) + 1000:  # a flat or thin solid: none
+    if int(np.prod(n)) > 20 * len(V) + 1000:  # a solid filling little of its box: none
         return np.zeros((0, 3))
     g = [lo[k] + 0.5 * (hi[k] - lo[k] - (n[k] - 1) * step) + step * np.arange(n[k])
          for k in range(3)]

@@ -56,6 +56,7 @@ __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_s
 
 log = logging.getLogger(__name__)
 
+
 def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
     """A first tetrahedral mesh of the inside of the surface whose boundary is the input
     triangles, some split in their planes (:func:`hetmesh.tet.surface_fill.fill_surface`,
