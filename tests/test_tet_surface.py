@@ -2,8 +2,9 @@
 checks, the example l_bracket meshed and checked from the arrays alone against the bracket's
 own geometry, determinism, and bad inputs (one line, exit 2, nothing written).
 
-Meshing needs Gmsh (the ``surface`` extra, also in ``test``): without it those tests skip,
-and fail under ``CI=true``."""
+The first volume is hetmesh's own fill (hetmesh.tet.surface_fill, tests/test_surface_fill.py);
+nothing here needs Gmsh. ``need_gmsh`` (skip without Gmsh, fail under ``CI=true``) is kept for
+the tests that use Gmsh as a peer."""
 
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ def need_gmsh():
     except Exception as exc:  # noqa: BLE001
         if CI:
             pytest.fail(f"gmsh is missing under CI=true ({exc}); install '.[test]'")
-        pytest.skip(f"gmsh is not installed ({exc}): pip install '.[surface]'")
+        pytest.skip(f"gmsh is not installed ({exc}): pip install '.[peers]'")
 
 
 MODEL = """
@@ -186,7 +187,6 @@ def test_l_bracket_meets_every_guarantee():
     (plus the 48-gon holes' own deviation from a circle); the volume of the faceted part;
     the ten faces between sharp edges, each on its own plane or bore; the same mesh
     twice."""
-    need_gmsh()
     m = load_model(hetmesh.example_path("l_bracket"))
     assert isinstance(m.solid, SurfaceSolid)
     assert m.solid.face_names == tuple(f"surface.{i}" for i in range(1, 11))
@@ -230,7 +230,6 @@ def test_the_example_surface_is_what_its_script_writes(tmp_path):
 
 
 def test_a_hollow_cube_keeps_its_cavity(tmp_path):
-    need_gmsh()
     V, F = cube(0.0, 2.0)
     Vi, Fi = cube(0.5, 1.5, inward=True)
     write_surface(tmp_path / "hollow.stl", np.r_[V, Vi], np.r_[F, Fi + 8])
@@ -286,16 +285,15 @@ def test_bad_surface_models_fail_in_one_line(case, message, tmp_path, capsys):
     assert not out.exists()
 
 
-def test_without_gmsh_the_error_names_the_extra(tmp_path, capsys, monkeypatch):
+def test_without_gmsh_the_builtin_fill_meshes(tmp_path, capsys, monkeypatch):
     write_surface(tmp_path / "c.stl", *cube())
     (tmp_path / "m.toml").write_text(MODEL.format(file="c.stl", formula="z"))
     monkeypatch.setitem(sys.modules, "gmsh", None)  # import gmsh raises ImportError
     out = tmp_path / "out.vtu"
     code, _, err = run(["mesh", tmp_path / "m.toml", "-d", "0.2", "-o", out], capsys)
-    lines = err.strip().splitlines()
-    assert code == 2 and len(lines) == 1, err
-    assert 'pip install "hetmesh[surface]"' in lines[0]
-    assert not out.exists()
+    assert code == 0, err
+    m = meshio.read(out)
+    check_tet_mesh(m.points, m.cells_dict["tetra"], lambda p: p[:, 2], 0.2)
 
 
 def test_copying_the_example_out_copies_its_surface(tmp_path, capsys):

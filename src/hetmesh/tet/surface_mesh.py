@@ -1,10 +1,10 @@
 """The surface-solid tetrahedral mesher: a solid bounded by a closed triangulated surface
 (:class:`~hetmesh.tet.surface.SurfaceSolid`), meshed to the material's size.
 
-1. *Initial volume*: Gmsh's 3D Delaunay mesher (``Mesh.Algorithm3D = 1``, one thread, no
-   optimisation) fills the surface without remeshing it: the input triangles are the
-   boundary (Gmsh may split some of them, in their plane). Gmsh is an optional dependency
-   (GPL, ``pip install "hetmesh[surface]"``); without it, a one-line error (exit 2) says so.
+1. *Initial volume* (:func:`initial_volume`): the conforming Delaunay fill
+   (:func:`hetmesh.tet.surface_fill.fill_surface`; Qhull, permissive): the input
+   triangles, some split in their plane, are the boundary, with a coarse lattice of points
+   inside. Logged, and recorded in ``info["fill"]`` ("builtin").
 2. *Size*: MMG remeshes to the isotropic size ``h = delta_0 / |grad f|`` (as for solids of
    primitives, :mod:`hetmesh.tet.general`), at most a quarter of the extent (or
    ``max_size``), with the Hausdorff distance ``hausd`` at half the chord tolerance: MMG
@@ -21,20 +21,21 @@
    boundary (no corner cut off), the volume within the chord tolerance x the surface's area
    of the surface's, every tetrahedron's centroid inside, delta_max < delta_0.
 
-Gmsh (one thread) and MMG are deterministic: the same model gives the same mesh, bit for bit.
+The fill (Qhull, a seeded perturbation) and MMG are deterministic: the same model gives the
+same mesh, bit for bit.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError, OptionError
+from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
-from ..topology import unique
 from .faces import boundary_faces
 from .general import (
     HGRAD,
@@ -42,81 +43,27 @@ from .general import (
     centroid_and_delta_problems,
     mmg_remesh,
     next_size,
-    orient_positive,
     size_field,
 )
 from .mesher import CHORD, TetResult
 from .refine import repair
 from .surface import SurfaceSolid, distance_to_triangles, distance_within
+from .surface_fill import fill_surface
 from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
-           "keep_markers", "EXTRA"]
+           "keep_markers"]
 
 log = logging.getLogger(__name__)
-
-#: the extra that installs the initial-volume mesher
-EXTRA = "surface"
-
-
-def _gmsh():
-    try:
-        import gmsh
-    except Exception as exc:  # noqa: BLE001  (ImportError, or a broken shared library)
-        raise OptionError(f"meshing a triangulated surface needs Gmsh, which is not "
-                          f"installed: pip install \"hetmesh[{EXTRA}]\" ({exc})") from None
-    return gmsh
 
 
 def initial_volume(solid: SurfaceSolid) -> tuple[np.ndarray, np.ndarray]:
     """A first tetrahedral mesh of the inside of the surface whose boundary is the input
-    triangles (Gmsh's 3D Delaunay of them, one thread): ``(points, tets)``, tetrahedra
-    positively oriented."""
-    gmsh = _gmsh()
-    V, F = solid.V, solid.F
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        gmsh.option.setNumber("Mesh.Algorithm3D", 1)
-        gmsh.option.setNumber("Mesh.Optimize", 0)
-        # no size from the surface's points: as few inside points as the recovery needs
-        # (MMG sets the sizes next)
-        for k in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints"):
-            gmsh.option.setNumber(f"Mesh.{k}", 0)
-        gmsh.model.add("hetmesh_surface")
-        lab, regions = solid.shells
-        tags = {}
-        for k in unique(lab):  # one discrete surface per shell, its own points
-            s = gmsh.model.addDiscreteEntity(2)
-            ids = unique(F[lab == k])
-            gmsh.model.mesh.addNodes(2, s, ids + 1, V[ids].ravel())
-            tags[int(k)] = s
-        for k in unique(lab):
-            gmsh.model.mesh.addElementsByType(tags[int(k)], 2, [], (F[lab == k] + 1).ravel())
-        for outer, cavities in regions:
-            loops = [gmsh.model.geo.addSurfaceLoop([tags[j]]) for j in [outer, *cavities]]
-            gmsh.model.geo.addVolume(loops)
-        gmsh.model.geo.synchronize()
-        gmsh.model.mesh.generate(3)
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        _, enodes = gmsh.model.mesh.getElementsByType(4)
-    except Exception as exc:  # noqa: BLE001  (Gmsh raises plain Exceptions)
-        raise MeshingError(f"Gmsh could not fill the surface {solid.source}: "
-                           f"{' '.join(str(exc).split())}") from None
-    finally:
-        gmsh.finalize()
-    if not len(enodes):
-        raise MeshingError(f"Gmsh made no tetrahedra inside the surface {solid.source}")
-    tags = tags.astype(np.int64)
-    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-    index[tags] = np.arange(len(tags))
-    t = index[enodes.astype(np.int64)].reshape(-1, 4)
-    p = xyz.reshape(-1, 3).astype(np.float64)
-    used = unique(t)
-    remap = np.full(len(p), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return p[used], orient_positive(p[used], remap[t])
+    triangles, some split in their planes (:func:`hetmesh.tet.surface_fill.fill_surface`,
+    the conforming Delaunay fill with Qhull): ``(points, tets)``, tetrahedra positively
+    oriented."""
+    p, t, _, _ = fill_surface(solid.V, solid.F, solid.source or "the surface")
+    return p, t
 
 
 def estimate_surface(solid: SurfaceSolid, field, threshold: float, h_max: float) -> float:
@@ -137,11 +84,14 @@ def estimate_surface(solid: SurfaceSolid, field, threshold: float, h_max: float)
 
 def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int = 0,
                      chord_tol: float | None = None, max_elements: int | None = None,
-                     max_size: float | None = None, check: bool = True) -> TetResult:
+                     max_size: float | None = None, check: bool = True,
+                     initial: Callable[[SurfaceSolid], tuple[np.ndarray, np.ndarray]]
+                     = initial_volume) -> TetResult:
     """Tetrahedralise a :class:`~hetmesh.tet.surface.SurfaceSolid` with every element's delta
     below ``threshold`` (module docstring). ``chord_tol`` in model units (default 2e-3 x the
     diameter); ``seed`` is accepted for the common interface (the mesh does not depend on
-    it)."""
+    it); ``initial`` makes the first volume mesh (default :func:`initial_volume`; a
+    benchmark passes a peer's), its name recorded in ``info["fill"]``."""
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     lo, hi = solid.bounds
@@ -153,7 +103,13 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
                           f"but the budget is {max_elements}")
-    p, t = initial_volume(solid)
+    t_fill = time.perf_counter()
+    p, t = initial(solid)
+    t_fill = time.perf_counter() - t_fill
+    fill = "builtin" if initial is initial_volume else getattr(initial, "__name__", "other")
+    log.info("surface: %s fill, %d points, %d tetrahedra, %.3f s", fill, len(p), len(t),
+             t_fill)
+    n_fill = len(p)
     faces, _ = boundary_faces(t)
     markers = _classify(solid, p, faces, chord)
     size = size_field(field, p, threshold, h_max, h_min)
@@ -178,7 +134,8 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     if passes:  # bisected boundary triangles: the new ones take the face they lie on
         faces, markers = keep_markers(solid, p, t, faces, markers, chord)
     t = t.astype(np.int32)
-    info = {"placement": "surface", "size_rounds": rounds, "repair_passes": passes,
+    info = {"placement": "surface", "fill": fill, "fill_points": n_fill, "time_fill": t_fill,
+            "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place, "h_max": h_max,
             "chord_tol": chord, "hgrad": HGRAD}
     res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
