@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 import hetmesh
 from hetmesh.io.model import load_model
 from hetmesh.tet.api import mesh_model
+from hetmesh.tet.quality import quality_summary
 from test_tet import check_tet_mesh
 from test_tet_solids import BOX_BORE, write
 
@@ -164,6 +165,13 @@ def test_meeting_faces_mesh_with_a_sharp_edge(tmp_path, name):
     # at this threshold and tolerance)
     if name != "cross":
         assert res.info["meeting_path"] == (name == "cavity")
+    if res.info["meeting_path"]:
+        # the quality targets hold at the edge too: the vertices the projection could not
+        # move are collapsed between the size rounds, the slivers left collapsed and flipped
+        q = quality_summary(res.points, res.tets)
+        assert q["dihedral_min"] >= 10.0, q
+        assert q["dihedral_p1"] >= 20.0, q
+        assert q["radius_ratio_mean"] >= 0.75, q
     bnd = check_tet_mesh(res.points, res.tets, comp, D0)
     assert len(bnd) == len(res.faces)
     chord = CHORD_REL * m.solid.diameter

@@ -28,11 +28,15 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    gets finer only where it violated. Where curved faces meet, a vertex of both goes onto
    the curve where their surfaces meet (the same Gauss-Newton on both functions); a move
    that would leave a tetrahedron under :data:`MIN_VOLUME` is tried at the fractions
-   :data:`PARTIAL`, and the rounds go on until every boundary vertex is within :data:`SETTLED` x
-   the chord tolerance of its faces (MMG remeshes around what could not move yet).
+   :data:`PARTIAL`; a vertex still farther than :data:`STUCK` x the chord tolerance from
+   its place is collapsed onto a neighbour (:func:`_collapse_stuck`; MMG would keep it as a
+   corner), and the rounds go on until no vertex was collapsed and every boundary vertex is
+   within :data:`SETTLED` x the chord tolerance of its faces.
 5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
    boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
-   chords of curved faces do not get farther from them.
+   chords of curved faces do not get farther from them. Where curved faces meet, the
+   tetrahedra under :data:`FLIP_BOUND` degrees are then improved by flips
+   (:func:`_flip_meeting`).
 6. *Verification* (:func:`solid_problems`): positive volumes, conformity, a closed boundary,
    every boundary triangle on a face (planar ones exactly, curved ones within the chord
    tolerance at 12 points per triangle), every edge between two curved faces within the
@@ -45,7 +49,6 @@ The same input and seed give the same mesh (MMG runs single-threaded and determi
 
 from __future__ import annotations
 
-import copy
 import logging
 import math
 import time
@@ -57,8 +60,10 @@ from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
 from .faces import boundary_faces
+from .flips import flip_improve
 from .implicit import CSGSolid
 from .mesher import CHORD, TetResult
+from .quality import min_dihedral
 from .refine import repair
 from .verify import raise_problems, validity_problems
 
@@ -197,9 +202,10 @@ def split_bits(refs, bit: int) -> dict:
             for r in unique(refs).tolist()}
 
 
-def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+def cut_solid(solid: CSGSolid, spacing: float, *, meeting: bool) -> tuple[np.ndarray, np.ndarray]:
     """The tetrahedra of the background grid cut by every curved surface, those in the solid
-    kept: ``(points, tets)``."""
+    kept: ``(points, tets)``. ``meeting``: the cuts of the path for meeting curved faces
+    (:func:`_cut_meeting`)."""
     p, t = kuhn_grid(*grid_lines(solid, spacing))
     curved = solid.curved
     # drop the cells that lie well outside the base's or the clip's curved surfaces
@@ -210,7 +216,7 @@ def cut_solid(solid: CSGSolid, spacing: float) -> tuple[np.ndarray, np.ndarray]:
             if s.curved:
                 keep &= ~(s.g(p)[t] > margin).all(axis=1)
     t = t[keep]
-    if meeting_pairs(solid):
+    if meeting:
         return _cut_meeting(solid, p, t, spacing)
     used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
@@ -385,20 +391,39 @@ PARTIAL = (1.0, 0.5, 0.25)
 #: where curved faces meet, the size rounds go on while a boundary vertex is farther than
 #: this fraction of the chord tolerance from a surface of its faces
 SETTLED = 0.25
+#: where curved faces meet, a boundary vertex the projection left farther than this fraction
+#: of the chord tolerance from its faces is collapsed between the size rounds
+STUCK = 0.01
+#: on the path for meeting curved faces, short edges of the tetrahedra under this smallest
+#: dihedral angle (degrees) are collapsed at the end, in up to COLLAPSE_PASSES collapses
+COLLAPSE_BOUND = 10.0
+COLLAPSE_PASSES = 200
+#: on the path for meeting curved faces, the tetrahedra whose smallest dihedral angle is
+#: under this (degrees) are improved by flips at the end
+FLIP_BOUND = 20.0
 #: the smallest volume a projection may leave a tetrahedron of a solid whose curved faces
 #: meet, relative to the cube of the diameter (1000 x the validity check's floor)
 MIN_VOLUME = 1e-9
 
 
 def project_safely(solid, points, tets, faces, markers, rounds: int = 20) -> np.ndarray:
+    """:func:`_project_safely` on the path the solid's pairs of meeting curved faces
+    (:func:`meeting_pairs`) choose."""
+    return _project_safely(solid, points, tets, faces, markers, bool(meeting_pairs(solid)),
+                           rounds)
+
+
+def _project_safely(solid, points, tets, faces, markers, meeting: bool,
+                    rounds: int = 20) -> np.ndarray:
     """:func:`project`, except for the vertices whose move would leave a tetrahedron
     around them without a positive volume: those stay (a curved face's vertex then stays
     where MMG put it, within its Hausdorff distance of the surface; the verification
-    checks the chord tolerance). Where curved faces meet (their edge vertices go onto the
-    curve, farther than the others), a volume of at least :data:`MIN_VOLUME` x the
-    diameter cubed."""
+    checks the chord tolerance). On the path for meeting curved faces (``meeting``: their
+    edge vertices go onto the curve, farther than the others), a volume of at least
+    :data:`MIN_VOLUME` x the diameter cubed, the move tried at the fractions
+    :data:`PARTIAL`."""
     want = project(solid, points, faces, markers)
-    if not meeting_pairs(solid):
+    if not meeting:
         q = keep_positive(points, want, tets, (want != points).any(axis=1), rounds)
         _check_positive(q, tets, "after projecting the boundary vertices")
         return q
@@ -440,6 +465,128 @@ def keep_positive(old: np.ndarray, new: np.ndarray, tets: np.ndarray, moved: np.
         q[back] = old[back]
         moved[back] = False
     return q
+
+
+def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
+    """Where curved faces meet: the boundary vertices the projection left more than
+    ``short`` from their place ``want`` collapsed, the farthest first, each onto the
+    neighbour nearest to its place that lies on every face it lies on, where the
+    tetrahedra changed keep volumes above ``floor`` and the boundary stays the faces'
+    triangles less the two collapsed. Such a vertex sits where the cuts' polyline zigzags
+    among tiny tetrahedra (too small for its move); MMG's ridge analysis makes it a corner
+    (a sharp turn of the ridge), which it never moves or removes, so the size rounds alone
+    keep it. ``(points, tets, faces, markers, kept, number collapsed)``, the vertices no
+    longer used dropped (``kept``: the indices of those kept)."""
+    n = len(p)
+    inc = [set() for _ in range(n)]
+    for (a, b, c), m in zip(faces.tolist(), markers.tolist()):
+        inc[a].add(m)
+        inc[b].add(m)
+        inc[c].add(m)
+    left = np.linalg.norm(want - p, axis=1)
+    stuck = np.flatnonzero(left > short)
+    stuck = stuck[np.lexsort((stuck, -left[stuck]))]
+    done = 0
+    for v in stuck.tolist():
+        star = (t == v).any(axis=1)
+        if not star.any():
+            continue
+        nb = unique(t[star])
+        nb = [int(w) for w in nb if w != v and inc[v] <= inc[w]]
+        nb.sort(key=lambda w: (float(np.linalg.norm(p[w] - want[v])), w))
+        for w in nb:
+            gone = star & (t == w).any(axis=1)
+            nt = np.where(t == v, w, t)[~gone]
+            ch = np.flatnonzero(star[~gone])
+            if not len(ch) or (simplex_measures(p, nt[ch]) <= floor).any():
+                continue
+            fgone = (faces == v).any(axis=1) & (faces == w).any(axis=1)
+            nf = np.where(faces == v, w, faces)[~fgone]
+            bf, _ = boundary_faces(nt)
+            if len(bf) != len(nf) or not np.array_equal(
+                    np.unique(np.sort(bf, axis=1), axis=0),
+                    np.unique(np.sort(nf, axis=1), axis=0)):
+                continue
+            t, faces, markers = nt, nf, markers[~fgone]
+            inc[w] |= inc[v]
+            inc[v] = set()
+            done += 1
+            break
+    used = unique(t)
+    if done:
+        remap = np.full(n, -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        p, t, faces = p[used], remap[t], remap[faces]
+    return p, t, faces, markers, used, done
+
+
+def _collapse_slivers(solid, p, t, faces, markers, ok, chord: float):
+    """On the path for meeting curved faces, the edges between boundary vertices of the
+    tetrahedra under :data:`COLLAPSE_BOUND` degrees (where the size rounds left tiny
+    tetrahedra along the curve) collapsed, the shortest first: an end ``v`` onto the other
+    ``w`` where ``w`` lies on every face ``v`` lies on, and only if the tetrahedra changed
+    have positive volumes, a larger smallest dihedral angle than before and pass
+    ``ok(tets)`` (delta), the boundary is the faces' triangles less the two collapsed, and
+    the triangles at ``w`` pass the verification's checks of their faces (curved ones within
+    ``chord``, planes exactly) and of the edges between meeting faces
+    (:func:`edge_problems`). ``(tets, faces, markers)``; the points are not changed."""
+    n = len(p)
+    inc = [set() for _ in range(n)]
+    for (a, b, c), m in zip(faces.tolist(), markers.tolist()):
+        inc[a].add(m)
+        inc[b].add(m)
+        inc[c].add(m)
+    exact = 1e-9 * solid.diameter
+    tried = set()
+    for _ in range(COLLAPSE_PASSES):
+        ang = min_dihedral(p, t)
+        bad = np.flatnonzero(ang < COLLAPSE_BOUND)
+        if not len(bad):
+            break
+        pairs = {(int(min(a, b)), int(max(a, b))) for tt in t[bad].tolist()
+                 for i, a in enumerate(tt) for b in tt[i + 1:] if inc[a] and inc[b]}
+        pairs = sorted(pairs - tried,
+                       key=lambda e: (float(np.linalg.norm(p[e[0]] - p[e[1]])), e))
+        done = False
+        for a, b in pairs:
+            tried.add((a, b))
+            for v, w in ((a, b), (b, a)):
+                if not inc[v] <= inc[w]:
+                    continue
+                star = (t == v).any(axis=1)
+                gone = star & (t == w).any(axis=1)
+                nt = np.where(t == v, w, t)[~gone]
+                ch = np.flatnonzero(star[~gone])
+                if not len(ch) or (simplex_measures(p, nt[ch]) <= 0).any():
+                    continue
+                if min_dihedral(p, nt[ch]).min() <= ang[star].min() or not ok(nt[ch]).all():
+                    continue
+                fgone = (faces == v).any(axis=1) & (faces == w).any(axis=1)
+                nf = np.where(faces == v, w, faces)[~fgone]
+                nm = markers[~fgone]
+                at = (nf == w).any(axis=1)
+                if any(float(np.abs(solid.faces[fi].surface.g(np.einsum(
+                        "bk,nkd->nbd", _BARY, p[nf[at & (nm == fi)]]).reshape(-1, 3))).max(
+                            initial=0.0)) > (chord if solid.faces[fi].surface.curved
+                                             else exact) for fi in unique(nm[at]).tolist()):
+                    continue
+                if edge_problems(p, nf[at], nm[at], solid, chord):
+                    continue
+                bf, _ = boundary_faces(nt)
+                if len(bf) != len(nf) or not np.array_equal(
+                        np.unique(np.sort(bf, axis=1), axis=0),
+                        np.unique(np.sort(nf, axis=1), axis=0)):
+                    continue
+                t, faces, markers = nt, nf, nm
+                inc[w] |= inc[v]
+                inc[v] = set()
+                done = True
+                break
+            if done:
+                break
+        if not done:
+            break
+    return t, faces, markers
 
 
 def _boundary(solid, p, t, tol):
@@ -508,12 +655,21 @@ def mmg_remesh(p, t, faces, markers, size, hausd):
 
 
 def remesh_solid(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: float):
+    """:func:`_remesh` on the path the solid's pairs of meeting curved faces
+    (:func:`meeting_pairs`) choose."""
+    return _remesh(solid, p, t, faces, markers, size, hausd, tol, bool(meeting_pairs(solid)))
+
+
+def _remesh(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: float,
+            meeting: bool):
     """One MMG remeshing of a solid's mesh to ``size`` (:func:`mmg_remesh`), its boundary
     triangles named again (within ``tol`` of their faces) and its boundary vertices projected
-    onto them: ``(points, tets, faces, markers, size MMG interpolated)``."""
+    onto them (:func:`_project_safely`, ``meeting`` its path): ``(points, tets, faces,
+    markers, size MMG interpolated)``."""
     p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
     faces, markers = _faces_after(solid, p, t, fm, rm, tol)
-    return project_safely(solid, p, t, faces, markers), t, faces, markers, h_mmg
+    return (_project_safely(solid, p, t, faces, markers, meeting), t, faces, markers,
+            h_mmg)
 
 
 def off_faces(solid: CSGSolid, p, faces, markers) -> float:
@@ -605,18 +761,16 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
 
     Where curved faces meet (:attr:`~hetmesh.tet.implicit.CSGSolid.curved_edges`), the
     plain path (one level-set cut after the other, no improvement between them) is tried
-    first and kept if its mesh passes the whole verification, the edges between curved
-    faces included: its tetrahedra are better shaped and it is faster (a bore through a
-    ball at 0.2: smallest dihedral angle 13.1 against 1.5 degrees, 9 against 43 s). The
-    path for meeting faces meshes the solids where it fails (a cylinder with a wider
-    spherical cavity, two crossing bores)."""
+    first (``meeting=False``) and kept if its mesh passes the whole verification, the
+    edges between curved faces included: it is faster where it works (a bore through a
+    ball). The path for meeting faces (``meeting=True``) meshes the solids where it fails
+    (a cylinder with a wider spherical cavity, two crossing bores)."""
     kw = dict(seed=seed, chord_tol=chord_tol, max_elements=max_elements, max_size=max_size)
-    if meeting_pairs(solid):
-        plain = copy.copy(solid)
-        plain.__dict__["curved_edges"] = ()  # the cached pairs: none, for the mesher
+    meeting = bool(meeting_pairs(solid))
+    if meeting:
         chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
         try:
-            res = _generate_solid(plain, field, threshold, check=False, **kw)
+            res = _generate_solid(solid, field, threshold, meeting=False, check=False, **kw)
             problems = solid_problems(res, solid, field, chord) if check else []
         except BudgetError:
             raise
@@ -627,15 +781,17 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
             return res
         log.info("solid: the plain path's mesh is not kept (%s); the path for meeting "
                  "curved faces", problems[0])
-    res = _generate_solid(solid, field, threshold, check=check, **kw)
-    res.info["meeting_path"] = bool(meeting_pairs(solid))
+    res = _generate_solid(solid, field, threshold, meeting=meeting, check=check, **kw)
+    res.info["meeting_path"] = meeting
     return res
 
 
-def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chord_tol,
-                    max_elements, max_size, check: bool) -> TetResult:
-    """:func:`generate_solid` on one path: the one for meeting curved faces when
-    ``meeting_pairs(solid)`` lists any."""
+def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, seed: int,
+                    chord_tol, max_elements, max_size, check: bool) -> TetResult:
+    """:func:`generate_solid` on one path: the one for meeting curved faces if ``meeting``
+    (the cuts improved between each other, the projection's moves tried in part, the
+    vertices left short of their faces collapsed between the size rounds, flips at the
+    end), else the plain one. The verification (``check``) is the whole one either way."""
     del seed
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
@@ -650,7 +806,7 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
         h_max = min(h_max, float(max_size))
     h_min = 1e-4 * solid.diameter
     tol = 0.5 * spacing
-    p, t = cut_solid(solid, spacing)
+    p, t = cut_solid(solid, spacing, meeting=meeting)
     faces, markers = _boundary(solid, p, t, tol)
     size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
                       chord)
@@ -658,8 +814,20 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
     rounds = 0
     mtol = max(0.25 * h_max, 10 * chord)
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, faces, markers, h_mmg = remesh_solid(solid, p, t, faces, markers, size, hausd,
-                                                   mtol)
+        p, t, faces, markers, h_mmg = _remesh(solid, p, t, faces, markers, size, hausd, mtol,
+                                              meeting)
+        collapsed = 0
+        if meeting and rounds < SIZE_ROUNDS:
+            # MMG keeps the vertices the projection left short (its corners): collapsed
+            # here, MMG remeshes around their neighbours in the next round
+            p, t, faces, markers, kept, collapsed = _collapse_stuck(
+                p, t, faces, markers, project(solid, p, faces, markers),
+                MIN_VOLUME * solid.diameter ** 3, STUCK * chord)
+            if collapsed:
+                h_mmg = h_mmg[kept]
+                p = _project_safely(solid, p, t, faces, markers, meeting)
+                log.info("solid: %d boundary vertices short of their faces collapsed",
+                         collapsed)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -670,7 +838,8 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
                  int(bad.sum()))
         # where curved faces meet, the rounds go on until the projection has put the
         # boundary vertices on their faces (MMG remeshes what it could not move)
-        settled = not meeting_pairs(solid) or off_faces(solid, p, faces, markers) <= SETTLED * chord
+        settled = not meeting or (
+            not collapsed and off_faces(solid, p, faces, markers) <= SETTLED * chord)
         if (not bad.any() and settled) or rounds == SIZE_ROUNDS:
             break
         size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
@@ -688,7 +857,7 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
             break
         # the midpoints of bisected boundary edges onto their curved faces (planar ones are
         # in their plane already); then the compositions there, and the repair again
-        q = project_safely(solid, p, t, faces, markers)
+        q = _project_safely(solid, p, t, faces, markers, meeting)
         moved = np.flatnonzero((q != p).any(axis=1))
         if not len(moved):
             break
@@ -698,6 +867,11 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
     else:
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
+    if meeting:
+        t, faces, markers = _collapse_slivers(
+            solid, p, t, faces, markers, lambda tets: delta_vertices(comp, tets) < threshold,
+            chord)
+        p, t, faces, comp, delta = _flip_meeting(p, t, faces, comp, threshold)
     t = t.astype(np.int32)
     info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place,
@@ -710,6 +884,23 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int, chor
     log.info("solid mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, %.2f s",
              len(p), len(t), rounds, passes, res.info["time_total"])
     return res
+
+
+def _flip_meeting(p, t, faces, comp, threshold: float):
+    """On the path for meeting curved faces, the tetrahedra under :data:`FLIP_BOUND`
+    degrees (the shallow ones along the edge where the faces meet) improved by flips, edge
+    removals and collapses of inner vertices (:func:`hetmesh.tet.flips.flip_improve`), each
+    new tetrahedron's delta below ``threshold``; the boundary triangles stay. ``(points,
+    tets, faces, composition, delta)``, the vertices no longer used dropped."""
+    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
+                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
+                        bound=FLIP_BOUND)
+    used = unique(t)
+    if len(used) < len(p):
+        remap = np.full(len(p), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    return p, t, faces, comp, delta_vertices(comp, t)
 
 
 def _check_positive(p, t, when):
@@ -876,7 +1067,7 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
         raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
                           f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
     spacing = background_spacing(solid)
-    p, t = cut_solid(solid, spacing)
+    p, t = cut_solid(solid, spacing, meeting=bool(meeting_pairs(solid)))
     faces, markers = _boundary(solid, p, t, 0.5 * spacing)
     size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
     p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size, 0.5 * chord,
