@@ -96,7 +96,7 @@ from .verify import raise_problems
 
 __all__ = ["CarvedSolid", "FlatSurface", "MeridianSurface", "generate_carved",
            "carved_problems", "carve_refusal", "carved_start", "uniform_carved_at",
-           "snapped_levels", "split_across"]
+           "snapped_levels", "split_across", "remove_slivers"]
 
 log = logging.getLogger(__name__)
 
@@ -942,10 +942,11 @@ def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, sta
     MMG to the constant size ``h``, capped on curved faces for the chord tolerance
     ``chord_tol`` (absolute; default :data:`CHORD` x the diameter) exactly as in the
     adaptive mesh, the boundary vertices projected onto their faces with the untangling of
-    :func:`remesh_carved`. Nothing is refined for the material: ``delta`` over the vertices
-    is measured, ``threshold`` recorded but not required
-    (:func:`hetmesh.tet.uniform.uniform_model` searches ``h`` and verifies the result with
-    :func:`carved_problems`)."""
+    :func:`remesh_carved`, the slivers removed as in the adaptive mesh
+    (:func:`remove_slivers`, no new tetrahedron reaching ``threshold``). Nothing is refined
+    for the material: ``delta`` over the vertices is measured, ``threshold`` recorded but
+    not required (:func:`hetmesh.tet.uniform.uniform_model` searches ``h`` and verifies
+    the result with :func:`carved_problems`)."""
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     est = 6.0 * math.sqrt(2.0) * solid.volume / h ** 3  # regular tetrahedra of edge h
     if max_elements is not None and est > max_elements:
@@ -958,12 +959,34 @@ def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, sta
     if max_elements is not None and len(t) > max_elements:
         raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
                           f"over the budget of {max_elements:,}")
-    comp = field.composition(p)
+    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, field.composition(p),
+                                                threshold)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
             "chord_tol": chord, "composition": comp}
     return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
                      (markers + 1).astype(np.int32), tuple(solid.face_names),
                      delta_vertices(comp, t), float(threshold), info)
+
+
+def remove_slivers(p, t, faces, markers, comp, threshold: float):
+    """Step 6 of :func:`generate_carved`: short boundary edges of the tetrahedra under
+    :data:`SLIVER_COLLAPSE` degrees collapsed (:func:`collapse_boundary`), then flips and
+    edge removals of those under :data:`SLIVER` inside the solid
+    (:func:`hetmesh.tet.flips.flip_improve`), every new tetrahedron's delta over the vertex
+    compositions ``comp`` below ``threshold``: ``(points, tets, faces, markers, comp)``, the
+    vertices no longer used removed."""
+    t, faces, markers = collapse_boundary(p, t, faces, markers,
+                                          lambda tets: delta_vertices(comp, tets) < threshold,
+                                          bound=SLIVER_COLLAPSE)
+    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
+                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
+                        bound=SLIVER)
+    used = unique(t)
+    if len(used) < len(p):  # vertices collapsed by the flips
+        remap = np.full(len(p), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    return p, t, faces, markers, comp
 
 
 def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, *,
@@ -1029,19 +1052,8 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
     else:
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
-    # 6. slivers: short boundary edges collapsed, flips and edge removals inside the solid,
-    # all keeping delta below delta_0
-    t, faces, markers = collapse_boundary(p, t, faces, markers,
-                                          lambda tets: delta_vertices(comp, tets) < threshold,
-                                          bound=SLIVER_COLLAPSE)
-    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
-                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
-                        bound=SLIVER)
-    used = unique(t)
-    if len(used) < len(p):  # vertices collapsed by the flips
-        remap = np.full(len(p), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    # 6. slivers
+    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, comp, threshold)
     delta = delta_vertices(comp, t)
     info = {"placement": "carved", "estimate": est, "background_rounds": pre, "size_rounds": rounds,
             "repair_passes": passes, "composition": comp, "time_place": t_place,
