@@ -365,6 +365,16 @@ def test_tetrahedra_left_across_a_plane_are_split_along_it():
     assert ((rr & 8) > 0)[side < 0].all() and ((rr & 16) > 0)[side > 0].all()
     assert volume(q, tt) == pytest.approx(volume(p, t), rel=1e-12)
     check_tet_mesh(q, tt, lambda x: np.zeros(len(x)), 0.5)
+    # only those asked for: the others across stay whole (an edge of both is split in both)
+    only = p[t].mean(axis=1)[:, 0] < 0.5
+    assert (across & only).any() and (across & ~only).any()
+    q2, t2, _, l2 = split_across(p, t, refs, ls, 1, only)
+    v2 = l2[t2]
+    assert ((v2 > 0).any(axis=1) & (v2 < 0).any(axis=1)).any()
+    check_tet_mesh(q2, t2, lambda x: np.zeros(len(x)), 0.5)
+    keep = (t2 < len(p)).all(axis=1)  # the tetrahedra not touched
+    whole = {tuple(sorted(r)) for r in t[across & ~only].tolist()}
+    assert whole & {tuple(sorted(r)) for r in t2[keep].tolist()}
 
 
 # -- the model file and the CLI ---------------------------------------------------------------

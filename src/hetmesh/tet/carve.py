@@ -673,20 +673,21 @@ def snapped_levels(prim, k: int, p, t, snap: float) -> np.ndarray:
     return ls
 
 
-def split_across(p, t, refs, ls, bit: int):
+def split_across(p, t, refs, ls, bit: int, only=None):
     """The tetrahedra with vertices on both sides of the zero set of the vertex values
-    ``ls`` (MMG's level-set split leaves one whole where it finds an edge's split invalid)
-    split exactly: edges across it bisected at the zero of ``ls`` along them (on a plane its
-    exact crossing), a set with no two in one tetrahedron at a time
-    (:func:`hetmesh.tet.refine.select_edges`), until none is across; the pieces' references
-    get the side bits of :func:`hetmesh.tet.general.split_bits` (``bit``) by their
-    vertices' signs. ``(points, tets, refs, ls)``, the new points after ``p`` with ``ls``
-    0."""
+    ``ls`` (MMG's level-set split leaves one whole where it finds an edge's split invalid),
+    of those where ``only (M,) bool`` (default all), split exactly: edges across it
+    bisected at the zero of ``ls`` along them (on a plane its exact crossing), a set with no
+    two in one tetrahedron at a time (:func:`hetmesh.tet.refine.select_edges`), until none
+    is across; the pieces' references get the side bits of
+    :func:`hetmesh.tet.general.split_bits` (``bit``) by their vertices' signs. ``(points,
+    tets, refs, ls)``, the new points after ``p`` with ``ls`` 0."""
     minus, plus = 2 ** (2 * bit + 1), 2 ** (2 * bit + 2)
     touched = np.zeros(len(t), dtype=bool)
+    only = np.ones(len(t), dtype=bool) if only is None else np.asarray(only, dtype=bool)
     for _ in range(64):
         v = ls[t]
-        across = (v > 0).any(axis=1) & (v < 0).any(axis=1)
+        across = (v > 0).any(axis=1) & (v < 0).any(axis=1) & only
         if not across.any():
             break
         # an edge across has the largest jump of the signs (2) in its tetrahedron
@@ -696,7 +697,7 @@ def split_across(p, t, refs, ls, bit: int):
         new = p[e[:, 0]] + w * (p[e[:, 1]] - p[e[:, 0]])
         p, t, parent = bisect_edges(p, t, e, new, with_parents=True)
         ls = np.r_[ls, np.zeros(len(e))]
-        refs, touched = refs[parent], touched[parent] | across[parent]
+        refs, touched, only = refs[parent], touched[parent] | across[parent], only[parent]
     else:
         raise MeshingError("tetrahedra across a subtracted primitive's surface could not be "
                            "split along it")
@@ -725,7 +726,14 @@ def _carve_one(prim, p, t, chord: float):
             continue
         n = len(p)
         p, t, refs = _cut(p, t, ls, refs, k)
-        p, t, refs, _ = split_across(p, t, refs, np.r_[ls, np.zeros(len(p) - n)], k)
+        # those left across it outside another of the primitive's surfaces are outside it
+        # whatever their side of this one: they stay whole
+        outside = np.zeros(len(t), dtype=bool)
+        for j, other in enumerate(prim.surfaces):
+            if j != k:
+                outside |= (other.g(p)[t] >= 0).all(axis=1)
+        p, t, refs, _ = split_across(p, t, refs, np.r_[ls, np.zeros(len(p) - n)], k,
+                                     ~outside)
         cut.append(k)
     inside = np.ones(len(t), dtype=bool)
     for k in cut:
