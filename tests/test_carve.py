@@ -259,6 +259,124 @@ def test_revolution_with_a_blind_bore_and_a_pit(tmp_path):
     assert (res.points[res.faces[names == "start"]][..., 1] == 0).all()
 
 
+LID_POCKET = """
+[solid]
+type = "revolution"
+
+[domain.outer]
+start = [0, 0]
+path = [{ to = [2, 0], name = "base" }, { to = [2, 2], name = "rim" },
+        { to = [0, 2], name = "lid" }, { to = [0, 0], name = "axis" }]
+
+[[solid.subtract]]
+type = "box"
+min = [-0.4, -0.4, 1.5]
+max = [0.4, 0.4, 3]
+name = "pocket"
+""" + MATERIAL.format(formula="(x*x + y*y) / 4")
+
+
+@pytest.mark.slow
+def test_box_pocket_in_the_lid_of_a_full_revolution(tmp_path):
+    """A cylinder (the full turn of a 2 x 2 profile on the axis) with a square pocket from
+    z = 1.5 up through its lid: the pocket's five planes exact, its corners where they meet
+    (the earlier cuts' vertices on the pocket's vertical edges near z = 1.5 are not both
+    snapped onto it), the rim within the chord tolerance, the volume against its closed
+    form."""
+    m = load_model(write(tmp_path, LID_POCKET))
+    assert isinstance(m.solid, CarvedSolid)
+    assert m.solid.face_names == ("base", "rim", "lid", "pocket.xmin", "pocket.xmax",
+                                  "pocket.ymin", "pocket.ymax", "pocket.zmin")
+    d0 = 0.3
+    res = mesh_model(m, d0)
+    assert res.info["placement"] == "carved"
+    bnd = check_tet_mesh(res.points, res.tets, lambda p: (p[:, 0] ** 2 + p[:, 1] ** 2) / 4,
+                         d0)
+    diam = m.solid.diameter
+    chord = 2e-3 * diam
+    planes = [((0, 0, 1), 0.0), ((0, 0, 1), 2.0), ((0, 0, 1), 1.5), ((1, 0, 0), -0.4),
+              ((1, 0, 0), 0.4), ((0, 1, 0), -0.4), ((0, 1, 0), 0.4)]
+    area = check_boundary(res.points, bnd, planes, [cylinder_z(0, 0, 2)], chord, diam)
+    exact = 8 * math.pi - 0.64 * 0.5
+    assert abs(volume(res.points, res.tets) - exact) <= chord * area.sum()
+    names = np.array(res.face_names)[res.face_markers - 1]
+    q = res.points[res.faces]
+    assert (q[names == "pocket.zmin"][..., 2] == 1.5).all()
+    z = q[names == "pocket.zmin"]
+    bottom = 0.5 * np.abs(np.cross(z[:, 1] - z[:, 0], z[:, 2] - z[:, 0])[:, 2]).sum()
+    assert bottom == pytest.approx(0.64, rel=1e-12)  # the pocket's bottom, all of it
+    for c in ((-0.4, -0.4), (0.4, -0.4), (-0.4, 0.4), (0.4, 0.4)):  # one vertex per corner
+        assert (np.abs(res.points - (c[0], c[1], 1.5)).max(axis=1) == 0).sum() == 1
+
+
+def test_snap_spares_a_vertex_that_would_meet_another():
+    """Two vertices on a line across a plane, both within the snap distance of it (one an
+    earlier cut's): snapping both would move them onto one point, so the farther keeps its
+    value; a vertex alone near the plane is snapped; a vertex off the face's extent is
+    snapped whatever it crushes (it is never moved)."""
+    from hetmesh.tet.carve import snapped_levels
+    from hetmesh.tet.implicit import Box
+    prim = Box((-1.0, -1.0, 1.0), (1.0, 1.0, 3.0), ("a", "b", "c", "d", "e", "f"))
+    k = 4  # the plane z = 1 (zmin)
+    p = np.array([[0.0, 0.0, 0.99], [0.0, 0.0, 0.97], [1.0, 0.0, 0.5], [0.0, 1.0, 0.5],
+                  [-1.0, -1.0, 0.5], [0.5, 0.5, 1.5], [0.3, 0.0, 0.995]])
+    t = np.array([[0, 1, 2, 3], [0, 2, 3, 5]])
+    # orient positively
+    a, b, c, d = (p[t[:, i]] for i in range(4))
+    neg = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)) < 0
+    t[neg] = t[neg][:, [1, 0, 2, 3]]
+    ls = snapped_levels(prim, k, p, t, 0.05)
+    g = prim.surfaces[k].g(p)
+    assert ls[0] == 0.0 and ls[1] == g[1] != 0.0  # the nearer snapped, the farther kept
+    assert ls[6] == 0.0 and ls[5] == g[5] and ls[2] == g[2]
+    far = Box((5.0, 5.0, 1.0), (6.0, 6.0, 3.0), ("a", "b", "c", "d", "e", "f"))
+    assert (snapped_levels(far, k, p, t, 0.05)[[0, 1, 6]] == 0).all()
+
+
+def test_tetrahedra_left_across_a_plane_are_split_along_it():
+    """Tetrahedra that a level-set cut left whole across a plane (here all of a Delaunay
+    mesh of a 3 x 3 x 3 grid, as if MMG had split none) are split exactly along it: none is
+    across afterwards, every piece's recorded side is its centroid's, the volume is kept,
+    every volume positive and every inner face shared by two tetrahedra."""
+    from scipy.spatial import Delaunay
+
+    from hetmesh.tet.carve import split_across
+    g = np.linspace(0.0, 1.0, 3)
+    p = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    p = p + np.random.default_rng(0).uniform(-0.05, 0.05, p.shape) * (p % 1 != 0)
+    t = Delaunay(p).simplices.astype(np.int64)
+    a, b, c, d = (p[t[:, i]] for i in range(4))
+    neg = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)) < 0
+    t[neg] = t[neg][:, [1, 0, 2, 3]]
+    normal, offset = np.array([0.3, -0.2, 1.0]) / math.sqrt(1.13), 0.41
+    ls = p @ normal - offset
+    # the sides MMG records (bit 1: 8 on the negative side, 16 on the positive one), none
+    # for the tetrahedra left across
+    v = ls[t]
+    refs = 1 + np.where((v < 0).all(axis=1), 8, 0) + np.where((v > 0).all(axis=1), 16, 0)
+    across = (v < 0).any(axis=1) & (v > 0).any(axis=1)
+    assert across.sum() >= 10
+    q, tt, rr, lq = split_across(p, t, refs, ls, 1)
+    assert len(tt) > len(t) and np.allclose(lq, q @ normal - offset, atol=1e-12)
+    v = lq[tt]
+    assert not ((v > 1e-12).any(axis=1) & (v < -1e-12).any(axis=1)).any()
+    side = q[tt].mean(axis=1) @ normal - offset
+    assert (((rr & 8) > 0) != ((rr & 16) > 0)).all()
+    assert ((rr & 8) > 0)[side < 0].all() and ((rr & 16) > 0)[side > 0].all()
+    assert volume(q, tt) == pytest.approx(volume(p, t), rel=1e-12)
+    check_tet_mesh(q, tt, lambda x: np.zeros(len(x)), 0.5)
+    # only those asked for: the others across stay whole (an edge of both is split in both)
+    only = p[t].mean(axis=1)[:, 0] < 0.5
+    assert (across & only).any() and (across & ~only).any()
+    q2, t2, _, l2 = split_across(p, t, refs, ls, 1, only)
+    v2 = l2[t2]
+    assert ((v2 > 0).any(axis=1) & (v2 < 0).any(axis=1)).any()
+    check_tet_mesh(q2, t2, lambda x: np.zeros(len(x)), 0.5)
+    keep = (t2 < len(p)).all(axis=1)  # the tetrahedra not touched
+    whole = {tuple(sorted(r)) for r in t[across & ~only].tolist()}
+    assert whole & {tuple(sorted(r)) for r in t2[keep].tolist()}
+
+
 # -- the model file and the CLI ---------------------------------------------------------------
 
 PLATE = """

@@ -90,12 +90,13 @@ from .general import (
 from .implicit import Box, Cylinder, Sphere, Surface, surface_sample
 from .mesher import CHORD, TetResult
 from .quality import min_dihedral
-from .refine import repair
+from .refine import bisect_edges, repair, select_edges
 from .solid import Prism, grid_inside
 from .verify import raise_problems
 
 __all__ = ["CarvedSolid", "FlatSurface", "MeridianSurface", "generate_carved",
-           "carved_problems", "carve_refusal"]
+           "carved_problems", "carve_refusal", "carved_start", "uniform_carved_at",
+           "snapped_levels", "split_across", "remove_slivers"]
 
 log = logging.getLogger(__name__)
 
@@ -109,6 +110,11 @@ PRE_ROUNDS = 3
 RESOLVED = 2.5
 #: vertices within this x the primitive's size of a surface count as on it in its cut
 SNAP = 0.1
+#: a vertex within SNAP of a surface is not snapped onto it where that would leave a
+#: tetrahedron at this fraction of its volume or less (:func:`snapped_levels`)
+CRUSH = 0.02
+#: ... checked for the vertices within this x the primitive's size of the face's extent
+SNAP_REACH = 1.0
 #: tetrahedra with a smaller dihedral angle (degrees) lose a short boundary edge at the end
 SLIVER_COLLAPSE = 5.0
 #: tetrahedra with a smaller dihedral angle (degrees) are flipped at the end where that helps
@@ -624,21 +630,110 @@ def _cut(p, t, ls, refs, bit: int):
     return q, tt, rr
 
 
+def snapped_levels(prim, k: int, p, t, snap: float) -> np.ndarray:
+    """The level set of surface ``k`` of ``prim`` at the vertices ``p`` for its cut: its
+    function ``g``, zero within ``snap`` of the surface (such a vertex counts as on it, and
+    the projection moves it there later), except where that move would crush a tetrahedron:
+    vertices near the face's extent (within :data:`SNAP_REACH` x ``snap / SNAP``) are moved
+    onto the surface (one step along the gradient, exact for a plane) and in every
+    tetrahedron whose volume falls to :data:`CRUSH` x its own or less (two vertices on a
+    line across the surface, one of them an earlier cut's, would meet), the snapped vertex
+    farthest from the surface keeps its value, until none does. MMG's cut then splits the
+    edges from that vertex across the surface exactly."""
+    s = prim.surfaces[k]
+    g = s.g(p)
+    snapped = np.abs(g) < snap
+    ls = np.where(snapped, 0.0, g)
+    near = snapped & prim.on_face(k, p, SNAP_REACH * snap / SNAP)
+    if not near.any():
+        return ls
+    grad = s.grad(p[near])
+    q = p.copy()
+    q[near] = p[near] - (g[near] / np.maximum((grad * grad).sum(axis=1), 1e-300))[:, None] * grad
+    ts = t[near[t].any(axis=1)]
+    v0 = simplex_measures(p, ts)
+    dist = np.abs(g)
+    while True:
+        bad = simplex_measures(q, ts) <= CRUSH * v0
+        if not bad.any():
+            break
+        tb = ts[bad]
+        far_d = np.where(near[tb], dist[tb], -1.0)
+        has = far_d.max(axis=1) >= 0
+        if not has.any():
+            break
+        far = tb[has, np.argmax(far_d[has], axis=1)]
+        near[far] = False
+        ls[far] = g[far]
+        q[far] = p[far]
+    kept = snapped & (ls != 0)
+    if kept.any():
+        log.debug("cut of surface %d: %d vertices near it not snapped (they would crush a "
+                  "tetrahedron)", k, int(kept.sum()))
+    return ls
+
+
+def split_across(p, t, refs, ls, bit: int, only=None):
+    """The tetrahedra with vertices on both sides of the zero set of the vertex values
+    ``ls`` (MMG's level-set split leaves one whole where it finds an edge's split invalid),
+    of those where ``only (M,) bool`` (default all), split exactly: edges across it
+    bisected at the zero of ``ls`` along them (on a plane its exact crossing), a set with no
+    two in one tetrahedron at a time (:func:`hetmesh.tet.refine.select_edges`), until none
+    is across; the pieces' references get the side bits of
+    :func:`hetmesh.tet.general.split_bits` (``bit``) by their vertices' signs. ``(points,
+    tets, refs, ls)``, the new points after ``p`` with ``ls`` 0."""
+    minus, plus = 2 ** (2 * bit + 1), 2 ** (2 * bit + 2)
+    touched = np.zeros(len(t), dtype=bool)
+    only = np.ones(len(t), dtype=bool) if only is None else np.asarray(only, dtype=bool)
+    for _ in range(64):
+        v = ls[t]
+        across = (v > 0).any(axis=1) & (v < 0).any(axis=1) & only
+        if not across.any():
+            break
+        # an edge across has the largest jump of the signs (2) in its tetrahedron
+        e = select_edges(t, np.sign(ls), across)
+        a, b = ls[e[:, 0]], ls[e[:, 1]]
+        w = (a / (a - b))[:, None]
+        new = p[e[:, 0]] + w * (p[e[:, 1]] - p[e[:, 0]])
+        p, t, parent = bisect_edges(p, t, e, new, with_parents=True)
+        ls = np.r_[ls, np.zeros(len(e))]
+        refs, touched, only = refs[parent], touched[parent] | across[parent], only[parent]
+    else:
+        raise MeshingError("tetrahedra across a subtracted primitive's surface could not be "
+                           "split along it")
+    if touched.any():
+        v = ls[t[touched]]
+        side = np.where((v < 0).any(axis=1), minus, np.where((v > 0).any(axis=1), plus, 0))
+        r = refs[touched]
+        refs[touched] = np.where(side > 0, (r & ~(minus | plus)) | side, r)
+        log.debug("level-set cut %d: %d tetrahedra left across it, split", bit,
+                  int(touched.sum()))
+    return p, t, refs, ls
+
+
 def _carve_one(prim, p, t, chord: float):
     """The tetrahedra of ``(p, t)`` cut along the surfaces of one subtracted primitive,
     those inside it dropped (the points not used any more stay). The vertices within
-    :data:`SNAP` x :func:`feature_size` of a surface count as on it."""
+    :data:`SNAP` x :func:`feature_size` of a surface count as on it (:func:`snapped_levels`)."""
     snap = SNAP * feature_size(prim, chord)
     refs = np.ones(len(t), dtype=np.int64)
     cut = []
-    for k, s in enumerate(prim.surfaces):
-        ls = s.g(p)
-        ls[np.abs(ls) < snap] = 0.0
+    for k in range(len(prim.surfaces)):
+        ls = snapped_levels(prim, k, p, t, snap)
         if (ls >= 0).all():  # the mesh is outside this surface: nothing to drop
             return p, t
         if (ls < 0).all():  # the mesh is on the primitive's side of it
             continue
+        n = len(p)
         p, t, refs = _cut(p, t, ls, refs, k)
+        # those left across it outside another of the primitive's surfaces are outside it
+        # whatever their side of this one: they stay whole
+        outside = np.zeros(len(t), dtype=bool)
+        for j, other in enumerate(prim.surfaces):
+            if j != k:
+                outside |= (other.g(p)[t] >= 0).all(axis=1)
+        p, t, refs, _ = split_across(p, t, refs, np.r_[ls, np.zeros(len(p) - n)], k,
+                                     ~outside)
         cut.append(k)
     inside = np.ones(len(t), dtype=bool)
     for k in cut:
@@ -793,28 +888,29 @@ def remesh_carved(solid: CarvedSolid, p, t, faces, markers, size, hausd: float, 
     return p, t, faces, markers, h_mmg[kept]
 
 
-def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, *,
-                    seed: int = 0, chord_tol: float | None = None,
-                    max_elements: int | None = None, max_size: float | None = None,
-                    check: bool = True) -> TetResult:
-    """Tetrahedralise a :class:`CarvedSolid` with every element's delta below ``threshold``
-    (see the module docstring); ``section_model`` the 2D model (``hetmesh.io.model.Model``)
-    of its section or profile with :func:`section_field`, which the background is swept
-    from; ``chord_tol`` absolute (default :data:`CHORD` x the diameter), ``max_size`` the
-    longest edge."""
-    t0 = time.perf_counter()
+def _limits(solid: CarvedSolid, chord_tol: float | None, max_size: float | None):
+    """``(chord, h_max, h_min)``: the absolute chord tolerance (default :data:`CHORD` x the
+    diameter), the longest edge (a quarter of the largest extent, at most ``max_size``) and
+    the shortest size (1e-4 x the diameter)."""
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     lo, hi = solid.bounds
     h_max = float((hi - lo).max()) / 4
     if max_size is not None:
         h_max = min(h_max, float(max_size))
-    h_min = 1e-4 * solid.diameter
+    return chord, h_max, 1e-4 * solid.diameter
+
+
+def carved_start(solid: CarvedSolid, field, threshold: float, section_model, *,
+                 seed: int = 0, chord_tol: float | None = None, max_size: float | None = None,
+                 max_elements: int | None = None):
+    """Steps 1-3 of :func:`generate_carved` (the module docstring): the swept background
+    remeshed towards the primitives' sizes, cut along their surfaces, its boundary named and
+    projected: ``(points, tets, faces, markers, background remeshings)``, ``markers`` the
+    face indices (from 0). The adaptive mesh and the uniform baseline
+    (:func:`uniform_carved_at`) both start from it."""
+    chord, h_max, h_min = _limits(solid, chord_tol, max_size)
     hausd = 0.5 * chord
     exact = 1e-9 * solid.diameter
-    est = estimate_solid(solid, field, threshold)
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
-                          f"but the budget is {max_elements}")
     # 1. the swept background, remeshed towards the primitives' sizes
     p, t = _background(solid, field, threshold, section_model, seed, chord, max_size,
                        max_elements)
@@ -843,6 +939,84 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
                            f"solid after the cuts (e.g. at ({c[0]:.6g}, {c[1]:.6g}, "
                            f"{c[2]:.6g}))")
     p, t, faces, markers, _ = project_untangled(solid, p, t, faces, markers)
+    return p, t, faces, markers, pre
+
+
+def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, start, *,
+                      chord_tol: float | None = None,
+                      max_elements: int | None = None) -> TetResult:
+    """The uniform baseline's mesh of a carved solid at size ``h``, not verified: the
+    adaptive mesher's start (:func:`carved_start`, shared by every size) remeshed once by
+    MMG to the constant size ``h``, capped on curved faces for the chord tolerance
+    ``chord_tol`` (absolute; default :data:`CHORD` x the diameter) exactly as in the
+    adaptive mesh, the boundary vertices projected onto their faces with the untangling of
+    :func:`remesh_carved`, the slivers removed as in the adaptive mesh
+    (:func:`remove_slivers`, no new tetrahedron reaching ``threshold``). Nothing is refined
+    for the material: ``delta`` over the vertices is measured, ``threshold`` recorded but
+    not required (:func:`hetmesh.tet.uniform.uniform_model` searches ``h`` and verifies
+    the result with :func:`carved_problems`)."""
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    est = 6.0 * math.sqrt(2.0) * solid.volume / h ** 3  # regular tetrahedra of edge h
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
+                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    p, t, faces, markers = start[:4]
+    size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
+    p, t, faces, markers, _ = remesh_carved(solid, p, t, faces, markers, size, 0.5 * chord,
+                                            max(0.25 * h, 10 * chord))
+    if max_elements is not None and len(t) > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, field.composition(p),
+                                                threshold)
+    info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
+            "chord_tol": chord, "composition": comp}
+    return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
+                     (markers + 1).astype(np.int32), tuple(solid.face_names),
+                     delta_vertices(comp, t), float(threshold), info)
+
+
+def remove_slivers(p, t, faces, markers, comp, threshold: float):
+    """Step 6 of :func:`generate_carved`: short boundary edges of the tetrahedra under
+    :data:`SLIVER_COLLAPSE` degrees collapsed (:func:`collapse_boundary`), then flips and
+    edge removals of those under :data:`SLIVER` inside the solid
+    (:func:`hetmesh.tet.flips.flip_improve`), every new tetrahedron's delta over the vertex
+    compositions ``comp`` below ``threshold``: ``(points, tets, faces, markers, comp)``, the
+    vertices no longer used removed."""
+    t, faces, markers = collapse_boundary(p, t, faces, markers,
+                                          lambda tets: delta_vertices(comp, tets) < threshold,
+                                          bound=SLIVER_COLLAPSE)
+    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
+                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
+                        bound=SLIVER)
+    used = unique(t)
+    if len(used) < len(p):  # vertices collapsed by the flips
+        remap = np.full(len(p), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    return p, t, faces, markers, comp
+
+
+def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, *,
+                    seed: int = 0, chord_tol: float | None = None,
+                    max_elements: int | None = None, max_size: float | None = None,
+                    check: bool = True) -> TetResult:
+    """Tetrahedralise a :class:`CarvedSolid` with every element's delta below ``threshold``
+    (see the module docstring); ``section_model`` the 2D model (``hetmesh.io.model.Model``)
+    of its section or profile with :func:`section_field`, which the background is swept
+    from; ``chord_tol`` absolute (default :data:`CHORD` x the diameter), ``max_size`` the
+    longest edge."""
+    t0 = time.perf_counter()
+    chord, h_max, h_min = _limits(solid, chord_tol, max_size)
+    hausd = 0.5 * chord
+    est = estimate_solid(solid, field, threshold)
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
+                          f"but the budget is {max_elements}")
+    # 1. the swept background, remeshed towards the primitives' sizes; 2. cuts; 3. faces
+    p, t, faces, markers, pre = carved_start(solid, field, threshold, section_model,
+                                             seed=seed, chord_tol=chord, max_size=max_size,
+                                             max_elements=max_elements)
     # 4. size rounds
     size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
                       chord)
@@ -886,19 +1060,8 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
     else:
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
-    # 6. slivers: short boundary edges collapsed, flips and edge removals inside the solid,
-    # all keeping delta below delta_0
-    t, faces, markers = collapse_boundary(p, t, faces, markers,
-                                          lambda tets: delta_vertices(comp, tets) < threshold,
-                                          bound=SLIVER_COLLAPSE)
-    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
-                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
-                        bound=SLIVER)
-    used = unique(t)
-    if len(used) < len(p):  # vertices collapsed by the flips
-        remap = np.full(len(p), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    # 6. slivers
+    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, comp, threshold)
     delta = delta_vertices(comp, t)
     info = {"placement": "carved", "estimate": est, "background_rounds": pre, "size_rounds": rounds,
             "repair_passes": passes, "composition": comp, "time_place": t_place,

@@ -22,7 +22,10 @@ adaptive mesher of that kind uses, nothing refined for the material: a solid of 
 Hausdorff distance half the chord tolerance) and the non-zero voxels of a mask
 (:func:`uniform_mask_at`: the cut voxel-centre grid, MMG's Hausdorff distance in voxels,
 the optimisation pass and the polish of the adaptive mask mesh, every phase of a label
-volume kept). Each is verified as the adaptive mesh of that kind is.
+volume kept) and an extrusion or a revolution minus primitives
+(:func:`hetmesh.tet.carve.uniform_carved_at`: the cut and projected swept background, the
+slivers removed as in the adaptive mesh). Each is verified as the adaptive mesh of that
+kind is.
 
 >>> import hetmesh
 >>> r = uniform_tets(hetmesh.load_model(hetmesh.example_path("unit_cube")), 0.3)
@@ -45,6 +48,7 @@ from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
 from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
+from .carve import CarvedSolid, carved_problems, carved_start, section_field, uniform_carved_at
 from .columns import strip_faces, strip_problems, swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
@@ -438,13 +442,31 @@ def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
     return res  # not reached: raise_problems raised
 
 
+def _remeshed_start(model, threshold: float, chord: float, max_elements: int | None):
+    """The adaptive mesher's start that every size of a remeshed solid's search shares: a
+    surface's first volume mesh (:func:`surface_start`), a mask's cut voxel-centre grid
+    (:func:`hetmesh.tet.masked.cut_mask`), a carved solid's cut and projected background
+    (:func:`hetmesh.tet.carve.carved_start`, swept from its section's or profile's field)."""
+    from ..io.model import Model
+
+    solid = model.solid
+    if isinstance(solid, SurfaceSolid):
+        return surface_start(solid, chord)
+    if isinstance(solid, VoxelSolid):
+        return cut_mask(solid)
+    section = Model(name=model.name, domain=solid.domain,
+                    material=section_field(solid, model.material))
+    return carved_start(solid, model.material, threshold, section, chord_tol=chord,
+                        max_elements=max_elements)
+
+
 def _start_size(model, threshold: float) -> float:
     """delta_0 / max |grad f| over sample points (the size at which a straight edge along
     the steepest gradient varies by delta_0), at most a quarter of the section's diameter."""
     solid = model.solid
     p = solid.sample(16)
     g = np.linalg.norm(model.material.gradient(p), axis=2).max() if len(p) else 0.0
-    if isinstance(solid, (CSGSolid, SurfaceSolid, VoxelSolid)):
+    if isinstance(solid, (CSGSolid, SurfaceSolid, VoxelSolid, CarvedSolid)):
         cap = solid.diameter / 4
     else:
         cap = (solid.profile if _is_revolution(solid) else solid.section).diameter / 4
@@ -473,16 +495,18 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     t0 = time.perf_counter()
     threshold = float(threshold)
     solid = model.solid
-    remeshed = isinstance(solid, (CSGSolid, SurfaceSolid, VoxelSolid))
+    remeshed = isinstance(solid, (CSGSolid, SurfaceSolid, VoxelSolid, CarvedSolid))
     if not (remeshed or _is_revolution(solid) or hasattr(solid, "section")):
         raise OptionError(f"a uniform mesh of {model.name} is not available: the uniform "
                           f"tetrahedral mesher takes prisms (boxes, cylinders, extrusions), "
-                          f"solids of revolution, solids of primitives, triangulated "
-                          f"surfaces and voxel masks, not {type(solid).__name__}")
+                          f"solids of revolution, solids of primitives, extrusions and "
+                          f"revolutions minus primitives, triangulated surfaces and voxel "
+                          f"masks, not {type(solid).__name__}")
     sections = None if remeshed else SectionMesher(model, threshold,
                                                    section_chord(solid, chord_tol))
     chord_abs = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
-    start = None  # the remeshed start of a surface or a mask, shared by every size
+    start = None  # the remeshed start of a surface, a mask or a carved solid, shared by
+    # every size
     h = _start_size(model, threshold)
     best: TetResult | None = None
     best_count = 0
@@ -491,10 +515,9 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     swept = _is_swept(model)
     for i in range(tries):
         try:
-            if start is None and isinstance(solid, (SurfaceSolid, VoxelSolid)):
+            if start is None and isinstance(solid, (SurfaceSolid, VoxelSolid, CarvedSolid)):
                 _check_estimate(solid, h, max_elements)  # the budget before the start
-                start = surface_start(solid, chord_abs) if isinstance(solid, SurfaceSolid) \
-                    else cut_mask(solid)
+                start = _remeshed_start(model, threshold, chord_abs, max_elements)
             if isinstance(solid, SurfaceSolid):
                 res = uniform_surface_at(solid, model.material, h, threshold,
                                          chord_tol=chord_abs, max_elements=max_elements,
@@ -502,6 +525,9 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
             elif isinstance(solid, VoxelSolid):
                 res = uniform_mask_at(solid, model.material, h, threshold,
                                       max_elements=max_elements, start=start)
+            elif isinstance(solid, CarvedSolid):
+                res = uniform_carved_at(solid, model.material, h, threshold, start,
+                                        chord_tol=chord_abs, max_elements=max_elements)
             elif remeshed:
                 res = uniform_solid_at(solid, model.material, h, threshold,
                                        chord_tol=chord_abs, max_elements=max_elements)
@@ -558,6 +584,8 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
         raise_problems(surface_problems(best, solid, model.material, chord_abs))
     elif isinstance(solid, VoxelSolid):
         raise_problems(mask_problems(best, solid, model.material))
+    elif isinstance(solid, CarvedSolid):
+        raise_problems(carved_problems(best, solid, model.material, chord_abs))
     elif remeshed:
         raise_problems(solid_problems(best, solid, None, chord_abs))
     else:
