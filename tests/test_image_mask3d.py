@@ -303,3 +303,16 @@ def test_voxel_claims_hold_on_the_cut_and_catch_a_moved_boundary():
     q[top, 2] += 0.5
     probs = voxel_claims(s, q, t, phase)
     assert any("half a voxel" in m for m in probs), probs
+
+
+def test_the_stages_count_the_tetrahedra_of_every_step(tmp_path):
+    """``info["stages"]``: the tetrahedra after each size round, the optimisation pass and
+    the repair, in that order; the last is the mesh's (a mask has no reconnection)."""
+    r = mesh_model(load_model(write_model(tmp_path)), 0.3)
+    stages = r.info["stages"]
+    names = list(stages)
+    rounds = [f"size round {k}" for k in range(r.info["size_rounds"] + 1)]
+    assert names == rounds + ["optimisation", "repair"], names
+    assert all(v > 0 for v in stages.values())
+    assert stages["repair"] == len(r.tets)
+    assert stages["repair"] >= stages["optimisation"]  # the repair only bisects

@@ -472,6 +472,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
     from .sampling import repair_sampled, sampled_delta
 
     size = size_field(field, p, threshold, h_max, h_min)
+    stages = {}  # the tetrahedra after each step
     rounds = 0
     n_bad = None
     kept = False  # the surface kept as it is from this round on (MMG's nosurf)
@@ -493,6 +494,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         bad = phase_delta(field, p, t, phase, comp) >= threshold
         log.info("mask: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
+        stages[f"size round {rounds}"] = len(t)
         # with the surface kept, no fewer violators than the round before: the rounds
         # have stalled (a violator whose varying edge lies on the surface stays); the
         # repair bisects the rest
@@ -506,6 +508,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
     p, t, phase, _ = remesh_phases(p, t, phase, None, hausd, optim=1, nosurf=1)
     comp = field.composition(p)
     log.info("mask: optimisation pass: %d tetrahedra", len(t))
+    stages["optimisation"] = len(t)
     if solid.n_phases == 1:
         p, t, comp, delta, passes = repair(p, t, field, threshold, comp=comp,
                                            max_elements=max_elements)
@@ -514,11 +517,13 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         rep = repair_sampled(p, t, comp, field, threshold, sampled_delta(field, "vertices"),
                              max_elements=max_elements, regions=phase)
         p, t, phase, comp, passes = rep.points, rep.tets, rep.regions, rep.comp, rep.passes
+    stages["repair"] = len(t)
     p, comp = polish(p, t, phase, comp, field, threshold)
     if solid.n_phases > 1:
         p, t, phase, comp = reconnect(p, t, phase, comp, field, threshold)
+        stages["reconnection"] = len(t)
     delta = phase_delta(field, p, t, phase, comp)
-    return p, t, phase, comp, delta, rounds, passes
+    return p, t, phase, comp, delta, rounds, passes, stages
 
 
 def voxel_claims(solid: VoxelSolid, p, t, phase) -> list[str]:
@@ -716,8 +721,10 @@ def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0
                     max_size: float | None = None, check: bool = True) -> TetResult:
     """Tetrahedralise a :class:`VoxelSolid` with every element's delta below ``threshold``
     (see the module docstring); with phases, every tetrahedron in one phase
-    (``info["regions"]``). ``seed`` and ``chord_tol`` are accepted for the common
-    interface: the boundary follows the voxels (:data:`HAUSD`) and MMG is deterministic."""
+    (``info["regions"]``). ``info["stages"]``: the tetrahedra after each step (``size round
+    k``, ``optimisation``, ``repair``, with phases ``reconnection``) of the Hausdorff
+    distance that held. ``seed`` and ``chord_tol`` are accepted for the common interface:
+    the boundary follows the voxels (:data:`HAUSD`) and MMG is deterministic."""
     t0 = time.perf_counter()
     est = estimate_masked(solid, field, threshold)
     if max_elements is not None and est > max_elements:
@@ -733,13 +740,14 @@ def generate_masked(solid: VoxelSolid, field, threshold: float, *, seed: int = 0
     probs: list[str] = []
     for hv in HAUSD:
         hausd = hv * solid.voxel
-        p, t, phase, comp, delta, rounds, passes = _mesh(
+        p, t, phase, comp, delta, rounds, passes, stages = _mesh(
             solid, field, threshold, p0, t0_, ph0, hausd, h_max, h_min, max_elements)
         t = t.astype(np.int32)
         faces, _ = boundary_faces(t)
         markers = solid.classify_faces(p[faces])
         info = {"placement": "mask", "size_rounds": rounds, "repair_passes": passes,
                 "estimate": est, "composition": comp, "hausd": hausd, "h_max": h_max,
+                "stages": stages,
                 "time_place": time.perf_counter() - t0}
         if solid.n_phases > 1:
             info["regions"] = phase.astype(np.int32)
