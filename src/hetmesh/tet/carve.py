@@ -70,6 +70,7 @@ from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
+from .collapse import collapse_edges
 from .faces import boundary_faces
 from .flips import flip_improve
 from .general import (
@@ -820,62 +821,12 @@ def project_untangled(solid: CarvedSolid, p, t, faces, markers, ok=None):
 
 def collapse_boundary(q, t, faces, markers, ok=None, bound: float = 0.0):
     """Boundary edges of the tetrahedra whose :func:`_signed_angle` is at most ``bound``
-    (0: those without a positive volume) collapsed, the shortest first: an end ``v`` onto
-    the other ``w`` where ``w`` lies on every face ``v`` lies on (the triangles moved stay on
-    their faces), and only if the tetrahedra changed have positive volumes and a better
-    smallest angle than before, the boundary is the faces' triangles less the two collapsed
-    and they pass ``ok(tets)``: ``(tets, faces, markers)``."""
-    n = len(q)
-    inc = [set() for _ in range(n)]
-    for (a, b, c), m in zip(faces.tolist(), markers.tolist()):
-        inc[a].add(m)
-        inc[b].add(m)
-        inc[c].add(m)
-    tried = set()
-    for _ in range(64):
-        ang = _signed_angle(q, t)
-        bad = np.flatnonzero(ang <= bound)
-        if not len(bad):
-            break
-        pairs = {(int(min(a, b)), int(max(a, b))) for tt in t[bad]
-                 for i, a in enumerate(tt) for b in tt[i + 1:] if inc[a] and inc[b]}
-        pairs = sorted(pairs - tried,
-                       key=lambda e: (float(np.linalg.norm(q[e[0]] - q[e[1]])), e))
-        done = False
-        for a, b in pairs:
-            tried.add((a, b))
-            for v, w in ((a, b), (b, a)):
-                if not inc[v] <= inc[w]:
-                    continue
-                star = (t == v).any(axis=1)
-                gone = star & (t == w).any(axis=1)
-                nt = np.where(t == v, w, t)[~gone]
-                ch = np.flatnonzero(star[~gone])
-                if not len(ch):
-                    continue
-                new = _signed_angle(q, nt[ch])
-                if (new <= 0).any() or new.min() <= ang[star].min():
-                    continue
-                if ok is not None and not ok(nt[ch]).all():
-                    continue
-                fgone = (faces == v).any(axis=1) & (faces == w).any(axis=1)
-                nf = np.where(faces == v, w, faces)[~fgone]
-                bf, _ = boundary_faces(nt)
-                if len(bf) != len(nf) or not np.array_equal(
-                        np.unique(np.sort(bf, axis=1), axis=0),
-                        np.unique(np.sort(nf, axis=1), axis=0)):
-                    continue
-                t, faces, markers = nt, nf, markers[~fgone]
-                for m in inc[v]:
-                    inc[w].add(m)
-                inc[v] = set()
-                done = True
-                break
-            if done:
-                break
-        if not done:
-            break
-    return t, faces, markers
+    (0: those without a positive volume) collapsed, the shortest first
+    (:func:`hetmesh.tet.collapse.collapse_edges`: the triangles moved stay on their faces,
+    the tetrahedra changed get a better smallest angle and pass ``ok(tets)``):
+    ``(tets, faces, markers)``."""
+    return collapse_edges(q, t, faces, markers, angle=_signed_angle,
+                          bad=lambda ang: ang <= bound, ok=ok)
 
 
 def remesh_carved(solid: CarvedSolid, p, t, faces, markers, size, hausd: float, tol: float):

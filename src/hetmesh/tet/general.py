@@ -59,6 +59,7 @@ from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
+from .collapse import collapse_edges, face_incidence, same_boundary
 from .faces import boundary_faces
 from .flips import flip_improve
 from .implicit import CSGSolid
@@ -478,11 +479,7 @@ def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
     keep it. ``(points, tets, faces, markers, kept, number collapsed)``, the vertices no
     longer used dropped (``kept``: the indices of those kept)."""
     n = len(p)
-    inc = [set() for _ in range(n)]
-    for (a, b, c), m in zip(faces.tolist(), markers.tolist()):
-        inc[a].add(m)
-        inc[b].add(m)
-        inc[c].add(m)
+    inc = face_incidence(n, faces, markers)
     left = np.linalg.norm(want - p, axis=1)
     stuck = np.flatnonzero(left > short)
     stuck = stuck[np.lexsort((stuck, -left[stuck]))]
@@ -502,10 +499,7 @@ def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
                 continue
             fgone = (faces == v).any(axis=1) & (faces == w).any(axis=1)
             nf = np.where(faces == v, w, faces)[~fgone]
-            bf, _ = boundary_faces(nt)
-            if len(bf) != len(nf) or not np.array_equal(
-                    np.unique(np.sort(bf, axis=1), axis=0),
-                    np.unique(np.sort(nf, axis=1), axis=0)):
+            if not same_boundary(nt, nf):
                 continue
             t, faces, markers = nt, nf, markers[~fgone]
             inc[w] |= inc[v]
@@ -523,70 +517,25 @@ def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
 def _collapse_slivers(solid, p, t, faces, markers, ok, chord: float):
     """On the path for meeting curved faces, the edges between boundary vertices of the
     tetrahedra under :data:`COLLAPSE_BOUND` degrees (where the size rounds left tiny
-    tetrahedra along the curve) collapsed, the shortest first: an end ``v`` onto the other
-    ``w`` where ``w`` lies on every face ``v`` lies on, and only if the tetrahedra changed
-    have positive volumes, a larger smallest dihedral angle than before and pass
-    ``ok(tets)`` (delta), the boundary is the faces' triangles less the two collapsed, and
-    the triangles at ``w`` pass the verification's checks of their faces (curved ones within
-    ``chord``, planes exactly) and of the edges between meeting faces
-    (:func:`edge_problems`). ``(tets, faces, markers)``; the points are not changed."""
-    n = len(p)
-    inc = [set() for _ in range(n)]
-    for (a, b, c), m in zip(faces.tolist(), markers.tolist()):
-        inc[a].add(m)
-        inc[b].add(m)
-        inc[c].add(m)
+    tetrahedra along the curve) collapsed, the shortest first
+    (:func:`hetmesh.tet.collapse.collapse_edges`, at most :data:`COLLAPSE_PASSES`): only
+    if the tetrahedra changed get a larger smallest dihedral angle and pass ``ok(tets)``
+    (delta), and the triangles at the kept end pass the verification's checks of their
+    faces (curved ones within ``chord``, planes exactly) and of the edges between meeting
+    faces (:func:`edge_problems`). ``(tets, faces, markers)``; the points are not changed."""
     exact = 1e-9 * solid.diameter
-    tried = set()
-    for _ in range(COLLAPSE_PASSES):
-        ang = min_dihedral(p, t)
-        bad = np.flatnonzero(ang < COLLAPSE_BOUND)
-        if not len(bad):
-            break
-        pairs = {(int(min(a, b)), int(max(a, b))) for tt in t[bad].tolist()
-                 for i, a in enumerate(tt) for b in tt[i + 1:] if inc[a] and inc[b]}
-        pairs = sorted(pairs - tried,
-                       key=lambda e: (float(np.linalg.norm(p[e[0]] - p[e[1]])), e))
-        done = False
-        for a, b in pairs:
-            tried.add((a, b))
-            for v, w in ((a, b), (b, a)):
-                if not inc[v] <= inc[w]:
-                    continue
-                star = (t == v).any(axis=1)
-                gone = star & (t == w).any(axis=1)
-                nt = np.where(t == v, w, t)[~gone]
-                ch = np.flatnonzero(star[~gone])
-                if not len(ch) or (simplex_measures(p, nt[ch]) <= 0).any():
-                    continue
-                if min_dihedral(p, nt[ch]).min() <= ang[star].min() or not ok(nt[ch]).all():
-                    continue
-                fgone = (faces == v).any(axis=1) & (faces == w).any(axis=1)
-                nf = np.where(faces == v, w, faces)[~fgone]
-                nm = markers[~fgone]
-                at = (nf == w).any(axis=1)
-                if any(float(np.abs(solid.faces[fi].surface.g(np.einsum(
-                        "bk,nkd->nbd", _BARY, p[nf[at & (nm == fi)]]).reshape(-1, 3))).max(
-                            initial=0.0)) > (chord if solid.faces[fi].surface.curved
-                                             else exact) for fi in unique(nm[at]).tolist()):
-                    continue
-                if edge_problems(p, nf[at], nm[at], solid, chord):
-                    continue
-                bf, _ = boundary_faces(nt)
-                if len(bf) != len(nf) or not np.array_equal(
-                        np.unique(np.sort(bf, axis=1), axis=0),
-                        np.unique(np.sort(nf, axis=1), axis=0)):
-                    continue
-                t, faces, markers = nt, nf, nm
-                inc[w] |= inc[v]
-                inc[v] = set()
-                done = True
-                break
-            if done:
-                break
-        if not done:
-            break
-    return t, faces, markers
+
+    def keeps(f, m) -> bool:
+        for fi in unique(m).tolist():
+            surf = solid.faces[fi].surface
+            at = np.einsum("bk,nkd->nbd", _BARY, p[f[m == fi]]).reshape(-1, 3)
+            if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved else exact):
+                return False
+        return not edge_problems(p, f, m, solid, chord)
+
+    return collapse_edges(p, t, faces, markers, angle=min_dihedral,
+                          bad=lambda ang: ang < COLLAPSE_BOUND, ok=ok, keeps=keeps,
+                          passes=COLLAPSE_PASSES)
 
 
 def _boundary(solid, p, t, tol):
