@@ -26,10 +26,10 @@ curvature on: Mesh.MeshSizeFromCurvature = 12 elements per 2 pi) at delta_0 = 0.
 
 With ``--surface`` (or ``--surface-only``), also examples/l_bracket.toml (an L bracket given
 by its STL surface, 412 triangles, metal fraction ((x + z)/50)^2) at delta_0 = 0.2, 0.1 and
-0.05, meshed by the surface mesher (hetmesh.tet.surface_mesh: Gmsh fills the surface, MMG
-remeshes), and Gmsh alone on the same STL (its surfaces classified at 40 degrees and
-reparametrised, the size field s delta_0 / |grad f| capped at 10, s lowered likewise) at
-0.2 and 0.1.
+0.05, meshed by the surface mesher (hetmesh.tet.surface_mesh: the builtin fill of
+hetmesh.tet.surface_fill, then MMG remeshes), and Gmsh alone on the same STL (its
+surfaces classified at 40 degrees and reparametrised, the size field s delta_0 / |grad f|
+capped at 10, s lowered likewise) at 0.2 and 0.1.
 
 Targets (PASS/FAIL columns): Ne <= 2.0 x N_iso3, min dihedral >= 10, 1st percentile >= 20,
 mean radius ratio >= 0.75. Every ratio is taken against peers measured in the same run.

@@ -16,10 +16,8 @@ from hetmesh.errors import BudgetError, OptionError
 from hetmesh.io.model import load_model
 from hetmesh.tet.carve import CarvedSolid
 from hetmesh.tet.implicit import CSGSolid
-from hetmesh.tet.surface import SurfaceSolid
 from hetmesh.tet.uniform import uniform_model, uniform_tets_at
 from test_tet import check_tet_mesh
-from test_tet_surface import need_gmsh
 
 #: every example solid at a threshold coarse enough for a fast test
 COARSE = {"unit_cube": 0.3, "graded_rod": 0.3, "graded_cylinder": 0.3, "graded_ring": 0.3,
@@ -60,8 +58,6 @@ def test_every_3d_example_gets_a_verified_uniform_mesh(path):
     model = load_model(path)
     d0 = COARSE.get(model.name, 0.4)
     primitives = isinstance(model.solid, (CSGSolid, CarvedSolid))
-    if isinstance(model.solid, SurfaceSolid):
-        need_gmsh()  # the surface's first volume mesh
     r = hetmesh.uniform(model, d0)
     m = r.mesh
     assert m.dim == 3 and m.cell_type == "tetra" and m.problems() == []

@@ -20,7 +20,7 @@ from hetmesh.tet.surface import SurfaceSolid
 from hetmesh.tet.uniform import uniform_mask_at, uniform_model
 from test_image_mask3d import N, boundary_triangles, check_mesh, part_mask, write_model
 from test_tet import check_tet_mesh
-from test_tet_surface import MODEL, cube, need_gmsh, write_surface
+from test_tet_surface import MODEL, cube, write_surface
 
 #: the surface test solid: a 2 mm cube, metal fraction (x / 2)^3 (steep at x = 2)
 SIDE = 2.0
@@ -43,7 +43,6 @@ def _longest_edge(p, t):
 
 
 def test_a_surface_solid_gets_a_verified_uniform_mesh(tmp_path):
-    need_gmsh()
     m = cube_model(tmp_path)
     assert isinstance(m.solid, SurfaceSolid)
     d0 = 0.35

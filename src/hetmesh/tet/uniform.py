@@ -18,7 +18,7 @@ instead of running on.
 Solids with no section to sweep are remeshed by MMG to the one size ``h`` from the start the
 adaptive mesher of that kind uses, nothing refined for the material: a solid of primitives
 (:func:`hetmesh.tet.general.uniform_solid_at`), a closed triangulated surface
-(:func:`uniform_surface_at`: Gmsh's first volume mesh of the input triangles, MMG's
+(:func:`uniform_surface_at`: the builtin fill of the input triangles, MMG's
 Hausdorff distance half the chord tolerance) and the non-zero voxels of a mask
 (:func:`uniform_mask_at`: the cut voxel-centre grid, MMG's Hausdorff distance in voxels,
 the optimisation pass and the polish of the adaptive mask mesh, every phase of a label
@@ -364,7 +364,7 @@ def _check_count(h: float, n: int, max_elements: int | None) -> None:
 
 def surface_start(solid: SurfaceSolid, chord: float):
     """The adaptive surface mesher's start (:func:`hetmesh.tet.surface_mesh.initial_volume`:
-    Gmsh's volume mesh of the input triangles) with its boundary triangles and their faces:
+    the builtin fill of the input triangles) with its boundary triangles and their faces:
     ``(points, tets, faces, markers)``, shared by every size of the search."""
     from .surface_mesh import initial_volume, keep_markers
 
