@@ -121,6 +121,7 @@ def test_label_volume_phases_are_embedded(tmp_path):
     assert len(set(r.info["regions"].tolist())) == 3
 
 
+@pytest.mark.slow  # 48 s: the default suite stays under 10 minutes
 def test_label_volume_extent_and_cli(tmp_path):
     from hetmesh.io.read import read_mesh
 
