@@ -64,6 +64,7 @@ from .errors import HetmeshError, MeshingError, OptionError
 from .metrics import MeshStats, signed_area2
 from .options import DEFAULT_CHORD_TOL
 from .topology import unique
+from .tri.grading import graded
 
 __all__ = ["PEERS", "PeerMesh", "PeerResult", "PeerUnavailable", "available", "size_field",
            "gmsh_mesh", "triangle_mesh", "peer_statistics", "search",
@@ -168,7 +169,7 @@ class SizeField:
         if chord_tol is not None:
             H = _chord_capped(H, X, Y, model.domain, chord_tol * model.domain.diameter)
         if gradation:
-            H = _graded(H, float(X[0, 1] - X[0, 0]), float(gradation))
+            H = graded(H, float(X[0, 1] - X[0, 0]), float(gradation))
         self.grid = (X, Y, H)
         from scipy.interpolate import RegularGridInterpolator
 
@@ -208,21 +209,6 @@ def size_field(model, threshold: float, s: float = 1.0, **options) -> SizeField:
     >>> h(np.array([[1.0, 2.0]]))              # doctest: +SKIP
     """
     return SizeField(model, threshold, s, **options)
-
-
-def _graded(H: np.ndarray, step: float, beta: float) -> np.ndarray:
-    """``min_y H(y) + beta |x - y|_1`` over the grid: exact for the L1 distance, as one 1-D
-    pass along each axis (each pass: two running minima of ``H -+ beta x``)."""
-    return _graded_1d(_graded_1d(H, step, beta, axis=1), step, beta, axis=0)
-
-
-def _graded_1d(H: np.ndarray, step: float, beta: float, axis: int) -> np.ndarray:
-    n = H.shape[axis]
-    ramp = beta * step * np.arange(n, dtype=float)
-    ramp = ramp[None, :] if axis == 1 else ramp[:, None]
-    fwd = np.minimum.accumulate(H - ramp, axis=axis) + ramp
-    bwd = np.flip(np.minimum.accumulate(np.flip(H + ramp, axis=axis), axis=axis), axis=axis) - ramp
-    return np.minimum(fwd, bwd)
 
 
 def gradient_grid_of(model, cells: int = GRID_CELLS):
