@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeometryError
-from ..topology import unique
+from ..topology import component_labels, unique
 
 __all__ = ["SurfaceSolid", "read_surface", "check_surface", "ray_parity", "distance_within",
            "distance_to_triangles", "closest_on_triangles", "SURFACE_FACE"]
@@ -179,8 +179,6 @@ def feature_patches(V: np.ndarray, F: np.ndarray, angle: float) -> np.ndarray:
     """The patch of each triangle ``(m,)``: triangles joined across the edges where their
     normals are at most ``angle`` degrees apart (the others are sharp edges), numbered in
     the order of their first triangle."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     nrm = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
     e = np.sort(_edges(F), axis=1)
@@ -188,13 +186,7 @@ def feature_patches(V: np.ndarray, F: np.ndarray, angle: float) -> np.ndarray:
     order = np.argsort(e[:, 0] * len(V) + e[:, 1], kind="stable")
     a, b = tri[order[0::2]], tri[order[1::2]]  # every edge in exactly two triangles
     smooth = np.einsum("ij,ij->i", nrm[a], nrm[b]) >= np.cos(np.radians(angle))
-    g = coo_matrix((np.ones(int(smooth.sum())), (a[smooth], b[smooth])),
-                   shape=(len(F), len(F)))
-    _, lab = connected_components(g, directed=False)
-    first = np.full(lab.max() + 1, len(F))
-    np.minimum.at(first, lab, np.arange(len(F)))
-    rank = np.argsort(np.argsort(first, kind="stable"), kind="stable")
-    return rank[lab]
+    return component_labels(len(F), a[smooth], b[smooth])
 
 
 def _orient3d(a, b, c, d):

@@ -65,7 +65,9 @@ import logging
 import numpy as np
 
 from ..errors import MeshingError
-from ..topology import unique
+from ..mesh import simplex_measures
+from ..topology import component_labels, unique
+from .quality import TET_FACES
 
 __all__ = ["fill_surface", "lift", "facets", "regular_flips", "regular_tets",
            "missing_triangles", "split_triangles", "inside_tets", "MAX_ROUNDS", "MAX_GROWTH",
@@ -88,22 +90,12 @@ SEED = 0
 #: inner points, 23,354 with these; docs/tet.md)
 INNER = 1.5
 
-#: the faces of a positively oriented tetrahedron, each turned outward (as
-#: :data:`hetmesh.tet.quality.TET_FACES`)
-_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
-
-
 def _keys(tri: np.ndarray, n: int) -> np.ndarray:
     """One int64 per unoriented triangle of points numbered below ``n``."""
     s = np.sort(np.asarray(tri, dtype=np.int64), axis=1)
     if n >= 2_000_000:  # n^3 would overflow int64
         raise MeshingError(f"the surface fill reached {n} points, more than it can number")
     return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
-
-
-def _volumes(p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    a = p[t[:, 0]]
-    return np.einsum("ij,ij->i", p[t[:, 1]] - a, np.cross(p[t[:, 2]] - a, p[t[:, 3]] - a)) / 6
 
 
 def lift(p: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:
@@ -136,7 +128,7 @@ def regular_tets(p: np.ndarray, q: np.ndarray, w: np.ndarray) -> np.ndarray:
     # the lower facets (outward normal pointing down), none with the point on top
     lower = (hull.equations[:, 3] < 0) & (hull.simplices < n).all(axis=1)
     t = hull.simplices[lower].astype(np.int64)
-    vol = _volumes(q, t)
+    vol = simplex_measures(q, t)
     # four points in one plane: a piece of a vertical facet (a face of the convex hull,
     # lifted), which Qhull may report tilted by rounding where it merged it with a
     # neighbour; left out, and the tiling checked below
@@ -163,7 +155,7 @@ def _check_tiling(p, q, t, vol) -> None:
         raise MeshingError(f"Qhull's tetrahedra leave out {int((~seen).sum())} points of the "
                            f"surface, e.g. ({p[i, 0]:.6g}, {p[i, 1]:.6g}, {p[i, 2]:.6g})")
     hull = ConvexHull(q)
-    f = t[:, _FACES].reshape(-1, 3)
+    f = t[:, TET_FACES].reshape(-1, 3)
     _, first, cnt = unique(_keys(f, n), return_index=True, return_counts=True)
     once = q[f[first[cnt == 1]]]
     area = 0.5 * float(np.linalg.norm(np.cross(once[:, 1] - once[:, 0],
@@ -181,7 +173,7 @@ def _check_tiling(p, q, t, vol) -> None:
 
 def missing_triangles(tri: np.ndarray, t: np.ndarray, n: int) -> np.ndarray:
     """Whether each triangle ``(k, 3)`` is not a face of the tetrahedra ``t``."""
-    faces = np.sort(_keys(t[:, _FACES].reshape(-1, 3), n))
+    faces = np.sort(_keys(t[:, TET_FACES].reshape(-1, 3), n))
     k = _keys(tri, n)
     pos = np.minimum(np.searchsorted(faces, k), len(faces) - 1)
     return faces[pos] != k
@@ -253,8 +245,6 @@ def facets(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The planar facet of each input triangle ``(m,)``: triangles joined across an edge
     where the fourth point lies in the other's plane (within 1e-12 of the surface's extent;
     their normals then agree), numbered in the order of their first triangles."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     n = len(V)
     nrm = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
@@ -269,12 +259,7 @@ def facets(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     da = np.abs(np.einsum("ij,ij->i", V[opp[b]] - V[F[ta, 0]], nrm[ta]))
     db = np.abs(np.einsum("ij,ij->i", V[opp[a]] - V[F[tb, 0]], nrm[tb]))
     flat = (da <= tol) & (db <= tol)
-    g = coo_matrix((np.ones(int(flat.sum())), (ta[flat], tb[flat])), shape=(len(F), len(F)))
-    _, lab = connected_components(g, directed=False)
-    first = np.full(lab.max() + 1, len(F))
-    np.minimum.at(first, lab, np.arange(len(F)))
-    rank = np.argsort(np.argsort(first, kind="stable"), kind="stable")
-    return rank[lab]
+    return component_labels(len(F), ta[flat], tb[flat])
 
 
 def regular_flips(q: np.ndarray, w: np.ndarray, tri: np.ndarray, facet: np.ndarray,
@@ -338,7 +323,7 @@ def inside_tets(t: np.ndarray, tri: np.ndarray, n: int) -> np.ndarray:
     ``tri``, every triangle a face of ``t`` (module docstring, step 3)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
-    f = t[:, _FACES].reshape(-1, 3)
+    f = t[:, TET_FACES].reshape(-1, 3)
     key = _keys(f, n)
     surf = _keys(tri, n)
     on = np.isin(key, surf)
@@ -457,9 +442,9 @@ def _check_boundary(p, t, tri, name: str) -> None:
     """:class:`MeshingError` unless the tetrahedra are positive and their boundary faces
     are the triangles ``tri``, each with its orientation."""
     n = len(p)
-    if not len(t) or (_volumes(p, t) <= 0).any():
+    if not len(t) or (simplex_measures(p, t) <= 0).any():
         raise MeshingError(f"the surface fill of {name} made no tetrahedra or flat ones")
-    f = t[:, _FACES].reshape(-1, 3)
+    f = t[:, TET_FACES].reshape(-1, 3)
     _, inv, cnt = unique(_keys(f, n), return_inverse=True, return_counts=True)
     bnd = f[cnt[inv.reshape(-1)] == 1]
     kb, ks = _keys(bnd, n), _keys(tri, n)
