@@ -1,5 +1,5 @@
 """The uniform baseline of extrusions and revolutions minus primitives
-(:func:`hetmesh.tet.carve.uniform_carved_at` through :func:`hetmesh.tet.uniform.uniform_model`):
+(:func:`hetmesh.tet.uniform.uniform_carved_at` through :func:`hetmesh.tet.uniform.uniform_model`):
 checked from the arrays alone (validity, conformity, delta from the formula, the planar faces
 exact and the curved ones within the chord tolerance, the volume against its closed form)."""
 

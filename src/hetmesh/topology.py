@@ -10,7 +10,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 __all__ = ["unique", "edge_keys", "edge_order", "any_corner", "index_columns", "points_near",
-           "component_labels", "SCREEN_CELLS"]
+           "component_labels", "drop_unused", "SCREEN_CELLS"]
 
 
 def edge_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -105,6 +105,25 @@ def component_labels(m: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     rank = np.empty(len(first), np.int64)
     rank[np.argsort(first)] = np.arange(len(first))
     return rank[inv]
+
+
+def drop_unused(points: np.ndarray, cells: np.ndarray, *index_arrays, point_data=()):
+    """The points that ``cells`` uses, with ``cells`` and every array of ``index_arrays``
+    (boundary faces, say) renumbered to them and every array of ``point_data`` (one row
+    per point) kept alike: ``(points, cells, *index_arrays, *point_data, used)``, ``used``
+    the indices kept (all of them where every point is used: then nothing is copied).
+
+    >>> p, c, used = drop_unused(np.zeros((4, 2)), np.array([[0, 2, 3]]))
+    >>> len(p), c.tolist(), used.tolist()
+    (3, [[0, 1, 2]], [0, 2, 3])
+    """
+    used = unique(cells)
+    if len(used) == len(points):
+        return (points, cells, *index_arrays, *point_data, used)
+    remap = np.full(len(points), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return (points[used], remap[cells], *(remap[a] for a in index_arrays),
+            *(d[used] for d in point_data), used)
 
 
 def unique(a, return_index: bool = False, return_inverse: bool = False,

@@ -72,7 +72,7 @@ from ..metrics import delta_vertices
 from ..topology import unique
 from .collapse import collapse_edges
 from .faces import boundary_faces
-from .flips import flip_improve
+from .flips import flip_improve, flip_slivers
 from .general import (
     REPROJECT,
     SIZE_ROUNDS,
@@ -96,7 +96,7 @@ from .solid import Prism, grid_inside
 from .verify import raise_problems
 
 __all__ = ["CarvedSolid", "FlatSurface", "MeridianSurface", "generate_carved",
-           "carved_problems", "carve_refusal", "carved_start", "uniform_carved_at",
+           "carved_problems", "carve_refusal", "carved_start",
            "snapped_levels", "split_across", "remove_slivers"]
 
 log = logging.getLogger(__name__)
@@ -893,58 +893,17 @@ def carved_start(solid: CarvedSolid, field, threshold: float, section_model, *,
     return p, t, faces, markers, pre
 
 
-def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, start, *,
-                      chord_tol: float | None = None,
-                      max_elements: int | None = None) -> TetResult:
-    """The uniform baseline's mesh of a carved solid at size ``h``, not verified: the
-    adaptive mesher's start (:func:`carved_start`, shared by every size) remeshed once by
-    MMG to the constant size ``h``, capped on curved faces for the chord tolerance
-    ``chord_tol`` (absolute; default :data:`CHORD` x the diameter) exactly as in the
-    adaptive mesh, the boundary vertices projected onto their faces with the untangling of
-    :func:`remesh_carved`, the slivers removed as in the adaptive mesh
-    (:func:`remove_slivers`, no new tetrahedron reaching ``threshold``). Nothing is refined
-    for the material: ``delta`` over the vertices is measured, ``threshold`` recorded but
-    not required (:func:`hetmesh.tet.uniform.uniform_model` searches ``h`` and verifies
-    the result with :func:`carved_problems`)."""
-    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
-    est = 6.0 * math.sqrt(2.0) * solid.volume / h ** 3  # regular tetrahedra of edge h
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
-                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
-    p, t, faces, markers = start[:4]
-    size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
-    p, t, faces, markers, _ = remesh_carved(solid, p, t, faces, markers, size, 0.5 * chord,
-                                            max(0.25 * h, 10 * chord))
-    if max_elements is not None and len(t) > max_elements:
-        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
-                          f"over the budget of {max_elements:,}")
-    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, field.composition(p),
-                                                threshold)
-    info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
-            "chord_tol": chord, "composition": comp}
-    return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
-                     (markers + 1).astype(np.int32), tuple(solid.face_names),
-                     delta_vertices(comp, t), float(threshold), info)
-
-
 def remove_slivers(p, t, faces, markers, comp, threshold: float):
     """Step 6 of :func:`generate_carved`: short boundary edges of the tetrahedra under
     :data:`SLIVER_COLLAPSE` degrees collapsed (:func:`collapse_boundary`), then flips and
     edge removals of those under :data:`SLIVER` inside the solid
-    (:func:`hetmesh.tet.flips.flip_improve`), every new tetrahedron's delta over the vertex
+    (:func:`hetmesh.tet.flips.flip_slivers`), every new tetrahedron's delta over the vertex
     compositions ``comp`` below ``threshold``: ``(points, tets, faces, markers, comp)``, the
     vertices no longer used removed."""
     t, faces, markers = collapse_boundary(p, t, faces, markers,
                                           lambda tets: delta_vertices(comp, tets) < threshold,
                                           bound=SLIVER_COLLAPSE)
-    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
-                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
-                        bound=SLIVER)
-    used = unique(t)
-    if len(used) < len(p):  # vertices collapsed by the flips
-        remap = np.full(len(p), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    p, t, faces, comp = flip_slivers(p, t, faces, comp, threshold, SLIVER)
     return p, t, faces, markers, comp
 
 

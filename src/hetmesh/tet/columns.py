@@ -58,7 +58,8 @@ from ..topology import edge_keys, unique
 from .quality import TET_FACES
 
 __all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", "strip_faces",
-           "strip_problems", "swept_interfaces", "carriers", "carried_strip_faces"]
+           "strip_problems", "face_multiplicity", "swept_interfaces", "carriers",
+           "carried_strip_faces"]
 
 
 def vertex_size(points2: np.ndarray, tris2: np.ndarray) -> np.ndarray:
@@ -185,17 +186,25 @@ def strip_faces(tets: np.ndarray, column: np.ndarray, edges: np.ndarray
     return f[keep], order[pos[keep]]
 
 
-def strip_problems(tets: np.ndarray, faces: np.ndarray) -> list[str]:
-    """One line if some interface triangles ``faces (F, 3)`` are not faces of exactly two
-    tetrahedra (an interface inside the mesh separates two of them), else nothing."""
+def face_multiplicity(tets: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Of how many tetrahedra each triangle of ``faces (F, 3)`` is a face ``(F,)``: 1 on
+    the boundary, 2 inside the mesh."""
     if not len(faces):
-        return []
+        return np.zeros(0, dtype=np.int64)
     f = np.sort(np.asarray(tets, dtype=np.int64)[:, TET_FACES].reshape(-1, 3), axis=1)
     g = np.sort(np.asarray(faces, dtype=np.int64), axis=1)
     n = np.int64(max(int(f.max()), int(g.max())) + 1)
     fk = np.sort((f[:, 0] * n + f[:, 1]) * n + f[:, 2])
     gk = (g[:, 0] * n + g[:, 1]) * n + g[:, 2]
-    held = np.searchsorted(fk, gk, side="right") - np.searchsorted(fk, gk)
+    return np.searchsorted(fk, gk, side="right") - np.searchsorted(fk, gk)
+
+
+def strip_problems(tets: np.ndarray, faces: np.ndarray) -> list[str]:
+    """One line if some interface triangles ``faces (F, 3)`` are not faces of exactly two
+    tetrahedra (an interface inside the mesh separates two of them), else nothing."""
+    if not len(faces):
+        return []
+    held = face_multiplicity(tets, faces)
     bad = held != 2
     if not bad.any():
         return []

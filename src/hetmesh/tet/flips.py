@@ -38,10 +38,11 @@ from functools import cache
 
 import numpy as np
 
-from ..metrics import tet_volumes6
+from ..metrics import delta_vertices, tet_volumes6
+from ..topology import drop_unused
 from .quality import min_dihedral
 
-__all__ = ["flip_improve", "ring_triangulations", "MAX_RING"]
+__all__ = ["flip_improve", "flip_slivers", "ring_triangulations", "MAX_RING"]
 
 #: the largest ring of an edge that is removed
 MAX_RING = 7
@@ -201,6 +202,18 @@ def _candidates(t: np.ndarray, phase: np.ndarray, index: _Index, k: int,
                 continue
             keep = ~(rows == v).any(axis=1)
             yield star, np.where(rows[keep] == m, v, rows[keep])[None]
+
+
+def flip_slivers(p: np.ndarray, t: np.ndarray, faces: np.ndarray, comp: np.ndarray,
+                 threshold: float, bound: float):
+    """:func:`flip_improve` of the tetrahedra under ``bound`` degrees of a one-phase mesh,
+    every new tetrahedron's delta over the vertex compositions ``comp`` below ``threshold``
+    (the boundary triangles ``faces`` stay), the vertices no longer used dropped:
+    ``(points, tets, faces, comp)``."""
+    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
+                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
+                        bound=bound)
+    return drop_unused(p, t, faces, point_data=(comp,))[:4]
 
 
 def flip_improve(p: np.ndarray, t: np.ndarray, phase: np.ndarray,

@@ -58,10 +58,10 @@ import numpy as np
 from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
-from ..topology import unique
+from ..topology import drop_unused, unique
 from .collapse import collapse_edges, face_incidence, same_boundary
 from .faces import boundary_faces
-from .flips import flip_improve
+from .flips import flip_slivers
 from .implicit import CSGSolid
 from .mesher import CHORD, TetResult
 from .quality import min_dihedral
@@ -506,11 +506,9 @@ def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
             inc[v] = set()
             done += 1
             break
-    used = unique(t)
-    if done:
-        remap = np.full(n, -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        p, t, faces = p[used], remap[t], remap[faces]
+    if not done:
+        return p, t, faces, markers, unique(t), 0
+    p, t, faces, used = drop_unused(p, t, faces)
     return p, t, faces, markers, used, done
 
 
@@ -838,17 +836,10 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
 def _flip_meeting(p, t, faces, comp, threshold: float):
     """On the path for meeting curved faces, the tetrahedra under :data:`FLIP_BOUND`
     degrees (the shallow ones along the edge where the faces meet) improved by flips, edge
-    removals and collapses of inner vertices (:func:`hetmesh.tet.flips.flip_improve`), each
+    removals and collapses of inner vertices (:func:`hetmesh.tet.flips.flip_slivers`), each
     new tetrahedron's delta below ``threshold``; the boundary triangles stay. ``(points,
     tets, faces, composition, delta)``, the vertices no longer used dropped."""
-    t, _ = flip_improve(p, t, np.zeros(len(t), dtype=np.int64),
-                        lambda tets, phase: delta_vertices(comp, tets) < threshold,
-                        bound=FLIP_BOUND)
-    used = unique(t)
-    if len(used) < len(p):
-        remap = np.full(len(p), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        p, t, faces, comp = p[used], remap[t], remap[faces], comp[used]
+    p, t, faces, comp = flip_slivers(p, t, faces, comp, threshold, FLIP_BOUND)
     return p, t, faces, comp, delta_vertices(comp, t)
 
 

@@ -23,7 +23,7 @@ Hausdorff distance half the chord tolerance) and the non-zero voxels of a mask
 (:func:`uniform_mask_at`: the cut voxel-centre grid, MMG's Hausdorff distance in voxels,
 the optimisation pass and the polish of the adaptive mask mesh, every phase of a label
 volume kept) and an extrusion or a revolution minus primitives
-(:func:`hetmesh.tet.carve.uniform_carved_at`: the cut and projected swept background, the
+(:func:`uniform_carved_at`: the cut and projected swept background, the
 slivers removed as in the adaptive mesh). Each is verified as the adaptive mesh of that
 kind is.
 
@@ -48,12 +48,20 @@ from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
 from .api import DEFAULT_MAX_ELEMENTS, result_statistics, to_mesh
-from .carve import CarvedSolid, carved_problems, carved_start, section_field, uniform_carved_at
-from .columns import strip_faces, strip_problems, swept_interfaces
+from .carve import (
+    CarvedSolid,
+    carved_problems,
+    carved_start,
+    remesh_carved,
+    remove_slivers,
+    section_field,
+)
+from .columns import face_multiplicity, strip_faces, strip_problems, swept_interfaces
 from .extrude import prism_tets
 from .faces import boundary_faces
 from .general import (
     HGRAD,
+    cap_curved,
     mmg_remesh,
     solid_problems,
     uniform_solid_at,
@@ -283,10 +291,7 @@ def verify_uniform(res: TetResult, solid) -> None:
                              res.info["section_chord_tol"] * (1 + 1e-6))
     # the recorded faces off the boundary (interfaces, discontinuities): each a face of two
     # tetrahedra, as the adaptive sweeps check theirs
-    f = np.sort(np.asarray(res.faces, dtype=np.int64), axis=1)
-    b = np.sort(boundary_faces(res.tets)[0].astype(np.int64), axis=1)
-    n = np.int64(max(int(f.max(initial=0)), int(b.max(initial=0))) + 1)
-    inner = ~np.isin((f[:, 0] * n + f[:, 1]) * n + f[:, 2], (b[:, 0] * n + b[:, 1]) * n + b[:, 2])
+    inner = face_multiplicity(res.tets, res.faces) != 1
     probs = probs + strip_problems(res.tets, res.faces[inner])
     if probs:
         raise VerificationError(f"uniform tetrahedral mesh verification failed: {probs[0]}"
@@ -440,6 +445,36 @@ def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
                  "less", h, hv, probs[0])
     raise_problems(probs)
     return res  # not reached: raise_problems raised
+
+
+def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, start, *,
+                      chord_tol: float | None = None,
+                      max_elements: int | None = None) -> TetResult:
+    """The uniform baseline's mesh of a carved solid at size ``h``, not verified: the
+    adaptive mesher's start (:func:`hetmesh.tet.carve.carved_start`, shared by every size)
+    remeshed once by MMG to the constant size ``h``, capped on curved faces for the chord
+    tolerance ``chord_tol`` (absolute; default :data:`CHORD` x the
+    diameter) exactly as in the adaptive mesh, the boundary vertices projected onto their
+    faces with the untangling of :func:`hetmesh.tet.carve.remesh_carved`, the slivers
+    removed as in the adaptive mesh (:func:`hetmesh.tet.carve.remove_slivers`, no new
+    tetrahedron reaching ``threshold``). Nothing is refined for the material: ``delta``
+    over the vertices is measured, ``threshold`` recorded but not required
+    (:func:`uniform_model` searches ``h`` and verifies the result with
+    :func:`hetmesh.tet.carve.carved_problems`)."""
+    chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
+    est = _check_estimate(solid, h, max_elements)
+    p, t, faces, markers = start[:4]
+    size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
+    p, t, faces, markers, _ = remesh_carved(solid, p, t, faces, markers, size, 0.5 * chord,
+                                            max(0.25 * h, 10 * chord))
+    _check_count(h, len(t), max_elements)
+    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, field.composition(p),
+                                                threshold)
+    info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
+            "chord_tol": chord, "composition": comp}
+    return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
+                     (markers + 1).astype(np.int32), tuple(solid.face_names),
+                     delta_vertices(comp, t), float(threshold), info)
 
 
 def _remeshed_start(model, threshold: float, chord: float, max_elements: int | None):
