@@ -27,6 +27,7 @@ import numpy as np
 
 import hetmesh
 from hetmesh.io.model import load_model
+from hetmesh.testing import torus_surface
 from hetmesh.tet.general import orient_positive
 from hetmesh.tet.quality import quality_summary
 from hetmesh.tet.surface_mesh import generate_surface, initial_volume
@@ -96,28 +97,12 @@ def gmsh_fill(solid) -> tuple[np.ndarray, np.ndarray]:
     return p[used], orient_positive(p[used], remap[t])
 
 
-def torus(R=20.0, r=8.0, nu=96, nv=32):
-    """The torus' points and outward triangles (each quadrilateral of the grid split in
-    two)."""
-    u = 2 * np.pi * np.arange(nu) / nu
-    v = 2 * np.pi * np.arange(nv) / nv
-    U, W = np.meshgrid(u, v, indexing="ij")
-    V = np.c_[((R + r * np.cos(W)) * np.cos(U)).ravel(),
-              ((R + r * np.cos(W)) * np.sin(U)).ravel(), (r * np.sin(W)).ravel()]
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    a = (i * nv + j).ravel()
-    b = (((i + 1) % nu) * nv + j).ravel()
-    c = (((i + 1) % nu) * nv + (j + 1) % nv).ravel()
-    d = (i * nv + (j + 1) % nv).ravel()
-    return V, np.r_[np.c_[a, b, c], np.c_[a, c, d]]
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     a = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp())
-    V, F = torus()
+    V, F = torus_surface(20.0, 8.0, 96, 32)
     meshio.write_points_cells(str(tmp / "torus.stl"), V, [("triangle", F)])
     (tmp / "torus.toml").write_text(TORUS)
     models = {"l_bracket": load_model(hetmesh.example_path("l_bracket")),

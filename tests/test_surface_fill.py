@@ -16,6 +16,7 @@ import pytest
 import hetmesh
 from hetmesh.errors import MeshingError
 from hetmesh.io.model import load_model
+from hetmesh.testing import torus_surface
 from hetmesh.tet import surface_fill
 from hetmesh.tet.api import mesh_model
 from hetmesh.tet.surface import SurfaceSolid
@@ -55,18 +56,6 @@ def icosphere(levels: int):
     return V, F
 
 
-def torus(R=1.0, r=0.3, nu=24, nv=8):
-    u = 2 * np.pi * np.arange(nu) / nu
-    v = 2 * np.pi * np.arange(nv) / nv
-    U, W = np.meshgrid(u, v, indexing="ij")
-    V = np.c_[((R + r * np.cos(W)) * np.cos(U)).ravel(),
-              ((R + r * np.cos(W)) * np.sin(U)).ravel(), (r * np.sin(W)).ravel()]
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    a, b = (i * nv + j).ravel(), (((i + 1) % nu) * nv + j).ravel()
-    c, d = (((i + 1) % nu) * nv + (j + 1) % nv).ravel(), (i * nv + (j + 1) % nv).ravel()
-    return V, np.r_[np.c_[a, b, c], np.c_[a, c, d]]
-
-
 def hollow_cube():
     V, F = cube(0.0, 2.0)
     Vi, Fi = cube(0.5, 1.5, inward=True)
@@ -100,7 +89,7 @@ def l_bracket():
 SURFACES = {"tetrahedron": lambda: (np.eye(4, 3, -1), np.array([[0, 2, 1], [0, 1, 3],
                                                                    [0, 3, 2], [1, 2, 3]])),
             "hollow_cube": hollow_cube, "wedge": wedge, "icosphere": lambda: icosphere(3),
-            "schonhardt": schonhardt, "torus": torus, "l_bracket": l_bracket}
+            "schonhardt": schonhardt, "torus": torus_surface, "l_bracket": l_bracket}
 
 
 def check_fill(V, F, p, t):

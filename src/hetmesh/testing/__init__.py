@@ -72,6 +72,8 @@ from .models import (
     random_model,
     robust_suite,
 )
+from .surfaces import torus_surface
 
 __all__ = ["RandomModel", "random_model", "robust_suite", "independent_check", "estimate",
-           "bump_toml", "FAMILIES", "ELEMENT_BUDGET", "MIN_CORNER_DEG", "HARD_TAGS"]
+           "bump_toml", "FAMILIES", "ELEMENT_BUDGET", "MIN_CORNER_DEG", "HARD_TAGS",
+           "torus_surface"]
