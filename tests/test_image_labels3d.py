@@ -112,6 +112,7 @@ def check_phases(r, lab, field, threshold, solid_labels):
         assert np.allclose(comp[reg == ph][..., 1], value)
 
 
+@pytest.mark.slow  # 44 s: the default suite stays under 10 minutes
 def test_label_volume_phases_are_embedded(tmp_path):
     m = load_model(write(tmp_path))
     assert m.solid.phases == (1, 2, 3) and m.material.dim == 3
