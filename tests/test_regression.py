@@ -14,7 +14,7 @@ ECONOMY = 0.985
 @pytest.mark.parametrize("threshold, elements", [(0.1, 378), (0.05, 1385), (0.03, 3719)])
 def test_power_plate_counts_and_quality_economy(threshold, elements):
     model = hetmesh.load_model(hetmesh.example_path("power_plate"))
-    s = hetmesh.generate(model, threshold, row_spacing=ECONOMY).stats
+    s = hetmesh.generate(model, threshold, method="layers", row_spacing=ECONOMY).stats
     assert s.n_elements == pytest.approx(elements, rel=0.10)
     assert s.delta_max < threshold
     assert s.q_min >= 0.58
@@ -41,7 +41,7 @@ def test_power_plate_counts_and_quality_default(threshold, elements, q_avg):
 @pytest.mark.parametrize("threshold", [0.05, 0.03])
 def test_unit_square_close_to_the_limit(threshold):
     model = hetmesh.load_model(hetmesh.example_path("unit_square"))
-    s = hetmesh.generate(model, threshold, row_spacing=ECONOMY).stats
+    s = hetmesh.generate(model, threshold, method="layers", row_spacing=ECONOMY).stats
     assert s.n_elements <= 0.85 * n_iso(model.material, model.domain, threshold)
     s = hetmesh.generate(model, threshold).stats
     assert s.n_elements <= 1.15 * n_iso(model.material, model.domain, threshold)

@@ -84,11 +84,12 @@ def add_meshing_options(p: argparse.ArgumentParser, *, adaptive: bool) -> None:
                         "its mesh edges (chords), relative to the domain diameter, "
                         "1e-7 <= C <= 0.05; verified chord by chord (default: 0.001)")
     if adaptive:
-        p.add_argument("--method", choices=("auto", "layers", "cvt"),
-                       help="point placement: nodes on iso-composition layers, the paper's "
-                            "density-weighted CVT, or auto: layers, and on small models "
-                            "(estimate up to 50,000 elements) both, keeping the better mesh "
-                            "(default: auto)")
+        p.add_argument("--method", choices=("auto", "layers", "springs", "cvt"),
+                       help="point placement: nodes on iso-composition layers, nodes "
+                            "relaxed as a truss of springs (nearly equilateral elements), "
+                            "the paper's density-weighted CVT, or auto: layers, and on small "
+                            "models (estimate up to 50,000 elements) springs too, keeping "
+                            "the better mesh (default: auto)")
         p.add_argument("--row-spacing", type=float, metavar="R",
                        help="step in composition between the rows of nodes of the layers "
                             "placement, as a fraction of the threshold, 0.3 <= R <= 0.99: "

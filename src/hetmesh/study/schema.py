@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 
 #: the mesher of a run: :func:`hetmesh.generate`'s placements, or the uniform baseline
 #: (:func:`hetmesh.uniform`)
-METHODS = ("auto", "layers", "cvt", "uniform")
+METHODS = ("auto", "layers", "springs", "cvt", "uniform")
 
 #: the keys of a run and their defaults (``None``: required, or :func:`hetmesh.generate`'s
 #: own default); the options that do not apply to ``method = "uniform"`` are ignored there

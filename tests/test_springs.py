@@ -1,0 +1,103 @@
+"""The springs placement: the truss's forces, the relaxation, and its meshes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import hetmesh
+from conftest import check_invariants
+from hetmesh.metrics import quality
+from hetmesh.testing import independent_check
+from hetmesh.tri.geometry import build_pslg
+from hetmesh.tri.pipeline import candidates, prepare
+from hetmesh.tri.placement import sample_interior, size_fn
+from hetmesh.tri.springs import relax, spring_forces
+from hetmesh.tri.workset import FREE, add_free_points, triangulate, workset_from_pslg
+
+
+def test_a_short_bar_pushes_its_ends_apart():
+    P = np.array([[0.0, 0.0], [0.5, 0.0], [3.0, 0.0]])
+    bars = np.array([[0, 1], [1, 2]])
+    F = spring_forces(P, bars, np.ones(3), fscale=1.0)
+    # rest lengths scaled so that sum L0^2 = sum L^2: L0 = sqrt((0.25 + 6.25) / 2) = 1.80
+    L0 = np.sqrt(6.5 / 2)
+    assert F[0] == pytest.approx([-(L0 - 0.5), 0.0])
+    assert F[1] == pytest.approx([L0 - 0.5, 0.0])  # the long bar (2.5 > L0) does not pull
+    assert F[2] == pytest.approx([0.0, 0.0])
+    assert F.sum(axis=0) == pytest.approx([0.0, 0.0])  # action and reaction
+
+
+def test_forces_follow_the_size_at_the_ends():
+    # two bars of length 1 whose ends want sizes 1 and 2: the rest lengths, scaled to
+    # sum L0^2 = sum L^2 = 2, are 0.63 and 1.26, so only the second bar pushes
+    P = np.array([[0.0, 0.0], [1.0, 0.0], [10.0, 0.0], [11.0, 0.0]])
+    bars = np.array([[0, 1], [2, 3]])
+    F = spring_forces(P, bars, np.array([1.0, 1.0, 2.0, 2.0]), fscale=1.0)
+    assert F[:2] == pytest.approx(np.zeros((2, 2)))
+    assert F[3, 0] == pytest.approx(2.0 * np.sqrt(2.0 / 5.0) - 1.0)
+
+
+def _start(name, threshold):
+    model = hetmesh.load_model(hetmesh.example_path(name))
+    ctx, _ = prepare(model, threshold, None)
+    h = size_fn(ctx, 1.0 / np.sqrt(1.3))
+    ws = workset_from_pslg(build_pslg(ctx.domain, h, ctx.chord_tol))
+    add_free_points(ws, sample_interior(ctx, h, np.random.default_rng(0)))
+    return ws, ctx, h
+
+
+def test_relaxation_raises_the_shape_and_keeps_the_curves():
+    ws, ctx, h = _start("fgm_plate", 0.1)
+    before = quality(ws.P, triangulate(ws, ctx)).mean()
+    curve_nodes = ws.P[ws.vcurve != FREE].copy()
+    tris = relax(ws, ctx, h)
+    after = quality(ws.P, tris).mean()
+    assert before < 0.8 < 0.95 < after  # random start -> nearly equilateral (0.73 -> 0.96)
+    np.testing.assert_array_equal(ws.P[ws.vcurve != FREE], curve_nodes)
+    used = np.zeros(ws.n, bool)
+    used[tris.ravel()] = True
+    assert used.all()
+    assert ctx.inside(ws.P[ws.vcurve == FREE]).all()
+
+
+@pytest.mark.parametrize("name, threshold", [("fgm_plate", 0.1), ("bracket", 0.05),
+                                             ("three_phase", 0.1)])
+def test_springs_meshes_meet_every_claim(name, threshold):
+    model = hetmesh.load_model(hetmesh.example_path(name))
+    r = hetmesh.generate(model, threshold, method="springs")
+    check_invariants(r, model, threshold)
+    assert independent_check(r, r.model, threshold) == []
+    assert r.options["method"] == "springs"
+
+
+def test_springs_has_a_better_shape_than_the_cvt_start():
+    # a plate with a hole, graded across: where the element count allows, the springs
+    # start's elements are nearly equilateral
+    model = hetmesh.load_model(hetmesh.example_path("fgm_plate"))
+    s = hetmesh.generate(model, 0.1, method="springs").stats
+    c = hetmesh.generate(model, 0.1, method="cvt").stats  # measured: 2,364 @ 0.971 against
+    assert s.q_avg > c.q_avg + 0.01                        # 2,417 @ 0.940
+    assert s.n_elements < 1.2 * c.n_elements
+
+
+def test_springs_is_deterministic():
+    model = hetmesh.load_model(hetmesh.example_path("bracket"))
+    a = hetmesh.generate(model, 0.1, method="springs", seed=4)
+    b = hetmesh.generate(model, 0.1, method="springs", seed=4)
+    np.testing.assert_array_equal(a.mesh.points, b.mesh.points)
+    np.testing.assert_array_equal(a.mesh.triangles, b.mesh.triangles)
+
+
+def test_auto_compares_layers_and_springs_on_small_models():
+    model = hetmesh.load_model(hetmesh.example_path("power_plate"))  # two constituents
+    ctx, _ = prepare(model, 0.05, None)
+    assert candidates("auto", ctx, 1_000) == ["layers", "springs", "springs-dense"]
+    assert candidates("auto", ctx, 10_000_000) == ["layers"]
+    three = hetmesh.load_model(hetmesh.example_path("bracket"))  # three: always both
+    assert candidates("auto", prepare(three, 0.05, None)[0], 10_000_000)[1:] == \
+        ["springs", "springs-dense"]
+    r = hetmesh.generate(model, 0.1)
+    assert set(r.options["placements"]) == {"layers", "springs", "springs-dense"}
+    kept = r.options["placements"][r.options["method"]]
+    assert kept["elements"] == r.stats.n_elements
