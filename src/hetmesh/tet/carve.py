@@ -32,9 +32,10 @@ background instead of a grid:
    surfaces of its faces; where that turns tetrahedra over, flips, untangling and the
    collapse of short boundary edges repair it (:func:`project_untangled`).
 4. *Size* and 5. *repair*: MMG remeshing to ``S delta_0 / |grad f|`` (capped for the chord
-   tolerance on curved faces), size rounds at the violators, edge bisection, projection
-   (:func:`remesh_carved`, :func:`~hetmesh.tet.general.next_size`,
-   :func:`hetmesh.tet.refine.repair`), as for solids of primitives.
+   tolerance on curved faces, MMG's Hausdorff distance :data:`HAUSD` x that tolerance),
+   repeated while it still coarsens (:func:`remesh_settled`), size rounds shrinking the
+   size at the violators (:func:`round_size`, :func:`next_shrink`), edge bisection,
+   projection (:func:`hetmesh.tet.refine.repair`), as for solids of primitives.
 6. *Slivers*: short boundary edges of tetrahedra under :data:`SLIVER_COLLAPSE` degrees
    collapsed (:func:`collapse_boundary`), flips and edge removals of those under
    :data:`SLIVER` (:func:`hetmesh.tet.flips.flip_improve`), delta kept below delta_0.
