@@ -330,11 +330,11 @@ name = "bore"
 
 def test_boundary_set_size_is_not_finer_than_the_chord_needs(tmp_path):
     """A block with a blind bore whose material allows edges of 1.2 and more: the bore's
-    chord-limited edge (0.18) sets the mesh. Its triangles' edges average at least 0.65 x
-    that edge (half the chord tolerance as MMG's Hausdorff distance made them 0.51 x, and
-    the gradation carried that into the volume: 9,956 tetrahedra against 3,089), and the
-    mesh is settled: one more MMG remeshing to the same size removes under 10 % of it (a
-    single pass from the finer cut start left two thirds of it removable)."""
+    chord-limited edge (0.16) sets the mesh. Its triangles' edges average at least 0.65 x
+    that edge (0.78 x; with half the chord tolerance as MMG's Hausdorff distance and one
+    MMG pass from the cut start they were 0.50 x, and the gradation carried that into the
+    volume: 9,956 tetrahedra against 3,089), and the mesh is settled: one more MMG
+    remeshing to the same size removes under 10 % of it (of the earlier mesh, two thirds)."""
     from hetmesh.tet.carve import remesh_carved
     from hetmesh.tet.general import cap_curved, size_field
     m = load_model(write(tmp_path, BORED_BLOCK))
