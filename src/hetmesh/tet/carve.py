@@ -32,9 +32,10 @@ background instead of a grid:
    surfaces of its faces; where that turns tetrahedra over, flips, untangling and the
    collapse of short boundary edges repair it (:func:`project_untangled`).
 4. *Size* and 5. *repair*: MMG remeshing to ``S delta_0 / |grad f|`` (capped for the chord
-   tolerance on curved faces), size rounds at the violators, edge bisection, projection
-   (:func:`remesh_carved`, :func:`~hetmesh.tet.general.next_size`,
-   :func:`hetmesh.tet.refine.repair`), as for solids of primitives.
+   tolerance on curved faces, MMG's Hausdorff distance :data:`HAUSD` x that tolerance),
+   repeated while it still coarsens (:func:`remesh_settled`), size rounds shrinking the
+   size at the violators (:func:`round_size`, :func:`next_shrink`), edge bisection,
+   projection (:func:`hetmesh.tet.refine.repair`), as for solids of primitives.
 6. *Slivers*: short boundary edges of tetrahedra under :data:`SLIVER_COLLAPSE` degrees
    collapsed (:func:`collapse_boundary`), flips and edge removals of those under
    :data:`SLIVER` (:func:`hetmesh.tet.flips.flip_improve`), delta kept below delta_0.
@@ -62,7 +63,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -75,12 +76,12 @@ from .faces import boundary_faces
 from .flips import flip_improve, flip_slivers
 from .general import (
     REPROJECT,
+    SHRINK,
     SIZE_ROUNDS,
     cap_curved,
     estimate_solid,
     keep_positive,
     levelset_cut,
-    next_size,
     orient_positive,
     project,
     remesh_solid,
@@ -97,7 +98,8 @@ from .verify import raise_problems
 
 __all__ = ["CarvedSolid", "FlatSurface", "MeridianSurface", "generate_carved",
            "carved_problems", "carve_refusal", "carved_start",
-           "snapped_levels", "split_across", "remove_slivers"]
+           "snapped_levels", "split_across", "remove_slivers", "remesh_settled", "round_size",
+           "shrink_at", "next_shrink", "HAUSD"]
 
 log = logging.getLogger(__name__)
 
@@ -126,6 +128,15 @@ FACE_SAMPLES = 40
 VOLUME_GRID = 96
 #: rounds of untangling (interior vertices to their neighbours' mean) after a projection
 UNTANGLE = 8
+#: MMG's Hausdorff distance in the size rounds, x the chord tolerance: at half of it, MMG
+#: made the bore's and the dimple's edges of carved_plate half the chord-limited size
+#: (:func:`hetmesh.tet.general.cap_curved`), and the gradation carried that into the volume
+HAUSD = 1.0
+#: a size round's MMG remeshing is repeated while it removes more than this fraction of the
+#: tetrahedra (one pass from the finer start does not coarsen all the way) ...
+SETTLE = 0.1
+#: ... up to this many remeshings in all
+SETTLE_PASSES = 4
 
 
 # -- surfaces ---------------------------------------------------------------------------
@@ -839,6 +850,61 @@ def remesh_carved(solid: CarvedSolid, p, t, faces, markers, size, hausd: float, 
     return p, t, faces, markers, h_mmg[kept]
 
 
+def remesh_settled(solid: CarvedSolid, p, t, faces, markers, size_of, hausd: float,
+                   tol: float, least: int = 1):
+    """:func:`remesh_carved` to ``size_of(points, faces, markers)`` (the size per vertex),
+    at least ``least`` times, then again to the size at the new vertices while a remeshing
+    removes more than :data:`SETTLE` of the tetrahedra, up to :data:`SETTLE_PASSES`
+    remeshings. One MMG pass coarsens a finer mesh only part of the way: on carved_plate at
+    0.3 the first pass from the cut start left 9,996 tetrahedra, a second one to the same
+    size 6,567; the first pass can also refine the boundary as much as it coarsens the
+    inside, so that its count alone does not show it (``least`` 2 from a start). ``(points,
+    tets, faces, markers, size MMG interpolated, remeshings)``."""
+    n = len(t)
+    for passes in range(1, SETTLE_PASSES + 1):
+        p, t, faces, markers, h_mmg = remesh_carved(solid, p, t, faces, markers,
+                                                    size_of(p, faces, markers), hausd, tol)
+        log.debug("carved: remeshing %d: %d tetrahedra (from %d)", passes, len(t), n)
+        if passes >= least and len(t) >= (1.0 - SETTLE) * n:
+            break
+        n = len(t)
+    return p, t, faces, markers, h_mmg, passes
+
+
+def shrink_at(ref, factor, points) -> np.ndarray:
+    """The factor of the nearest of the points ``ref (K, 3)`` at each of ``points``: the
+    size rounds' shrinking carried over to a new mesh (ones where ``ref`` is None)."""
+    if ref is None:
+        return np.ones(len(points))
+    from scipy.spatial import cKDTree
+    _, j = cKDTree(ref).query(points)
+    return factor[j]
+
+
+def round_size(solid: CarvedSolid, field, threshold: float, h_max: float, h_min: float,
+               chord: float, ref, factor, points, faces, markers) -> np.ndarray:
+    """The size of a size round at ``points``: the material's (:func:`size_field`) times the
+    rounds' shrinking (:func:`shrink_at`), at least ``h_min``, capped on the curved faces
+    (:func:`hetmesh.tet.general.cap_curved`). MMG grades it itself; the graded size it
+    returns is not fed back, which would keep the earlier meshes' gradation from their finer
+    boundaries."""
+    h = size_field(field, points, threshold, h_max, h_min) * shrink_at(ref, factor, points)
+    return cap_curved(solid, np.maximum(h, h_min), faces, markers, chord)
+
+
+def next_shrink(ref, factor, field, points, tets, bad, h_mmg, threshold: float,
+                h_max: float, h_min: float) -> np.ndarray:
+    """The shrinking after a size round on ``(points, tets)`` with violators ``bad``: the
+    earlier rounds' (:func:`shrink_at`), and at the violators' vertices at most
+    :data:`~hetmesh.tet.general.SHRINK` x the size MMG used there (``h_mmg``) over the
+    material's, so that it bites where the gradation had already made the size smaller."""
+    f = shrink_at(ref, factor, points)
+    v = unique(tets[bad])
+    h = size_field(field, points[v], threshold, h_max, h_min)
+    f[v] = np.minimum(f[v], SHRINK * np.minimum(h_mmg[v], h) / h)
+    return f
+
+
 def _limits(solid: CarvedSolid, chord_tol: float | None, max_size: float | None):
     """``(chord, h_max, h_min)``: the absolute chord tolerance (default :data:`CHORD` x the
     diameter), the longest edge (a quarter of the largest extent, at most ``max_size``) and
@@ -918,7 +984,6 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
     longest edge."""
     t0 = time.perf_counter()
     chord, h_max, h_min = _limits(solid, chord_tol, max_size)
-    hausd = 0.5 * chord
     est = estimate_solid(solid, field, threshold)
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
@@ -928,13 +993,16 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
                                              seed=seed, chord_tol=chord, max_size=max_size,
                                              max_elements=max_elements)
     # 4. size rounds
-    size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
-                      chord)
     mtol = max(0.25 * h_max, 10 * chord)
-    rounds = 0
+    ref = factor = None
+    rounds = remeshings = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, faces, markers, h_mmg = remesh_carved(solid, p, t, faces, markers, size, hausd,
-                                                   mtol)
+        size_of = partial(round_size, solid, field, threshold, h_max, h_min, chord, ref,
+                          factor)
+        p, t, faces, markers, h_mmg, n = remesh_settled(solid, p, t, faces, markers, size_of,
+                                                        HAUSD * chord, mtol,
+                                                        least=2 if rounds == 0 else 1)
+        remeshings += n
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
@@ -943,8 +1011,8 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
                  int(bad.sum()))
         if not bad.any() or rounds == SIZE_ROUNDS:
             break
-        size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
-                          faces, markers, chord)
+        factor = next_shrink(ref, factor, field, p, t, bad, h_mmg, threshold, h_max, h_min)
+        ref = p
     t_place = time.perf_counter() - t0
     # 5. repair: bisection, the new boundary vertices onto their curved faces
     passes = 0
@@ -973,9 +1041,9 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
     # 6. slivers
     p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, comp, threshold)
     delta = delta_vertices(comp, t)
-    info = {"placement": "carved", "estimate": est, "background_rounds": pre, "size_rounds": rounds,
-            "repair_passes": passes, "composition": comp, "time_place": t_place,
-            "h_max": h_max}
+    info = {"placement": "carved", "estimate": est, "background_rounds": pre,
+            "size_rounds": rounds, "remeshings": remeshings, "repair_passes": passes,
+            "composition": comp, "time_place": t_place, "h_max": h_max}
     res = TetResult(p, t.astype(np.int32), faces.astype(np.int32),
                     (markers + 1).astype(np.int32), tuple(solid.face_names), delta,
                     float(threshold), info)
