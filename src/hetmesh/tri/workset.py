@@ -399,7 +399,7 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
         return out
     # a candidate yields to an earlier one within either's distance, among its k nearest
     # (deterministic); only those with another candidate within the largest distance can
-    tree, near = _near_candidates(cand, md)
+    tree, near, count = _near_candidates(cand, md)
     # exact copies go first: the clash test looks at a few nearest candidates only, and a
     # point traced many times over (rows that collapse onto one point of a noisy field)
     # would hide its earlier copies from it. Copies are among the near ones (distance 0).
@@ -410,24 +410,35 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
             copy[near] = False
             copy[near[first]] = True  # True: not a later copy
             keep, cand, md = keep[copy], cand[copy], md[copy]
-            tree, near = _near_candidates(cand, md)
+            tree, near, count = _near_candidates(cand, md)
     clash = np.zeros(len(cand), bool)
     if len(near):
-        d, j = tree.query(cand[near], k=min(6, len(cand)), workers=-1)
-        clash[near] = ((j < near[:, None]) & (d < np.minimum(md[near, None], md[j]))).any(axis=1)
+        # each candidate looks at every other one within its distance: the 6 nearest where
+        # there are at most that many (nearly always), else as many as there are (a cluster:
+        # the circumcenters of the triangles of a ring of cocircular nodes coincide to 1e-9)
+        k = np.minimum(np.maximum(count[near], 6), len(cand))
+        for kk in unique(np.where(k > 6, k, 6)):
+            sel = near[k == kk] if kk > 6 else near[k <= 6]
+            for blk in range(0, len(sel), max(1, 4_000_000 // int(kk))):
+                s = sel[blk:blk + max(1, 4_000_000 // int(kk))]
+                d, j = tree.query(cand[s], k=int(min(kk, len(cand))), workers=-1)
+                d, j = d.reshape(len(s), -1), j.reshape(len(s), -1)
+                clash[s] = ((j < s[:, None]) & (d < np.minimum(md[s, None], md[j]))).any(axis=1)
     out[keep[~clash]] = True
     return out
 
 
 def _near_candidates(cand: np.ndarray, md: np.ndarray):
-    """A k-d tree of ``cand`` and the candidates with another one within their ``md``."""
+    """A k-d tree of ``cand``, the candidates with another one within their ``md`` and how
+    many candidates (themselves included) every candidate has within its ``md``."""
     tree = cKDTree(cand)
     if np.isfinite(md).all():
-        near = np.flatnonzero(tree.query_ball_point(cand, r=md, return_length=True,
-                                                    workers=-1) > 1)
+        count = tree.query_ball_point(cand, r=md, return_length=True, workers=-1)
+        near = np.flatnonzero(count > 1)
     else:
         near = np.arange(len(cand))
-    return tree, near
+        count = np.full(len(cand), len(cand))
+    return tree, near, count
 
 
 def nearest_distance(points: np.ndarray, query: np.ndarray, reach: float) -> np.ndarray:
