@@ -66,17 +66,17 @@ def table_cases(repeats: int) -> dict:
     for (name, d0), (pa, pu) in PAPER.items():
         model = models[name]
         runs = {}
-        for kind, fn in (("layers", lambda model=model, d0=d0: hetmesh.generate(model, d0)),
+        for kind, fn in (("auto", lambda model=model, d0=d0: hetmesh.generate(model, d0)),
                          ("uniform", lambda model=model, d0=d0: hetmesh.uniform(model, d0))):
             try:
-                res, times = timed(fn, repeats if kind == "layers" else 1)
+                res, times = timed(fn, repeats if kind == "auto" else 1)
                 runs[kind] = (res, times)
             except Exception as e:  # measure, never assert
                 runs[kind] = (err_text(e), [])
         uni = runs["uniform"][0]
         ne_u = uni.stats.n_elements if not isinstance(uni, str) else None
         niso = n_iso(model.material, model.domain, d0)
-        for kind in ("layers", "uniform"):
+        for kind in ("auto", "uniform"):
             res, times = runs[kind]
             if isinstance(res, str):
                 rows.append([name, fmt(d0, "g"), kind, res])
@@ -91,7 +91,7 @@ def table_cases(repeats: int) -> dict:
                        discontinuity_curves=ndisc, n_iso=niso, times=times,
                        time_median=median(times), paper_adaptive=pa, paper_uniform=pu)
             checks = {"δmax": st["delta_max"] < d0, "crossing": cross == 0}
-            if kind == "layers":
+            if kind == "auto":
                 checks.update({"q_min": st["q_min"] >= 0.5, "q_avg": st["q_avg"] >= 0.93,
                                "δavg": st["delta_avg"] / d0 >= 0.65})
                 if (name, d0) in RATIO_TARGET:
