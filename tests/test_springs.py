@@ -7,6 +7,7 @@ import pytest
 
 import hetmesh
 from conftest import check_invariants
+from hetmesh.errors import OptionError
 from hetmesh.metrics import quality
 from hetmesh.testing import independent_check
 from hetmesh.tri.geometry import build_pslg
@@ -101,3 +102,13 @@ def test_auto_compares_layers_and_springs_on_small_models():
     assert set(r.options["placements"]) == {"layers", "springs", "springs-dense"}
     kept = r.options["placements"][r.options["method"]]
     assert kept["elements"] == r.stats.n_elements
+
+
+def test_starts_name_the_placements_auto_compares():
+    model = hetmesh.load_model(hetmesh.example_path("power_plate"))
+    r = hetmesh.generate(model, 0.1, starts=("layers", "cvt"))
+    assert set(r.options["placements"]) == {"layers", "cvt"}
+    with pytest.raises(OptionError, match="starts must name placements"):
+        hetmesh.generate(model, 0.1, starts=("layers", "frontal"))
+    with pytest.raises(OptionError, match="starts must name placements"):
+        hetmesh.generate(model, 0.1, starts=())

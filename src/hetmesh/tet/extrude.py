@@ -193,7 +193,7 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         section, more tetrahedra.
     """
     from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
-    from ..tri.pipeline import generate
+    from ..tri.pipeline import SWEEP_STARTS, generate
 
     t0 = time.perf_counter()
     sec = solid.section
@@ -209,9 +209,8 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         kw["chord_tol"] = min(max(chord_tol / sec.diameter, 1e-7), 0.05)
     if max_size is not None:
         kw["max_size"] = float(max_size)
-    # the fewest triangles of the placements tried: each one becomes a column of tetrahedra
-    r2 = generate(section_model, threshold, seed=seed, min_angle=min_angle, quality_weight=0.0,
-                  **kw)
+    r2 = generate(section_model, threshold, seed=seed, min_angle=min_angle,
+                  starts=SWEEP_STARTS, **kw)
     m2 = r2.mesh
     p2, t2 = m2.points, m2.triangles.astype(np.int64)
     size = vertex_size(p2, t2)

@@ -229,7 +229,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     :data:`CHORD` x the diameter).
     """
     from ..options import DEFAULT_CHORD_TOL as CHORD_TOL
-    from ..tri.pipeline import generate
+    from ..tri.pipeline import SWEEP_STARTS, generate
 
     t0 = time.perf_counter()
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
@@ -247,8 +247,7 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     kw = {"chord_tol": min(max(0.5 * chord / prof.diameter, 1e-7), CHORD_TOL)}
     if max_size is not None:  # the profile's longest edge and the widest angular step
         kw["max_size"] = float(max_size)
-    # the fewest triangles of the placements tried: each one becomes a ring of tetrahedra
-    r2 = generate(profile_model, threshold, seed=seed, quality_weight=0.0, **kw)
+    r2 = generate(profile_model, threshold, seed=seed, starts=SWEEP_STARTS, **kw)
     m2 = r2.mesh
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
     n2 = len(p2)

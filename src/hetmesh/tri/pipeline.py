@@ -120,16 +120,29 @@ QUALITY_WEIGHT = math.log(1.12) / 0.005
 
 
 
-def candidates(method: str, ctx: Context, est: float) -> list[str]:
-    """The placements to try, in order. ``"auto"`` tries the layers and the springs
-    placements (from 1.3 and from 1.5 x the density's node count) on small models, and on
-    models of more than two constituents always: their rows follow one constituent's level
-    curves (:func:`row_constituent`), which bound the others' variation only where they
-    share level curves, and the isotropic springs start may be the better one."""
+#: the placements ``"auto"`` compares on small models
+AUTO_STARTS = ("layers", "springs", "springs-dense")
+#: those the 3D sweeps compare for their sections: the layers and the two CVT starts. The
+#: springs starts' sections were measured to give fewer tetrahedra on some sweeps
+#: (graded_cylinder at 0.3: 1,088 against 1,330) and 58 % more on graded_ring, and a
+#: coarser radial layout whose stresses at graded_cylinder's probes were 3 % off at 0.4
+#: (0.5 % from the layers section), so the sweeps keep these until that is resolved
+SWEEP_STARTS = ("layers", "cvt", "cvt-dense")
+
+
+
+def candidates(method: str, ctx: Context, est: float,
+               starts: tuple[str, ...] | None = None) -> list[str]:
+    """The placements to try, in order. ``"auto"`` tries ``starts`` (default
+    :data:`AUTO_STARTS`: the layers and the springs placements from 1.3 and from 1.5 x the
+    density's node count) on small models, and on models of more than two constituents
+    always: their rows follow one constituent's level curves (:func:`row_constituent`),
+    which bound the others' variation only where they share level curves, and the
+    isotropic starts may be the better ones; on large models the first alone."""
     if method == "auto":
+        every = list(AUTO_STARTS if starts is None else starts)
         many = len(ctx.field.constituents) > 2
-        both = ["layers", "springs", "springs-dense"]
-        return both if est <= COMPARE_BELOW or many else ["layers"]
+        return every if est <= COMPARE_BELOW or many else every[:1]
     return [method]
 
 
@@ -148,13 +161,12 @@ def row_constituent(field, domain) -> int:
 
 
 
-def _better(a: MeshStats, b: MeshStats, weight: float = QUALITY_WEIGHT) -> bool:
+def _better(a: MeshStats, b: MeshStats) -> bool:
     """Whether mesh statistics ``a`` beat ``b``: the lower ``Ne exp(-w q_avg)``, w =
-    ``weight`` (by default :data:`QUALITY_WEIGHT`: each 0.005 of mean quality worth 12 % of
-    the elements; a model where one placement needs 7 x the elements of the other for 0.014
-    of q_avg keeps the smaller mesh, one where they differ by 12 % and 0.006 keeps the
-    better shaped; 0: the fewer elements)."""
-    score = lambda s: math.log(s.n_elements) - weight * s.q_avg  # noqa: E731
+    :data:`QUALITY_WEIGHT` (each 0.005 of mean quality worth 12 % of the elements; a
+    model where one placement needs 7 x the elements of the other for 0.014 of q_avg keeps
+    the smaller mesh, one where they differ by 12 % and 0.006 keeps the better shaped)."""
+    score = lambda s: math.log(s.n_elements) - QUALITY_WEIGHT * s.q_avg  # noqa: E731
     return score(a) < score(b)
 
 
@@ -232,7 +244,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
              method: str = "auto", seed: int = 0, min_quality: float = 0.6,
              optimize: bool = True, chord_tol: float = CHORD_TOL,
              row_spacing: float = DEFAULT_ROW_SPACING, gradation: float = DEFAULT_GRADATION,
-             quality_weight: float = QUALITY_WEIGHT, progress=None) -> Result:
+             starts: tuple[str, ...] | None = None, progress=None) -> Result:
     """Mesh ``model`` so that every element has delta(T) < ``threshold`` (Eq. 1).
 
     Parameters
@@ -274,10 +286,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         elements next to ones of size ``max_size``, which the quality refinement then has
         to grade at a higher cost. Like ``max_size`` it never relaxes the delta guarantee.
 
-    quality_weight : how much ``"auto"`` values mean quality against the element count:
-        it keeps the mesh of the lowest ``Ne exp(-quality_weight q_avg)``; the default
-        (22.7) makes 0.005 of q_avg worth 12 % of the elements, 0 keeps the fewest elements
-        (the 3D sweeps do, whose tetrahedra multiply their section's triangles).
+    starts : the placements ``"auto"`` compares on small models (default
+        :data:`AUTO_STARTS`: the layers and the two springs starts; the first alone on
+        large models). The 3D sweeps mesh their sections with ``SWEEP_STARTS``.
 
     If the layers placement fails on a model (an internal error of the row tracing or a
     mesh that fails verification), the run goes on from the next placement (the springs
@@ -299,8 +310,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
                               gradation=gradation)
     if method not in METHODS:
         raise OptionError(f"method {method!r} is not one of {', '.join(METHODS)}")
-    if not (isinstance(quality_weight, (int, float)) and 0 <= quality_weight < math.inf):
-        raise OptionError(f"quality_weight must be a finite number >= 0, got {quality_weight!r}")
+    if starts is not None and (not starts or any(p not in PLACEMENTS for p in starts)):
+        raise OptionError(f"starts must name placements among {', '.join(PLACEMENTS)}, "
+                          f"got {starts!r}")
     check_sampling(model.material, sampling)
     timings: dict = {}
     t0 = time.perf_counter()
@@ -321,7 +333,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     fallbacks: list = []
     tried: dict = {}
     outcome, first_error = None, None
-    queue = candidates(method, ctx, est)
+    queue = candidates(method, ctx, est, starts)
     while queue:
         name = queue.pop(0)
         history: list = []
@@ -346,7 +358,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
             continue
         tried[name] = {"elements": stats.n_elements, "q_avg": stats.q_avg,
                        "seconds": time.perf_counter() - t1}
-        if outcome is None or _better(stats, outcome[1], float(quality_weight)):
+        if outcome is None or _better(stats, outcome[1]):
             outcome = (mesh, stats, history, tm, name)
     if outcome is None:
         raise first_error
@@ -361,8 +373,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
                 max_elements=max_elements, sampling=sampling, method=method, seed=seed,
                 min_quality=min_quality, optimize=optimize, estimate=float(est),
                 fallbacks=fallbacks, placements=tried, chord_tol=float(rel_chord_tol),
-                row_spacing=float(row_spacing), gradation=float(gradation),
-                quality_weight=float(quality_weight))
+                row_spacing=float(row_spacing), gradation=float(gradation))
     return Result(mesh=mesh, stats=stats, threshold=threshold, history=history,
                   timings=timings, options=opts, model=model)
 

@@ -4,7 +4,7 @@ Three placements, by ``method`` name (:data:`PLACEMENTS`):
 
 * ``"cvt"`` -- the paper's start (Sec. 3.2.3): nodes sampled with the density
   rho = |grad f|^(d+2) (Eq. 9), then conforming Lloyd iterations (the CVT step,
-  :mod:`hetmesh.tri.cvt`);
+  :mod:`hetmesh.tri.cvt`); ``"cvt-dense"`` the same from 1.3 x the density's node count;
 * ``"springs"`` -- nodes at the same isotropic size as ``"cvt"``'s (from 1.3 x the
   density's node count), relaxed as a truss of springs (:mod:`hetmesh.tri.springs`): nearly
   equilateral elements, for the best mean quality where the element count allows;
@@ -26,7 +26,7 @@ from .springs import relax
 from .workset import Context, WorkSet, add_free_points, smooth, triangulate, workset_from_pslg
 
 __all__ = ["place_cvt", "place_springs", "size_fn", "sample_interior", "PLACEMENTS",
-           "SPRING_START", "SPRING_DENSE_START"]
+           "DENSE_START", "SPRING_START", "SPRING_DENSE_START"]
 
 
 def size_fn(ctx: Context, factor: float):
@@ -83,6 +83,9 @@ def sample_interior(ctx: Context, h, rng) -> np.ndarray:
 #: node count of the springs placement relative to the density's (equilateral elements of
 #: side delta_0 / |grad f|): its rest lengths are delta_0 / (sqrt(1.3) |grad f|)
 SPRING_START = 1.3
+#: the denser CVT start that the 3D sweeps' sections also try
+#: (:data:`hetmesh.tri.pipeline.SWEEP_STARTS`)
+DENSE_START = 1.3
 #: the denser springs start that :func:`hetmesh.tri.pipeline.generate`'s ``"auto"`` also
 #: tries: fewer elements violate delta_0 after the relaxation, so the repair's insertions
 #: spoil fewer shapes (three_phase at 0.1: 346 elements of q_avg 0.977 against 323 of 0.959)
@@ -103,5 +106,6 @@ def place_springs(ctx: Context, rng, chord_tol: float, progress=None,
 
 #: node placements of MOR, by ``method`` name
 PLACEMENTS = {"cvt": place_cvt, "layers": place_layers,
+              "cvt-dense": functools.partial(place_cvt, start=DENSE_START),
               "springs": place_springs,
               "springs-dense": functools.partial(place_springs, start=SPRING_DENSE_START)}
