@@ -71,7 +71,8 @@ from .verify import raise_problems, validity_problems
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
            "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
-           "edge_problems", "onto_curve"]
+           "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
+           "estimate_regular", "check_estimate", "check_count"]
 
 log = logging.getLogger(__name__)
 
@@ -698,6 +699,62 @@ def meeting_pairs(solid) -> tuple:
     return getattr(solid, "curved_edges", ())
 
 
+def size_rounds(solid: CSGSolid, p, t, faces, markers, size, chord: float, tol: float,
+                meeting: bool, material):
+    """The size rounds of a solid's mesh (step 4 of the module docstring), shared by the
+    adaptive mesh and the uniform baseline: MMG remeshes ``(p, t)`` to ``size`` (Hausdorff
+    distance half the chord tolerance ``chord``) and the boundary vertices are projected
+    onto their faces (:func:`_remesh`; ``tol`` names the faces of the triangles MMG did not
+    report); on the path for meeting curved faces (``meeting``), the vertices left short of
+    their faces are collapsed after each round but the last (:func:`_collapse_stuck`).
+    ``material(points, tets, size MMG interpolated, round)`` checks the budget and says
+    whether the material is met, with a callable giving the next round's size (before the
+    chord cap) otherwise. The rounds (at most :data:`SIZE_ROUNDS` after the first) end when
+    the material is met and, on the path for meeting faces, no vertex was collapsed and every
+    boundary vertex is within :data:`SETTLED` x ``chord`` of its faces. ``(points, tets,
+    faces, markers, last round)``."""
+    hausd = 0.5 * chord
+    rounds = 0
+    for rounds in range(SIZE_ROUNDS + 1):
+        p, t, faces, markers, h_mmg = _remesh(solid, p, t, faces, markers, size, hausd, tol,
+                                              meeting)
+        collapsed = 0
+        if meeting and rounds < SIZE_ROUNDS:
+            # MMG keeps the vertices the projection left short (its corners): collapsed
+            # here, MMG remeshes around their neighbours in the next round
+            p, t, faces, markers, kept, collapsed = _collapse_stuck(
+                p, t, faces, markers, project(solid, p, faces, markers),
+                MIN_VOLUME * solid.diameter ** 3, STUCK * chord)
+            if collapsed:
+                h_mmg = h_mmg[kept]
+                p = _project_safely(solid, p, t, faces, markers, meeting)
+                log.info("solid: %d boundary vertices short of their faces collapsed",
+                         collapsed)
+        met, resize = material(p, t, h_mmg, rounds)
+        # where curved faces meet, the rounds go on until the projection has put the
+        # boundary vertices on their faces (MMG remeshes what it could not move)
+        settled = not meeting or (
+            not collapsed and off_faces(solid, p, faces, markers) <= SETTLED * chord)
+        if (met and settled) or rounds == SIZE_ROUNDS:
+            break
+        size = cap_curved(solid, resize(), faces, markers, chord)
+    return p, t, faces, markers, rounds
+
+
+def finish_meeting(solid: CSGSolid, p, t, faces, markers, comp, threshold: float,
+                   chord: float):
+    """The last step of the path for meeting curved faces, shared by the adaptive mesh and
+    the uniform baseline: the slivers along the edge collapsed (:func:`_collapse_slivers`,
+    every changed tetrahedron's delta over the vertex compositions ``comp`` below
+    ``threshold``), then flipped (:func:`_flip_meeting`). ``(points, tets, faces, markers,
+    composition, delta)``."""
+    t, faces, markers = _collapse_slivers(
+        solid, p, t, faces, markers, lambda tets: delta_vertices(comp, tets) < threshold,
+        chord)
+    p, t, faces, comp, delta = _flip_meeting(p, t, faces, comp, threshold)
+    return p, t, faces, markers, comp, delta
+
+
 def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                    chord_tol: float | None = None, max_elements: int | None = None,
                    max_size: float | None = None, check: bool = True) -> TetResult:
@@ -757,40 +814,20 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
     faces, markers = _boundary(solid, p, t, tol)
     size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
                       chord)
-    hausd = 0.5 * chord
-    rounds = 0
     mtol = max(0.25 * h_max, 10 * chord)
-    for rounds in range(SIZE_ROUNDS + 1):
-        p, t, faces, markers, h_mmg = _remesh(solid, p, t, faces, markers, size, hausd, mtol,
-                                              meeting)
-        collapsed = 0
-        if meeting and rounds < SIZE_ROUNDS:
-            # MMG keeps the vertices the projection left short (its corners): collapsed
-            # here, MMG remeshes around their neighbours in the next round
-            p, t, faces, markers, kept, collapsed = _collapse_stuck(
-                p, t, faces, markers, project(solid, p, faces, markers),
-                MIN_VOLUME * solid.diameter ** 3, STUCK * chord)
-            if collapsed:
-                h_mmg = h_mmg[kept]
-                p = _project_safely(solid, p, t, faces, markers, meeting)
-                log.info("solid: %d boundary vertices short of their faces collapsed",
-                         collapsed)
+
+    def material(p, t, h_mmg, rounds):
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
-        comp = field.composition(p)
-        delta = delta_vertices(comp, t)
-        bad = delta >= threshold
+        bad = delta_vertices(field.composition(p), t) >= threshold
         log.info("solid: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
-        # where curved faces meet, the rounds go on until the projection has put the
-        # boundary vertices on their faces (MMG remeshes what it could not move)
-        settled = not meeting or (
-            not collapsed and off_faces(solid, p, faces, markers) <= SETTLED * chord)
-        if (not bad.any() and settled) or rounds == SIZE_ROUNDS:
-            break
-        size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
-                          faces, markers, chord)
+        return not bad.any(), lambda: next_size(h_mmg, field, p, t, bad, threshold, h_max,
+                                                h_min)
+
+    p, t, faces, markers, rounds = size_rounds(solid, p, t, faces, markers, size, chord,
+                                               mtol, meeting, material)
     t_place = time.perf_counter() - t0
     passes = 0
     comp = field.composition(p)
@@ -815,10 +852,8 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
     if meeting:
-        t, faces, markers = _collapse_slivers(
-            solid, p, t, faces, markers, lambda tets: delta_vertices(comp, tets) < threshold,
-            chord)
-        p, t, faces, comp, delta = _flip_meeting(p, t, faces, comp, threshold)
+        p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
+                                                           threshold, chord)
     t = t.astype(np.int32)
     info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place,
@@ -989,43 +1024,72 @@ def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) 
     return out
 
 
+#: regular tetrahedra of edge h per h^3 of volume (a remeshed uniform mesh's estimate)
+REGULAR_PER_H3 = 6.0 * math.sqrt(2.0)
+
+
+def estimate_regular(solid, h: float) -> float:
+    """A-priori tetrahedron count of a remeshed uniform mesh of size ``h``: regular
+    tetrahedra of edge ``h`` over the solid's volume (:data:`REGULAR_PER_H3`), plus 100."""
+    return REGULAR_PER_H3 * float(solid.volume) / h ** 3 + 100.0
+
+
+def check_estimate(h: float, est: float, max_elements: int | None) -> float:
+    """The uniform baselines' budget before meshing: :class:`BudgetError` if the estimate
+    ``est`` of the mesh of size ``h`` exceeds ``max_elements`` (None: no budget); else
+    ``est``."""
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
+                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    return est
+
+
+def check_count(h: float, n: int, max_elements: int | None) -> None:
+    """The uniform baselines' budget after meshing: :class:`BudgetError` if the mesh of
+    size ``h`` has more than ``max_elements`` tetrahedra (``n``; None: no budget)."""
+    if max_elements is not None and n > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {n:,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+
+
 def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
                      chord_tol: float | None = None,
                      max_elements: int | None = None) -> TetResult:
     """The uniform baseline's mesh of a solid of primitives at size ``h``, not verified: the
-    same start as :func:`generate_solid` (the cut background grid), remeshed once by MMG to
-    the constant size ``h`` (capped on curved faces for the chord tolerance ``chord_tol``,
-    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces
-    (where curved faces meet, remeshed until they are on them, at most
-    :data:`SIZE_ROUNDS` more times).
-    Nothing is refined for the material: ``delta`` over the vertices is measured,
-    ``threshold`` recorded but not required (:func:`hetmesh.tet.uniform.uniform_model`
-    searches ``h``)."""
+    adaptive mesher's path with the constant size ``h`` and nothing refined for the
+    material. The same start as :func:`generate_solid` (the cut background grid), remeshed
+    by MMG to ``h`` (capped on curved faces for the chord tolerance ``chord_tol``, absolute,
+    as the adaptive mesh is) with the boundary vertices projected onto their faces
+    (:func:`size_rounds`: once, or, where curved faces meet, until they are on them, the
+    vertices left short collapsed between the rounds); where curved faces meet, the slivers
+    along the edge collapsed and flipped as in the adaptive mesh (:func:`finish_meeting`, no
+    changed tetrahedron's delta reaching ``threshold``). Where curved faces meet, the path
+    for meeting faces is taken at once (the adaptive mesher tries the plain one first).
+    ``delta`` over the vertices is measured, ``threshold`` recorded but not required
+    (:func:`hetmesh.tet.uniform.uniform_model` searches ``h``)."""
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
-    est = 6.0 * np.sqrt(2.0) * solid.volume / h ** 3  # regular tetrahedra of edge h
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
-                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    est = check_estimate(h, estimate_regular(solid, h), max_elements)
+    meeting = bool(meeting_pairs(solid))
     spacing = background_spacing(solid)
-    p, t = cut_solid(solid, spacing, meeting=bool(meeting_pairs(solid)))
+    p, t = cut_solid(solid, spacing, meeting=meeting)
     faces, markers = _boundary(solid, p, t, 0.5 * spacing)
-    size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
-    p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size, 0.5 * chord,
-                                           max(0.25 * h, 10 * chord))
-    # where curved faces meet, remeshed again until the projection has put the boundary
-    # vertices on their faces (as the size rounds of generate_solid go on)
-    for _ in range(SIZE_ROUNDS if meeting_pairs(solid) else 0):
-        if off_faces(solid, p, faces, markers) <= SETTLED * chord:
-            break
-        size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
-        p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size,
-                                               0.5 * chord, max(0.25 * h, 10 * chord))
-    if max_elements is not None and len(t) > max_elements:
-        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
-                          f"over the budget of {max_elements:,}")
+
+    def constant(p, t, h_mmg, rounds):
+        check_count(h, len(t), max_elements)
+        return True, lambda: np.full(len(p), float(h))
+
+    p, t, faces, markers, rounds = size_rounds(
+        solid, p, t, faces, markers,
+        cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord), chord,
+        max(0.25 * h, 10 * chord), meeting, constant)
     comp = field.composition(p)
+    if meeting:
+        p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
+                                                           threshold, chord)
+    else:
+        delta = delta_vertices(comp, t)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
-            "chord_tol": chord, "composition": comp}
+            "chord_tol": chord, "composition": comp, "size_rounds": rounds}
     return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
-                     (markers + 1).astype(np.int32), tuple(solid.face_names),
-                     delta_vertices(comp, t), float(threshold), info)
+                     (markers + 1).astype(np.int32), tuple(solid.face_names), delta,
+                     float(threshold), info)
