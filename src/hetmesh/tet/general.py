@@ -31,12 +31,15 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    :data:`PARTIAL`; a vertex still farther than :data:`STUCK` x the chord tolerance from
    its place is collapsed onto a neighbour (:func:`_collapse_stuck`; MMG would keep it as a
    corner), and the rounds go on until no vertex was collapsed and every boundary vertex is
-   within :data:`SETTLED` x the chord tolerance of its faces.
+   within :data:`SETTLED` x the chord tolerance of its faces. On that path MMG's ridge angle
+   is :data:`RIDGE_ANGLE`, the edges between faces given to it as ridges, so that fewer
+   turns of the cuts' polyline become corners. The uniform baseline
+   (:func:`uniform_solid_at`) runs the same rounds (:func:`size_rounds`) at a constant size.
 5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
    boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
-   chords of curved faces do not get farther from them. Where curved faces meet, the
-   tetrahedra under :data:`FLIP_BOUND` degrees are then improved by flips
-   (:func:`_flip_meeting`).
+   chords of curved faces do not get farther from them. Where curved faces meet, the short
+   edges of the tetrahedra under :data:`COLLAPSE_BOUND` degrees are then collapsed and those
+   under :data:`FLIP_BOUND` degrees improved by flips (:func:`finish_meeting`).
 6. *Verification* (:func:`solid_problems`): positive volumes, conformity, a closed boundary,
    every boundary triangle on a face (planar ones exactly, curved ones within the chord
    tolerance at 12 points per triangle), every edge between two curved faces within the
@@ -404,6 +407,13 @@ COLLAPSE_PASSES = 200
 #: on the path for meeting curved faces, the tetrahedra whose smallest dihedral angle is
 #: under this (degrees) are improved by flips at the end
 FLIP_BOUND = 20.0
+#: on the path for meeting curved faces, MMG's ridge angle (degrees; its default is 45): a
+#: vertex whose two ridge edges turn by more than this is one of MMG's corners, which it
+#: never moves or removes. The cuts' polyline zigzags near the curve where curved faces meet,
+#: and at 45 degrees its turns made corners the projection could not move (on the crossing
+#: bores about 40 a round, the rounds going on to the last); the edges between faces are
+#: given to MMG as ridges, so this angle does not decide them
+RIDGE_ANGLE = 70.0
 #: the smallest volume a projection may leave a tetrahedron of a solid whose curved faces
 #: meet, relative to the cube of the diameter (1000 x the validity check's floor)
 MIN_VOLUME = 1e-9
@@ -580,20 +590,41 @@ def cap_curved(solid, size, faces, markers, chord):
     return size
 
 
-def mmg_remesh(p, t, faces, markers, size, hausd):
+def mmg_remesh(p, t, faces, markers, size, hausd, *, ridge_angle: float | None = None):
     """One MMG remeshing of ``(p, t)`` to the isotropic ``size`` per vertex, the boundary
     triangles ``faces`` with their ``markers`` kept as references, Hausdorff distance
     ``hausd``, gradation :data:`HGRAD`: ``(points, tets, faces, markers, size)``, the size
-    MMG interpolated at the new vertices."""
+    MMG interpolated at the new vertices. ``ridge_angle`` (degrees; None: MMG's 45):
+    MMG's ridge angle, which makes a vertex whose two ridge edges turn by more than it a
+    corner (never moved or removed); given, the edges between triangles of different
+    markers are given to MMG as ridges, so that the angle does not decide those (but for
+    those between coplanar triangles, which MMG would drop with a warning)."""
     mmgpy = _quiet_mmg()
     m = mmgpy.MmgMesh3D()
-    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces))
+    ridges = np.zeros((0, 2), dtype=np.int64)
+    if ridge_angle is not None:
+        edges, ta, tb = boundary_edge_pairs(faces)
+        q = p[np.asarray(faces, dtype=np.int64)]
+        nrm = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        flat = np.abs(np.einsum("ij,ij->i", nrm[ta], nrm[tb])) > 1.0 - 1e-5
+        mk = np.asarray(markers)
+        ridges = edges[(mk[ta] != mk[tb]) & ~flat]
+    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces),
+                    edges=len(ridges))
     m.set_vertices(np.ascontiguousarray(p))
     m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32))
     m.set_triangles(np.ascontiguousarray(faces, dtype=np.int32),
                     np.ascontiguousarray(markers + 1, dtype=np.int32))
+    opts = {}
+    if ridge_angle is not None:
+        if len(ridges):
+            m.set_edges(np.ascontiguousarray(ridges, dtype=np.int32),
+                        np.zeros(len(ridges), dtype=np.int32))
+            m.set_ridge_edges(np.arange(len(ridges), dtype=np.int32))
+        opts["ar"] = float(ridge_angle)
     m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
-    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD, **opts)
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
@@ -615,7 +646,8 @@ def _remesh(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: floa
     triangles named again (within ``tol`` of their faces) and its boundary vertices projected
     onto them (:func:`_project_safely`, ``meeting`` its path): ``(points, tets, faces,
     markers, size MMG interpolated)``."""
-    p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
+    p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd,
+                                     ridge_angle=RIDGE_ANGLE if meeting else None)
     faces, markers = _faces_after(solid, p, t, fm, rm, tol)
     return (_project_safely(solid, p, t, faces, markers, meeting), t, faces, markers,
             h_mmg)
@@ -965,6 +997,26 @@ def onto_curve(s1, s2, x: np.ndarray, iters: int = 50) -> tuple[np.ndarray, np.n
     return y, ok
 
 
+def boundary_edge_pairs(faces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The edges of a closed boundary, each in two of its triangles ``faces``: ``(edges
+    (E, 2) sorted, index of the one triangle, index of the other)``."""
+    f = np.asarray(faces, dtype=np.int64)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    tri = np.tile(np.arange(len(f)), 3)
+    n = int(f.max()) + 1 if len(f) else 1
+    key = e[:, 0] * n + e[:, 1]
+    order = np.lexsort((tri, key))
+    key, tri, e = key[order], tri[order], e[order]
+    first = np.r_[True, key[1:] != key[:-1]]
+    a_idx = np.flatnonzero(first)
+    b_idx = a_idx + 1
+    b_idx = b_idx[b_idx < len(key)]
+    a_idx = a_idx[:len(b_idx)]
+    pair = key[a_idx] == key[b_idx]
+    a_idx, b_idx = a_idx[pair], b_idx[pair]
+    return e[a_idx], tri[a_idx], tri[b_idx]
+
+
 def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> list[str]:
     """The edges between two curved faces (:attr:`CSGSolid.curved_edges`) against the
     exact curve where their surfaces meet: every boundary edge with a triangle of each face
@@ -973,29 +1025,15 @@ def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> 
     out = []
     if not meeting_pairs(solid):
         return out
-    f = np.asarray(faces, dtype=np.int64)
+    edges, ta, tb = boundary_edge_pairs(faces)
     mk = np.asarray(markers, dtype=np.int64)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    em = np.tile(mk, 3)
-    n = int(f.max()) + 1
-    key = e[:, 0] * n + e[:, 1]
-    order = np.lexsort((em, key))
-    key, em, e = key[order], em[order], e[order]
-    first = np.r_[True, key[1:] != key[:-1]]
-    # each boundary edge in two triangles: its two faces are the markers of the pair
-    a_idx = np.flatnonzero(first)
-    b_idx = a_idx + 1
-    b_idx = b_idx[b_idx < len(key)]
-    a_idx = a_idx[:len(b_idx)]
-    pair = key[a_idx] == key[b_idx]
-    a_idx, b_idx = a_idx[pair], b_idx[pair]
-    fa, fb = em[a_idx], em[b_idx]
+    fa, fb = mk[ta], mk[tb]
     ts = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
     for i, j in meeting_pairs(solid):
         sel = ((fa == i) & (fb == j)) | ((fa == j) & (fb == i))
         if not sel.any():
             continue
-        ed = e[a_idx[sel]]
+        ed = edges[sel]
         x0, x1 = points[ed[:, 0]], points[ed[:, 1]]
         x = (x0[:, None, :] + ts[None, :, None] * (x1 - x0)[:, None, :]).reshape(-1, 3)
         y, ok = onto_curve(solid.faces[i].surface, solid.faces[j].surface, x)
