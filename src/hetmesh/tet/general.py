@@ -31,18 +31,22 @@ meshed through a background grid, level-set cuts and MMG remeshing to the materi
    :data:`PARTIAL`; a vertex still farther than :data:`STUCK` x the chord tolerance from
    its place is collapsed onto a neighbour (:func:`_collapse_stuck`; MMG would keep it as a
    corner), and the rounds go on until no vertex was collapsed and every boundary vertex is
-   within :data:`SETTLED` x the chord tolerance of its faces.
+   within :data:`SETTLED` x the chord tolerance of its faces. On that path MMG's ridge angle
+   is :data:`RIDGE_ANGLE`, the edges between faces given to it as ridges, so that fewer
+   turns of the cuts' polyline become corners. The uniform baseline
+   (:func:`uniform_solid_at`) runs the same rounds (:func:`size_rounds`) at a constant size.
 5. *Repair*: the violators left are bisected (:func:`hetmesh.tet.refine.repair`); a
    boundary edge's midpoint lies in its triangle's plane, so planar faces stay exact and
-   chords of curved faces do not get farther from them. Where curved faces meet, the
-   tetrahedra under :data:`FLIP_BOUND` degrees are then improved by flips
-   (:func:`_flip_meeting`).
+   chords of curved faces do not get farther from them. Where curved faces meet, the short
+   edges of the tetrahedra under :data:`COLLAPSE_BOUND` degrees are then collapsed and those
+   under :data:`FLIP_BOUND` degrees improved by flips (:func:`finish_meeting`).
 6. *Verification* (:func:`solid_problems`): positive volumes, conformity, a closed boundary,
    every boundary triangle on a face (planar ones exactly, curved ones within the chord
    tolerance at 12 points per triangle), every edge between two curved faces within the
    chord tolerance of the exact curve where their surfaces meet (:func:`edge_problems`),
-   the volume (exact where the solid has a closed form, else within 1 % of a grid
-   estimate), delta_max < delta_0.
+   the volume (within the chord tolerance x the boundary area of the exact one where the
+   solid has a closed form, else of a grid estimate, with 1 % more for the estimate's own
+   error), delta_max < delta_0.
 
 The same input and seed give the same mesh (MMG runs single-threaded and deterministically).
 """
@@ -71,7 +75,8 @@ from .verify import raise_problems, validity_problems
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
            "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
-           "edge_problems", "onto_curve"]
+           "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
+           "estimate_regular", "check_estimate", "check_count"]
 
 log = logging.getLogger(__name__)
 
@@ -402,6 +407,13 @@ COLLAPSE_PASSES = 200
 #: on the path for meeting curved faces, the tetrahedra whose smallest dihedral angle is
 #: under this (degrees) are improved by flips at the end
 FLIP_BOUND = 20.0
+#: on the path for meeting curved faces, MMG's ridge angle (degrees; its default is 45): a
+#: vertex whose two ridge edges turn by more than this is one of MMG's corners, which it
+#: never moves or removes. The cuts' polyline zigzags near the curve where curved faces meet,
+#: and at 45 degrees its turns made corners the projection could not move (on the crossing
+#: bores about 40 a round, the rounds going on to the last); the edges between faces are
+#: given to MMG as ridges, so this angle does not decide them
+RIDGE_ANGLE = 70.0
 #: the smallest volume a projection may leave a tetrahedron of a solid whose curved faces
 #: meet, relative to the cube of the diameter (1000 x the validity check's floor)
 MIN_VOLUME = 1e-9
@@ -578,20 +590,41 @@ def cap_curved(solid, size, faces, markers, chord):
     return size
 
 
-def mmg_remesh(p, t, faces, markers, size, hausd):
+def mmg_remesh(p, t, faces, markers, size, hausd, *, ridge_angle: float | None = None):
     """One MMG remeshing of ``(p, t)`` to the isotropic ``size`` per vertex, the boundary
     triangles ``faces`` with their ``markers`` kept as references, Hausdorff distance
     ``hausd``, gradation :data:`HGRAD`: ``(points, tets, faces, markers, size)``, the size
-    MMG interpolated at the new vertices."""
+    MMG interpolated at the new vertices. ``ridge_angle`` (degrees; None: MMG's 45):
+    MMG's ridge angle, which makes a vertex whose two ridge edges turn by more than it a
+    corner (never moved or removed); given, the edges between triangles of different
+    markers are given to MMG as ridges, so that the angle does not decide those (but for
+    those between coplanar triangles, which MMG would drop with a warning)."""
     mmgpy = _quiet_mmg()
     m = mmgpy.MmgMesh3D()
-    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces))
+    ridges = np.zeros((0, 2), dtype=np.int64)
+    if ridge_angle is not None:
+        edges, ta, tb = boundary_edge_pairs(faces)
+        q = p[np.asarray(faces, dtype=np.int64)]
+        nrm = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        flat = np.abs(np.einsum("ij,ij->i", nrm[ta], nrm[tb])) > 1.0 - 1e-5
+        mk = np.asarray(markers)
+        ridges = edges[(mk[ta] != mk[tb]) & ~flat]
+    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces),
+                    edges=len(ridges))
     m.set_vertices(np.ascontiguousarray(p))
     m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32))
     m.set_triangles(np.ascontiguousarray(faces, dtype=np.int32),
                     np.ascontiguousarray(markers + 1, dtype=np.int32))
+    opts = {}
+    if ridge_angle is not None:
+        if len(ridges):
+            m.set_edges(np.ascontiguousarray(ridges, dtype=np.int32),
+                        np.zeros(len(ridges), dtype=np.int32))
+            m.set_ridge_edges(np.arange(len(ridges), dtype=np.int32))
+        opts["ar"] = float(ridge_angle)
     m.set_field("metric", np.ascontiguousarray(size, dtype=np.float64).reshape(-1, 1))
-    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD)
+    out = m.remesh(verbose=-1, hausd=float(hausd), hgrad=HGRAD, **opts)
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
@@ -613,7 +646,8 @@ def _remesh(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: floa
     triangles named again (within ``tol`` of their faces) and its boundary vertices projected
     onto them (:func:`_project_safely`, ``meeting`` its path): ``(points, tets, faces,
     markers, size MMG interpolated)``."""
-    p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
+    p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd,
+                                     ridge_angle=RIDGE_ANGLE if meeting else None)
     faces, markers = _faces_after(solid, p, t, fm, rm, tol)
     return (_project_safely(solid, p, t, faces, markers, meeting), t, faces, markers,
             h_mmg)
@@ -698,6 +732,62 @@ def meeting_pairs(solid) -> tuple:
     return getattr(solid, "curved_edges", ())
 
 
+def size_rounds(solid: CSGSolid, p, t, faces, markers, size, chord: float, tol: float,
+                meeting: bool, material):
+    """The size rounds of a solid's mesh (step 4 of the module docstring), shared by the
+    adaptive mesh and the uniform baseline: MMG remeshes ``(p, t)`` to ``size`` (Hausdorff
+    distance half the chord tolerance ``chord``) and the boundary vertices are projected
+    onto their faces (:func:`_remesh`; ``tol`` names the faces of the triangles MMG did not
+    report); on the path for meeting curved faces (``meeting``), the vertices left short of
+    their faces are collapsed after each round but the last (:func:`_collapse_stuck`).
+    ``material(points, tets, size MMG interpolated, round)`` checks the budget and says
+    whether the material is met, with a callable giving the next round's size (before the
+    chord cap) otherwise. The rounds (at most :data:`SIZE_ROUNDS` after the first) end when
+    the material is met and, on the path for meeting faces, no vertex was collapsed and every
+    boundary vertex is within :data:`SETTLED` x ``chord`` of its faces. ``(points, tets,
+    faces, markers, last round)``."""
+    hausd = 0.5 * chord
+    rounds = 0
+    for rounds in range(SIZE_ROUNDS + 1):
+        p, t, faces, markers, h_mmg = _remesh(solid, p, t, faces, markers, size, hausd, tol,
+                                              meeting)
+        collapsed = 0
+        if meeting and rounds < SIZE_ROUNDS:
+            # MMG keeps the vertices the projection left short (its corners): collapsed
+            # here, MMG remeshes around their neighbours in the next round
+            p, t, faces, markers, kept, collapsed = _collapse_stuck(
+                p, t, faces, markers, project(solid, p, faces, markers),
+                MIN_VOLUME * solid.diameter ** 3, STUCK * chord)
+            if collapsed:
+                h_mmg = h_mmg[kept]
+                p = _project_safely(solid, p, t, faces, markers, meeting)
+                log.info("solid: %d boundary vertices short of their faces collapsed",
+                         collapsed)
+        met, resize = material(p, t, h_mmg, rounds)
+        # where curved faces meet, the rounds go on until the projection has put the
+        # boundary vertices on their faces (MMG remeshes what it could not move)
+        settled = not meeting or (
+            not collapsed and off_faces(solid, p, faces, markers) <= SETTLED * chord)
+        if (met and settled) or rounds == SIZE_ROUNDS:
+            break
+        size = cap_curved(solid, resize(), faces, markers, chord)
+    return p, t, faces, markers, rounds
+
+
+def finish_meeting(solid: CSGSolid, p, t, faces, markers, comp, threshold: float,
+                   chord: float):
+    """The last step of the path for meeting curved faces, shared by the adaptive mesh and
+    the uniform baseline: the slivers along the edge collapsed (:func:`_collapse_slivers`,
+    every changed tetrahedron's delta over the vertex compositions ``comp`` below
+    ``threshold``), then flipped (:func:`_flip_meeting`). ``(points, tets, faces, markers,
+    composition, delta)``."""
+    t, faces, markers = _collapse_slivers(
+        solid, p, t, faces, markers, lambda tets: delta_vertices(comp, tets) < threshold,
+        chord)
+    p, t, faces, comp, delta = _flip_meeting(p, t, faces, comp, threshold)
+    return p, t, faces, markers, comp, delta
+
+
 def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
                    chord_tol: float | None = None, max_elements: int | None = None,
                    max_size: float | None = None, check: bool = True) -> TetResult:
@@ -757,40 +847,20 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
     faces, markers = _boundary(solid, p, t, tol)
     size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
                       chord)
-    hausd = 0.5 * chord
-    rounds = 0
     mtol = max(0.25 * h_max, 10 * chord)
-    for rounds in range(SIZE_ROUNDS + 1):
-        p, t, faces, markers, h_mmg = _remesh(solid, p, t, faces, markers, size, hausd, mtol,
-                                              meeting)
-        collapsed = 0
-        if meeting and rounds < SIZE_ROUNDS:
-            # MMG keeps the vertices the projection left short (its corners): collapsed
-            # here, MMG remeshes around their neighbours in the next round
-            p, t, faces, markers, kept, collapsed = _collapse_stuck(
-                p, t, faces, markers, project(solid, p, faces, markers),
-                MIN_VOLUME * solid.diameter ** 3, STUCK * chord)
-            if collapsed:
-                h_mmg = h_mmg[kept]
-                p = _project_safely(solid, p, t, faces, markers, meeting)
-                log.info("solid: %d boundary vertices short of their faces collapsed",
-                         collapsed)
+
+    def material(p, t, h_mmg, rounds):
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
-        comp = field.composition(p)
-        delta = delta_vertices(comp, t)
-        bad = delta >= threshold
+        bad = delta_vertices(field.composition(p), t) >= threshold
         log.info("solid: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
                  int(bad.sum()))
-        # where curved faces meet, the rounds go on until the projection has put the
-        # boundary vertices on their faces (MMG remeshes what it could not move)
-        settled = not meeting or (
-            not collapsed and off_faces(solid, p, faces, markers) <= SETTLED * chord)
-        if (not bad.any() and settled) or rounds == SIZE_ROUNDS:
-            break
-        size = cap_curved(solid, next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min),
-                          faces, markers, chord)
+        return not bad.any(), lambda: next_size(h_mmg, field, p, t, bad, threshold, h_max,
+                                                h_min)
+
+    p, t, faces, markers, rounds = size_rounds(solid, p, t, faces, markers, size, chord,
+                                               mtol, meeting, material)
     t_place = time.perf_counter() - t0
     passes = 0
     comp = field.composition(p)
@@ -815,10 +885,8 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
     if meeting:
-        t, faces, markers = _collapse_slivers(
-            solid, p, t, faces, markers, lambda tets: delta_vertices(comp, tets) < threshold,
-            chord)
-        p, t, faces, comp, delta = _flip_meeting(p, t, faces, comp, threshold)
+        p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
+                                                           threshold, chord)
     t = t.astype(np.int32)
     info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place,
@@ -889,15 +957,17 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
                        f"surface (allowed {lim:.3g})")
     out += edge_problems(p, faces, markers, solid, chord_tol)
     vol = float(simplex_measures(p, t).sum())
+    # a boundary triangle within chord_tol of its surface bounds a volume of at most
+    # chord_tol x its area between them
+    area = 0.5 * np.linalg.norm(np.cross(p[faces[:, 1]] - p[faces[:, 0]],
+                                         p[faces[:, 2]] - p[faces[:, 0]]), axis=1).sum()
     if solid.exact_volume is not None:
-        area = 0.5 * np.linalg.norm(np.cross(p[faces[:, 1]] - p[faces[:, 0]],
-                                             p[faces[:, 2]] - p[faces[:, 0]]), axis=1).sum()
         if abs(vol - solid.exact_volume) > chord_tol * area + 1e-9 * solid.exact_volume:
             out.append(f"volume {vol:.12g} differs from the solid's {solid.exact_volume:.12g} "
                        f"by more than the chord tolerance allows")
-    elif abs(vol - solid.volume) > 0.01 * solid.volume:
+    elif abs(vol - solid.volume) > chord_tol * area + 0.01 * solid.volume:
         out.append(f"volume {vol:.12g} differs from the solid's (grid estimate "
-                   f"{solid.volume:.12g}) by more than 1 %")
+                   f"{solid.volume:.12g}) by more than the chord tolerance allows and 1 %")
     return out + centroid_and_delta_problems(res, solid, field, chord_tol, "the solid")
 
 
@@ -927,6 +997,26 @@ def onto_curve(s1, s2, x: np.ndarray, iters: int = 50) -> tuple[np.ndarray, np.n
     return y, ok
 
 
+def boundary_edge_pairs(faces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The edges of a closed boundary, each in two of its triangles ``faces``: ``(edges
+    (E, 2) sorted, index of the one triangle, index of the other)``."""
+    f = np.asarray(faces, dtype=np.int64)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    tri = np.tile(np.arange(len(f)), 3)
+    n = int(f.max()) + 1 if len(f) else 1
+    key = e[:, 0] * n + e[:, 1]
+    order = np.lexsort((tri, key))
+    key, tri, e = key[order], tri[order], e[order]
+    first = np.r_[True, key[1:] != key[:-1]]
+    a_idx = np.flatnonzero(first)
+    b_idx = a_idx + 1
+    b_idx = b_idx[b_idx < len(key)]
+    a_idx = a_idx[:len(b_idx)]
+    pair = key[a_idx] == key[b_idx]
+    a_idx, b_idx = a_idx[pair], b_idx[pair]
+    return e[a_idx], tri[a_idx], tri[b_idx]
+
+
 def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> list[str]:
     """The edges between two curved faces (:attr:`CSGSolid.curved_edges`) against the
     exact curve where their surfaces meet: every boundary edge with a triangle of each face
@@ -935,29 +1025,15 @@ def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> 
     out = []
     if not meeting_pairs(solid):
         return out
-    f = np.asarray(faces, dtype=np.int64)
+    edges, ta, tb = boundary_edge_pairs(faces)
     mk = np.asarray(markers, dtype=np.int64)
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    em = np.tile(mk, 3)
-    n = int(f.max()) + 1
-    key = e[:, 0] * n + e[:, 1]
-    order = np.lexsort((em, key))
-    key, em, e = key[order], em[order], e[order]
-    first = np.r_[True, key[1:] != key[:-1]]
-    # each boundary edge in two triangles: its two faces are the markers of the pair
-    a_idx = np.flatnonzero(first)
-    b_idx = a_idx + 1
-    b_idx = b_idx[b_idx < len(key)]
-    a_idx = a_idx[:len(b_idx)]
-    pair = key[a_idx] == key[b_idx]
-    a_idx, b_idx = a_idx[pair], b_idx[pair]
-    fa, fb = em[a_idx], em[b_idx]
+    fa, fb = mk[ta], mk[tb]
     ts = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
     for i, j in meeting_pairs(solid):
         sel = ((fa == i) & (fb == j)) | ((fa == j) & (fb == i))
         if not sel.any():
             continue
-        ed = e[a_idx[sel]]
+        ed = edges[sel]
         x0, x1 = points[ed[:, 0]], points[ed[:, 1]]
         x = (x0[:, None, :] + ts[None, :, None] * (x1 - x0)[:, None, :]).reshape(-1, 3)
         y, ok = onto_curve(solid.faces[i].surface, solid.faces[j].surface, x)
@@ -989,43 +1065,72 @@ def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) 
     return out
 
 
+#: regular tetrahedra of edge h per h^3 of volume (a remeshed uniform mesh's estimate)
+REGULAR_PER_H3 = 6.0 * math.sqrt(2.0)
+
+
+def estimate_regular(solid, h: float) -> float:
+    """A-priori tetrahedron count of a remeshed uniform mesh of size ``h``: regular
+    tetrahedra of edge ``h`` over the solid's volume (:data:`REGULAR_PER_H3`), plus 100."""
+    return REGULAR_PER_H3 * float(solid.volume) / h ** 3 + 100.0
+
+
+def check_estimate(h: float, est: float, max_elements: int | None) -> float:
+    """The uniform baselines' budget before meshing: :class:`BudgetError` if the estimate
+    ``est`` of the mesh of size ``h`` exceeds ``max_elements`` (None: no budget); else
+    ``est``."""
+    if max_elements is not None and est > max_elements:
+        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
+                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    return est
+
+
+def check_count(h: float, n: int, max_elements: int | None) -> None:
+    """The uniform baselines' budget after meshing: :class:`BudgetError` if the mesh of
+    size ``h`` has more than ``max_elements`` tetrahedra (``n``; None: no budget)."""
+    if max_elements is not None and n > max_elements:
+        raise BudgetError(f"the uniform mesh of size {h:.4g} has {n:,} tetrahedra, "
+                          f"over the budget of {max_elements:,}")
+
+
 def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
                      chord_tol: float | None = None,
                      max_elements: int | None = None) -> TetResult:
     """The uniform baseline's mesh of a solid of primitives at size ``h``, not verified: the
-    same start as :func:`generate_solid` (the cut background grid), remeshed once by MMG to
-    the constant size ``h`` (capped on curved faces for the chord tolerance ``chord_tol``,
-    absolute, as the adaptive mesh is), the boundary vertices projected onto their faces
-    (where curved faces meet, remeshed until they are on them, at most
-    :data:`SIZE_ROUNDS` more times).
-    Nothing is refined for the material: ``delta`` over the vertices is measured,
-    ``threshold`` recorded but not required (:func:`hetmesh.tet.uniform.uniform_model`
-    searches ``h``)."""
+    adaptive mesher's path with the constant size ``h`` and nothing refined for the
+    material. The same start as :func:`generate_solid` (the cut background grid), remeshed
+    by MMG to ``h`` (capped on curved faces for the chord tolerance ``chord_tol``, absolute,
+    as the adaptive mesh is) with the boundary vertices projected onto their faces
+    (:func:`size_rounds`: once, or, where curved faces meet, until they are on them, the
+    vertices left short collapsed between the rounds); where curved faces meet, the slivers
+    along the edge collapsed and flipped as in the adaptive mesh (:func:`finish_meeting`, no
+    changed tetrahedron's delta reaching ``threshold``). Where curved faces meet, the path
+    for meeting faces is taken at once (the adaptive mesher tries the plain one first).
+    ``delta`` over the vertices is measured, ``threshold`` recorded but not required
+    (:func:`hetmesh.tet.uniform.uniform_model` searches ``h``)."""
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
-    est = 6.0 * np.sqrt(2.0) * solid.volume / h ** 3  # regular tetrahedra of edge h
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
-                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
+    est = check_estimate(h, estimate_regular(solid, h), max_elements)
+    meeting = bool(meeting_pairs(solid))
     spacing = background_spacing(solid)
-    p, t = cut_solid(solid, spacing, meeting=bool(meeting_pairs(solid)))
+    p, t = cut_solid(solid, spacing, meeting=meeting)
     faces, markers = _boundary(solid, p, t, 0.5 * spacing)
-    size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
-    p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size, 0.5 * chord,
-                                           max(0.25 * h, 10 * chord))
-    # where curved faces meet, remeshed again until the projection has put the boundary
-    # vertices on their faces (as the size rounds of generate_solid go on)
-    for _ in range(SIZE_ROUNDS if meeting_pairs(solid) else 0):
-        if off_faces(solid, p, faces, markers) <= SETTLED * chord:
-            break
-        size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
-        p, t, faces, markers, _ = remesh_solid(solid, p, t, faces, markers, size,
-                                               0.5 * chord, max(0.25 * h, 10 * chord))
-    if max_elements is not None and len(t) > max_elements:
-        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(t):,} tetrahedra, "
-                          f"over the budget of {max_elements:,}")
+
+    def constant(p, t, h_mmg, rounds):
+        check_count(h, len(t), max_elements)
+        return True, lambda: np.full(len(p), float(h))
+
+    p, t, faces, markers, rounds = size_rounds(
+        solid, p, t, faces, markers,
+        cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord), chord,
+        max(0.25 * h, 10 * chord), meeting, constant)
     comp = field.composition(p)
+    if meeting:
+        p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
+                                                           threshold, chord)
+    else:
+        delta = delta_vertices(comp, t)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
-            "chord_tol": chord, "composition": comp}
+            "chord_tol": chord, "composition": comp, "size_rounds": rounds}
     return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
-                     (markers + 1).astype(np.int32), tuple(solid.face_names),
-                     delta_vertices(comp, t), float(threshold), info)
+                     (markers + 1).astype(np.int32), tuple(solid.face_names), delta,
+                     float(threshold), info)

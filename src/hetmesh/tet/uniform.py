@@ -61,7 +61,11 @@ from .extrude import prism_tets
 from .faces import boundary_faces
 from .general import (
     HGRAD,
+    REGULAR_PER_H3,
     cap_curved,
+    check_count,
+    check_estimate,
+    estimate_regular,
     mmg_remesh,
     solid_problems,
     uniform_solid_at,
@@ -92,8 +96,6 @@ log = logging.getLogger(__name__)
 #: tetrahedra per h^3 of volume in a swept uniform mesh: 4 / (sqrt(3) h^2) triangles per
 #: unit area (equilateral, edge h), 3 tetrahedra per triangle and layer of thickness h
 TETS_PER_H3 = 12.0 / math.sqrt(3.0)
-#: regular tetrahedra of edge h per h^3 of volume (a remeshed uniform mesh's estimate)
-REGULAR_PER_H3 = 6.0 * math.sqrt(2.0)
 #: default chord tolerance of curved faces, x the solid's diameter (as for the adaptive mesh)
 CHORD = 2e-3
 #: stop the size search when the failing and passing sizes are this close (ratio)
@@ -233,19 +235,14 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     sec_rel = section_chord(solid, chord_tol)
     if sections is None:
         sections = SectionMesher(model, threshold, sec_rel)
-    est = estimate_uniform(solid, h)
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about {est:,.0f} "
-                          f"tetrahedra, over the budget of {max_elements:,}")
+    est = check_estimate(h, estimate_uniform(solid, h), max_elements)
     m2, _ = sections(h, min_angle=min_angle, max_elements=max_elements)
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
     if revolved:
         points, tets, tri_of, info = _sweep_revolution(solid, p2, t2, h, chord)
     else:
         points, tets, tri_of, info = _sweep_prism(solid, p2, t2, h)
-    if max_elements is not None and len(tets) > max_elements:
-        raise BudgetError(f"the uniform mesh of size {h:.4g} has {len(tets):,} tetrahedra, "
-                          f"over the budget of {max_elements:,}")
+    check_count(h, len(tets), max_elements)
     v = simplex_measures(points, tets)
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
     tets = tets.astype(np.int32)
@@ -318,10 +315,7 @@ def _section_trial(model, h, threshold, sections, chord_tol, max_elements, min_a
     tetrahedra the sweep makes (a vertex on the axis of a revolution merges: a triangle with
     k vertices on it gives 3 - k tetrahedra per step)."""
     solid = model.solid
-    est = estimate_uniform(solid, h)
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about {est:,.0f} "
-                          f"tetrahedra, over the budget of {max_elements:,}")
+    check_estimate(h, estimate_uniform(solid, h), max_elements)
     m2, delta2 = sections(h, min_angle=min_angle, max_elements=max_elements)
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells)
     if _is_revolution(solid):
@@ -331,9 +325,7 @@ def _section_trial(model, h, threshold, sections, chord_tol, max_elements, min_a
         count = int((3 - on_axis[t2].sum(axis=1)).clip(0).sum()) * n
     else:
         count = 3 * len(t2) * max(1, int(math.ceil(solid.length / h - 1e-9)))
-    if max_elements is not None and count > max_elements:
-        raise BudgetError(f"the uniform mesh of size {h:.4g} has {count:,} tetrahedra, "
-                          f"over the budget of {max_elements:,}")
+    check_count(h, count, max_elements)
     return TetResult(np.empty((0, 3)), np.empty((0, 4), dtype=np.int32),
                      np.empty((0, 3), dtype=np.int32), np.empty(0, dtype=np.int32),
                      tuple(solid.face_names), np.asarray(delta2), float(threshold),
@@ -346,25 +338,17 @@ def estimate_remeshed(solid, h: float) -> float:
     """A-priori tetrahedron count of a remeshed uniform mesh of size ``h``: regular
     tetrahedra of edge ``h`` over the solid's volume (:data:`REGULAR_PER_H3`), plus, for a
     voxel mask, its boundary at the voxel size (as :func:`hetmesh.tet.masked.estimate_masked`
-    adds it: a number per voxel face of the contour)."""
-    est = REGULAR_PER_H3 * float(solid.volume) / h ** 3
+    adds it: a number per voxel face of the contour), plus 100
+    (:func:`hetmesh.tet.general.estimate_regular`)."""
+    est = estimate_regular(solid, h)
     if isinstance(solid, VoxelSolid):
         est += boundary_estimate(solid)
-    return est + 100.0
-
-
-def _check_estimate(solid, h: float, max_elements: int | None) -> float:
-    est = estimate_remeshed(solid, h)
-    if max_elements is not None and est > max_elements:
-        raise BudgetError(f"a uniform tetrahedral mesh of size {h:.4g} needs about "
-                          f"{est:,.0f} tetrahedra, over the budget of {max_elements:,}")
     return est
 
 
-def _check_count(h: float, n: int, max_elements: int | None) -> None:
-    if max_elements is not None and n > max_elements:
-        raise BudgetError(f"the uniform mesh of size {h:.4g} has {n:,} tetrahedra, "
-                          f"over the budget of {max_elements:,}")
+def _check_estimate(solid, h: float, max_elements: int | None) -> float:
+    """:func:`hetmesh.tet.general.check_estimate` of :func:`estimate_remeshed`."""
+    return check_estimate(h, estimate_remeshed(solid, h), max_elements)
 
 
 def surface_start(solid: SurfaceSolid, chord: float):
@@ -395,7 +379,7 @@ def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *
     p, t, faces, markers = surface_start(solid, chord) if start is None else start
     p, t, fm, rm, _ = mmg_remesh(p, t, faces, markers, np.full(len(p), float(h)),
                                  0.5 * chord)
-    _check_count(h, len(t), max_elements)
+    check_count(h, len(t), max_elements)
     faces, markers = keep_markers(solid, p, t, fm, rm, chord)
     comp = field.composition(p)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
@@ -422,9 +406,9 @@ def uniform_mask_at(solid: VoxelSolid, field, h: float, threshold: float, *,
     for hv in HAUSD:
         hausd = hv * solid.voxel
         p, t, phase, _ = remesh_phases(p0, t0, ph0, np.full(len(p0), float(h)), hausd)
-        _check_count(h, len(t), max_elements)
+        check_count(h, len(t), max_elements)
         p, t, phase, _ = remesh_phases(p, t, phase, None, hausd, optim=1, nosurf=1)
-        _check_count(h, len(t), max_elements)
+        check_count(h, len(t), max_elements)
         comp = field.composition(p)
         p, comp = polish(p, t, phase, comp, field, threshold)
         t = t.astype(np.int32)
@@ -467,7 +451,7 @@ def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, sta
     size = cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord)
     p, t, faces, markers, _ = remesh_carved(solid, p, t, faces, markers, size, 0.5 * chord,
                                             max(0.25 * h, 10 * chord))
-    _check_count(h, len(t), max_elements)
+    check_count(h, len(t), max_elements)
     p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, field.composition(p),
                                                 threshold)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
