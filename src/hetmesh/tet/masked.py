@@ -17,14 +17,13 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
    :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds.
    A round's remeshing is repeated while it removes more than :data:`SETTLE` of the
    tetrahedra, up to :data:`SETTLE_PASSES` remeshings (:func:`remesh_round`): one pass
-   coarsens the far finer cut only part of the way. Every round's size is the material's
-   times the shrinking the rounds carried over (:func:`hetmesh.tet.carve.shrink_at`,
-   :func:`hetmesh.tet.carve.next_shrink`), not the size MMG hands back, which is graded
-   from the finer mesh before it. Each remeshing after the cut's first remeshes a surface
-   MMG made, which may move it by up to the Hausdorff distance again: once one breaks the
-   voxel claims (:func:`voxel_claims`), it is redone from its start with the boundary and
-   the interfaces kept (MMG's ``nosurf``), as are all after it; the rounds then also stop
-   when the violators no longer become fewer.
+   coarsens the far finer cut only part of the way. Round 0's remeshings are to the
+   material's size; the later rounds' to the size MMG interpolated, shrunk at the
+   violators (:func:`hetmesh.tet.general.next_size`). Each remeshing after the cut's first
+   remeshes a surface MMG made, which may move it by up to the Hausdorff distance again:
+   once one breaks the voxel claims (:func:`voxel_claims`), it is redone from its start
+   with the boundary and the interfaces kept (MMG's ``nosurf``), as are all after it; the
+   rounds then also stop when the violators no longer become fewer.
    One more MMG pass optimises the mesh without touching its surface (``optim``, sizes
    from the mesh itself; ``nosurf``: the boundary and the interfaces stay as they are);
    the violators left are bisected (:func:`hetmesh.tet.refine.repair`; with phases
@@ -38,7 +37,8 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
    vertices, :mod:`hetmesh.tet.flips`, and the polish again): where three phases meet,
    the interfaces leave wedges of a phase too narrow for two tetrahedra, which no vertex
    move mends; the radius-ratio flips also keep a plain mask's mean radius ratio at the
-   target once the repeated remeshing has made its inside coarser.
+   target once the repeated remeshing has made its inside coarser (a plain mask is one
+   phase: only the flips and the polish act).
 3. *Faces*: the boundary triangles take the name of the zero region on their side: ``outer``
    (the zeros connected to the outside of the volume) or ``cavity[k]`` (an enclosed zero
    region, numbered in the order of its first voxel, k fastest x).
@@ -478,10 +478,11 @@ def phase_delta(field, p, t, phase, comp):
     return delta_vertices(comp, t)
 
 
-def remesh_round(solid: VoxelSolid, p, t, phase, size_of, hausd: float, kept: bool,
-                 checked: bool):
-    """One size round's MMG remeshing (:func:`remesh_phases`) to ``size_of(points)``,
-    repeated to the size at the new vertices while a remeshing removes more than
+def remesh_round(solid: VoxelSolid, p, t, phase, size, hausd: float, kept: bool,
+                 checked: bool, size_of=None):
+    """One size round's MMG remeshing (:func:`remesh_phases`) to ``size`` (per point),
+    repeated to the size at the new vertices (``size_of(points)``; None: the size MMG
+    interpolated at them) while a remeshing removes more than
     :data:`SETTLE` of the tetrahedra, up to :data:`SETTLE_PASSES` remeshings: one MMG pass
     coarsens a finer mesh only part of the way (phase_volume at 0.3: the cut's 307,178
     tetrahedra became 77,328 in one pass, 61,059 in a second to the same size, then 58,157
@@ -491,15 +492,17 @@ def remesh_round(solid: VoxelSolid, p, t, phase, size_of, hausd: float, kept: bo
     the voxel claims (:func:`voxel_claims`) is redone from its start with the boundary and
     the interfaces kept (MMG's ``nosurf``), as are all after it (``kept``). ``(points,
     tets, phase, size MMG interpolated, kept, remeshings)``."""
-    passes = 0
+    passes, h_mmg = 0, None
     for passes in range(1, SETTLE_PASSES + 1):
         n = len(t)
-        new = remesh_phases(p, t, phase, size_of(p), hausd, **({"nosurf": 1} if kept else {}))
+        if passes > 1:
+            size = h_mmg if size_of is None else size_of(p)
+        new = remesh_phases(p, t, phase, size, hausd, **({"nosurf": 1} if kept else {}))
         if checked and not kept and voxel_claims(solid, *new[:3]):
             log.info("mask: a remeshing moved the surface out of the voxel claims; again "
                      "with the surface kept")
             kept = True
-            new = remesh_phases(p, t, phase, size_of(p), hausd, nosurf=1)
+            new = remesh_phases(p, t, phase, size, hausd, nosurf=1)
         p, t, phase, h_mmg = new
         checked = True
         log.debug("mask: remeshing %d: %d tetrahedra (from %d)", passes, len(t), n)
@@ -509,24 +512,22 @@ def remesh_round(solid: VoxelSolid, p, t, phase, size_of, hausd: float, kept: bo
 
 
 def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_elements):
-    from .carve import next_shrink, shrink_at
-    from .general import size_field
+    from .general import next_size, size_field
     from .sampling import repair_sampled, sampled_delta
 
-    def size_of(points):
-        """The material's size times the rounds' shrinking carried over, at least h_min:
-        not the size MMG hands back, which is graded from the finer mesh before."""
-        h = size_field(field, points, threshold, h_max, h_min)
-        return np.maximum(h * shrink_at(ref, factor, points), h_min)
+    def material(points):
+        return size_field(field, points, threshold, h_max, h_min)
+
+    size = material(p)
 
     stages = {}  # the tetrahedra after each step
     rounds = remeshings = 0
     n_bad = None
-    ref = factor = None  # the rounds' shrinking: per point of ref, a factor
     kept = False  # the surface kept as it is from this round on (MMG's nosurf)
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, phase, h_mmg, kept_now, n = remesh_round(solid, p, t, phase, size_of, hausd,
-                                                       kept, checked=rounds > 0)
+        p, t, phase, h_mmg, kept_now, n = remesh_round(
+            solid, p, t, phase, size, hausd, kept, checked=rounds > 0,
+            size_of=material if rounds == 0 else None)
         remeshings += n
         if kept_now and not kept:
             log.info("mask: size round %d moved the surface out of the voxel claims; "
@@ -547,8 +548,7 @@ def _mesh(solid, field, threshold, p, t, phase, hausd, h_max, h_min, max_element
         if not bad.any() or rounds == SIZE_ROUNDS or stalled:
             break
         n_bad = int(bad.sum())
-        factor = next_shrink(ref, factor, field, p, t, bad, h_mmg, threshold, h_max, h_min)
-        ref = p
+        size = next_size(h_mmg, field, p, t, bad, threshold, h_max, h_min)
     # the optimisation pass: swaps, moves and MMG's own size, the boundary and the
     # interfaces kept as they are (nosurf)
     p, t, phase, _ = remesh_phases(p, t, phase, None, hausd, optim=1, nosurf=1)
