@@ -177,11 +177,14 @@ def test_separate_regions_are_dropped_with_a_warning(tmp_path, caplog):
     keep[2:9, 2:9, 2:9] = True
     r = mesh_model(m, 0.3)
     check_mesh(r, keep)
-    # a box of voxels: its faces lie on the voxel faces (the contour chamfers its edges)
+    # a box of voxels: its faces lie on the voxel faces (the contour chamfers its edges;
+    # the size round's second remeshing of the surface moves more of the points near the
+    # chamfers off the planes, within the voxel claims: 0.80 of them on, 0.93 with one
+    # remeshing)
     F = r.faces
     x = r.points[F].reshape(-1, 3)
     on = np.isclose(x, 1.0) | np.isclose(x, 4.5)
-    assert on.any(axis=1).mean() > 0.9
+    assert on.any(axis=1).mean() > 0.75
 
 
 def test_example_masked_part(tmp_path):
@@ -306,13 +309,33 @@ def test_voxel_claims_hold_on_the_cut_and_catch_a_moved_boundary():
 
 
 def test_the_stages_count_the_tetrahedra_of_every_step(tmp_path):
-    """``info["stages"]``: the tetrahedra after each size round, the optimisation pass and
-    the repair, in that order; the last is the mesh's (a mask has no reconnection)."""
+    """``info["stages"]``: the tetrahedra after each size round, the optimisation pass, the
+    repair and the reconnection, in that order; the last is the mesh's."""
     r = mesh_model(load_model(write_model(tmp_path)), 0.3)
     stages = r.info["stages"]
     names = list(stages)
     rounds = [f"size round {k}" for k in range(r.info["size_rounds"] + 1)]
-    assert names == rounds + ["optimisation", "repair"], names
+    assert names == rounds + ["optimisation", "repair", "reconnection"], names
     assert all(v > 0 for v in stages.values())
-    assert stages["repair"] == len(r.tets)
+    assert stages["reconnection"] == len(r.tets)
     assert stages["repair"] >= stages["optimisation"]  # the repair only bisects
+
+
+def test_the_first_size_round_coarsens_past_one_mmg_pass(tmp_path):
+    """One MMG remeshing of the voxel cut to the material's size coarsens it only part of
+    the way: the mesh's first size round (repeated while a remeshing removes over a tenth)
+    has at most 0.9 x the tetrahedra of one remeshing of the cut to the same size at the
+    same Hausdorff distance (on this mask 5,010 against 7,588; the mesh 5,478 tetrahedra,
+    7,847 with one pass), and the mesh keeps the voxel claims and the quality targets."""
+    from hetmesh.tet.general import size_field
+    from hetmesh.tet.masked import cut_mask, remesh_phases
+
+    m = load_model(write_model(tmp_path))
+    r = mesh_model(m, 0.3)
+    check_mesh(r, part_mask(), threshold=0.3)
+    assert_quality_targets(r)
+    s = m.solid
+    p, t, phase = cut_mask(s)
+    size = size_field(m.material, p, 0.3, r.info["h_max"], 1e-4 * s.diameter)
+    once = remesh_phases(p, t, phase, size, r.info["hausd"])[1]
+    assert r.info["stages"]["size round 0"] <= 0.9 * len(once), (r.info["stages"], len(once))
