@@ -45,7 +45,7 @@ import numpy as np
 from ..material.field import element_subregions, has_subregions
 from ..metrics import quality_and_angle, signed_area2
 from .optimize import DeltaEvaluator, priority_hash, valid_input
-from .workset import FREE, Context, WorkSet
+from .workset import FREE, Context, WorkSet, drop_nodes
 
 __all__ = ["collapse", "star_table", "MAX_DEGREE"]
 
@@ -230,10 +230,5 @@ def collapse(ws: WorkSet, ctx: Context, tris: np.ndarray, comp: np.ndarray,
 
 def _compact(ws: WorkSet, tris, comp, removed):
     """Drop the ``removed`` nodes from ``ws`` (in place) and renumber ``tris``."""
-    keep = ~removed
-    new = np.cumsum(keep) - 1
-    ws.P, ws.vcurve, ws.vt = ws.P[keep], ws.vcurve[keep], ws.vt[keep]
-    ws.pinned, ws.level = ws.pinned[keep], ws.level[keep]
-    ws.E = new[ws.E]
-    ws.cdt = None
-    return new[tris], comp[keep]
+    new = drop_nodes(ws, removed)
+    return new[tris], comp[~removed]

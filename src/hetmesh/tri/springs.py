@@ -37,7 +37,7 @@ import numpy as np
 
 from ..topology import unique
 from .cvt import limit_to_star
-from .workset import FREE, Context, WorkSet, triangulate
+from .workset import FREE, Context, WorkSet, drop_nodes, triangulate
 
 __all__ = ["relax", "spring_forces", "ITERATIONS", "FSCALE", "DT", "CLEARANCE", "REBUILD",
            "SETTLED"]
@@ -156,10 +156,5 @@ def _drop_unused_free(ws: WorkSet, ctx: Context, tris: np.ndarray) -> np.ndarray
     drop = ~used & (ws.vcurve == FREE)
     if not drop.any():
         return tris
-    keep = ~drop
-    new_id = np.cumsum(keep) - 1
-    ws.P, ws.vcurve, ws.vt = ws.P[keep], ws.vcurve[keep], ws.vt[keep]
-    ws.pinned, ws.level = ws.pinned[keep], ws.level[keep]
-    ws.E = new_id[ws.E]
-    ws.cdt = None
+    drop_nodes(ws, drop)
     return triangulate(ws, ctx)

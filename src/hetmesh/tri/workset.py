@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from .sizecap import VariationCap
 
 __all__ = ["WorkSet", "Context", "triangulate", "lineage", "split_constraint_edges",
-           "add_free_points", "smooth"]
+           "add_free_points", "drop_nodes", "smooth"]
 
 FREE, FIXED = -2, -1
 
@@ -354,6 +354,19 @@ def split_constraint_edges(ws: WorkSet, ctx: Context, idx: np.ndarray,
     ws.E = np.vstack([ws.E, np.column_stack([nid, b])])
     ws.ecurve = np.concatenate([ws.ecurve, c])
     return nid
+
+
+def drop_nodes(ws: WorkSet, removed: np.ndarray) -> np.ndarray:
+    """Remove the nodes ``removed`` (mask) from ``ws`` in place, no constraint edge using
+    them; returns the new id of every kept node by its old id (the entries of the removed
+    ones are not ids)."""
+    keep = ~removed
+    new = np.cumsum(keep) - 1
+    ws.P, ws.vcurve, ws.vt = ws.P[keep], ws.vcurve[keep], ws.vt[keep]
+    ws.pinned, ws.level = ws.pinned[keep], ws.level[keep]
+    ws.E = new[ws.E]
+    ws.cdt = None
+    return new
 
 
 def add_free_points(ws: WorkSet, pts: np.ndarray, level: np.ndarray | None = None) -> np.ndarray:
