@@ -112,3 +112,5 @@ def test_starts_name_the_placements_auto_compares():
         hetmesh.generate(model, 0.1, starts=("layers", "frontal"))
     with pytest.raises(OptionError, match="starts must name placements"):
         hetmesh.generate(model, 0.1, starts=())
+    with pytest.raises(OptionError, match="starts is for method 'auto'"):
+        hetmesh.generate(model, 0.1, method="layers", starts=("layers",))

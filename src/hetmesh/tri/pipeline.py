@@ -285,10 +285,10 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         gradation do; without it a narrow bump or a steep front in a flat part gets tiny
         elements next to ones of size ``max_size``, which the quality refinement then has
         to grade at a higher cost. Like ``max_size`` it never relaxes the delta guarantee.
-
     starts : the placements ``"auto"`` compares on small models (default
         :data:`AUTO_STARTS`: the layers and the two springs starts; the first alone on
-        large models). The 3D sweeps mesh their sections with ``SWEEP_STARTS``.
+        large models); only with ``method="auto"``. The 3D sweeps mesh their sections with
+        :data:`SWEEP_STARTS`.
 
     If the layers placement fails on a model (an internal error of the row tracing or a
     mesh that fails verification), the run goes on from the next placement (the springs
@@ -313,6 +313,8 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
     if starts is not None and (not starts or any(p not in PLACEMENTS for p in starts)):
         raise OptionError(f"starts must name placements among {', '.join(PLACEMENTS)}, "
                           f"got {starts!r}")
+    if starts is not None and method != "auto":
+        raise OptionError(f"starts is for method 'auto', not {method!r}")
     check_sampling(model.material, sampling)
     timings: dict = {}
     t0 = time.perf_counter()

@@ -382,6 +382,9 @@ def add_free_points(ws: WorkSet, pts: np.ndarray, level: np.ndarray | None = Non
 
 #: the smallest distance :func:`thin_candidates_mask` lets a new point have to any other
 MIN_SEPARATION = 1e-12
+#: the most candidate pairs one k-d tree query of :func:`thin_candidates_mask`'s clash
+#: test looks at
+CLASH_PAIRS = 4_000_000
 
 
 def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
@@ -413,9 +416,9 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     # a candidate yields to an earlier one within either's distance, among its k nearest
     # (deterministic); only those with another candidate within the largest distance can
     tree, near, count = _near_candidates(cand, md)
-    # exact copies go first: the clash test looks at a few nearest candidates only, and a
-    # point traced many times over (rows that collapse onto one point of a noisy field)
-    # would hide its earlier copies from it. Copies are among the near ones (distance 0).
+    # exact copies go first: a point traced many times over (rows that collapse onto one
+    # point of a noisy field) would make a cluster the clash test has to look through
+    # whole. Copies are among the near ones (distance 0).
     if len(near) > 1:
         _, first = unique(cand[near], axis=0, return_index=True)
         if len(first) < len(near):
@@ -428,14 +431,15 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
     if len(near):
         # each candidate looks at every other one within its distance: the 6 nearest where
         # there are at most that many (nearly always), else as many as there are (a cluster:
-        # the circumcenters of the triangles of a ring of cocircular nodes coincide to 1e-9)
+        # the circumcenters of the triangles of a ring of cocircular nodes coincide to 1e-9),
+        # by blocks of at most CLASH_PAIRS pairs
         k = np.minimum(np.maximum(count[near], 6), len(cand))
-        for kk in unique(np.where(k > 6, k, 6)):
-            sel = near[k == kk] if kk > 6 else near[k <= 6]
-            for blk in range(0, len(sel), max(1, 4_000_000 // int(kk))):
-                s = sel[blk:blk + max(1, 4_000_000 // int(kk))]
-                d, j = tree.query(cand[s], k=int(min(kk, len(cand))), workers=-1)
-                d, j = d.reshape(len(s), -1), j.reshape(len(s), -1)
+        for kk in unique(k):
+            sel = near[k == kk]
+            step = max(1, CLASH_PAIRS // int(kk))
+            for b0 in range(0, len(sel), step):
+                s = sel[b0:b0 + step]
+                d, j = tree.query(cand[s], k=int(kk), workers=-1)
                 clash[s] = ((j < s[:, None]) & (d < np.minimum(md[s, None], md[j]))).any(axis=1)
     out[keep[~clash]] = True
     return out
@@ -443,14 +447,16 @@ def thin_candidates_mask(ws: WorkSet, cand: np.ndarray, min_dist: np.ndarray,
 
 def _near_candidates(cand: np.ndarray, md: np.ndarray):
     """A k-d tree of ``cand``, the candidates with another one within their ``md`` and how
-    many candidates (themselves included) every candidate has within its ``md``."""
+    many candidates (themselves included) every candidate has within its ``md``. Where a
+    distance is not finite every candidate counts as near, with the count 6 (its 6 nearest
+    are looked at): a count of all of them would make the clash test quadratic."""
     tree = cKDTree(cand)
     if np.isfinite(md).all():
         count = tree.query_ball_point(cand, r=md, return_length=True, workers=-1)
         near = np.flatnonzero(count > 1)
     else:
         near = np.arange(len(cand))
-        count = np.full(len(cand), len(cand))
+        count = np.full(len(cand), 6)
     return tree, near, count
 
 
