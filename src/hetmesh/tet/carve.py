@@ -85,6 +85,7 @@ from .general import (
     orient_positive,
     project,
     remesh_solid,
+    remesh_until_settled,
     size_field,
     solid_problems,
     split_bits,
@@ -132,10 +133,8 @@ UNTANGLE = 8
 #: made the bore's and the dimple's edges of carved_plate half the chord-limited size
 #: (:func:`hetmesh.tet.general.cap_curved`), and the gradation carried that into the volume
 HAUSD = 1.0
-#: a size round's MMG remeshing is repeated while it removes more than this fraction of the
-#: tetrahedra (one pass from the finer start does not coarsen all the way) ...
-SETTLE = 0.1
-#: ... up to this many remeshings in all
+#: a size round's MMG remeshing is repeated while it removes more than
+#: :data:`~hetmesh.tet.general.SETTLE` of the tetrahedra, up to this many remeshings in all
 SETTLE_PASSES = 4
 
 
@@ -854,20 +853,20 @@ def remesh_settled(solid: CarvedSolid, p, t, faces, markers, size_of, hausd: flo
                    tol: float, least: int = 1):
     """:func:`remesh_carved` to ``size_of(points, faces, markers)`` (the size per vertex),
     at least ``least`` times, then again to the size at the new vertices while a remeshing
-    removes more than :data:`SETTLE` of the tetrahedra, up to :data:`SETTLE_PASSES`
-    remeshings. One MMG pass coarsens a finer mesh only part of the way: on carved_plate at
+    removes more than :data:`~hetmesh.tet.general.SETTLE` of the tetrahedra, up to
+    :data:`SETTLE_PASSES` remeshings (:func:`~hetmesh.tet.general.remesh_until_settled`).
+    One MMG pass coarsens a finer mesh only part of the way: on carved_plate at
     0.3 the first pass from the cut start left 9,996 tetrahedra, a second one to the same
     size 6,567; the first pass can also refine the boundary as much as it coarsens the
     inside, so that its count alone does not show it (``least`` 2 from a start). ``(points,
     tets, faces, markers, size MMG interpolated, remeshings)``."""
-    n = len(t)
-    for passes in range(1, SETTLE_PASSES + 1):
-        p, t, faces, markers, h_mmg = remesh_carved(solid, p, t, faces, markers,
-                                                    size_of(p, faces, markers), hausd, tol)
-        log.debug("carved: remeshing %d: %d tetrahedra (from %d)", passes, len(t), n)
-        if passes >= least and len(t) >= (1.0 - SETTLE) * n:
-            break
-        n = len(t)
+    def once(state, _k):
+        p, t, faces, markers, _ = state
+        return remesh_carved(solid, p, t, faces, markers, size_of(p, faces, markers), hausd,
+                             tol)
+
+    (p, t, faces, markers, h_mmg), passes = remesh_until_settled(
+        once, (p, t, faces, markers, None), most=SETTLE_PASSES, least=least)
     return p, t, faces, markers, h_mmg, passes
 
 

@@ -76,7 +76,8 @@ __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "
            "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
            "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
            "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
-           "estimate_regular", "check_estimate", "check_count"]
+           "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",
+           "SETTLE"]
 
 log = logging.getLogger(__name__)
 
@@ -411,6 +412,9 @@ PLAIN_DIHEDRAL = 10.0
 #: on the path for meeting curved faces, the tetrahedra whose smallest dihedral angle is
 #: under this (degrees) are improved by flips at the end
 FLIP_BOUND = 20.0
+#: a size round's MMG remeshing is repeated while it removes more than this fraction of the
+#: tetrahedra (:func:`remesh_until_settled`)
+SETTLE = 0.1
 #: on the path for meeting curved faces, MMG's ridge angle (degrees; its default is 45): a
 #: vertex whose two ridge edges turn by more than this is one of MMG's corners, which it
 #: never moves or removes. The cuts' polyline zigzags near the curve where curved faces meet,
@@ -736,6 +740,22 @@ def meeting_pairs(solid) -> tuple:
     return getattr(solid, "curved_edges", ())
 
 
+def remesh_until_settled(remesh, state, *, most: int, least: int = 1):
+    """``state = remesh(state, k)`` for k = 1, 2, ... (``state[1]``: the tetrahedra), at
+    least ``least`` and at most ``most`` times, until a remeshing removes at most
+    :data:`SETTLE` of the tetrahedra: one MMG pass coarsens a far finer mesh only part of
+    the way (the size rounds of carved solids, :mod:`hetmesh.tet.carve`, and of voxel
+    masks, :mod:`hetmesh.tet.masked`). ``(state, remeshings)``."""
+    k = 0
+    for k in range(1, most + 1):
+        n = len(state[1])
+        state = remesh(state, k)
+        log.debug("remeshing %d: %d tetrahedra (from %d)", k, len(state[1]), n)
+        if k >= least and len(state[1]) >= (1.0 - SETTLE) * n:
+            break
+    return state, k
+
+
 def size_rounds(solid: CSGSolid, p, t, faces, markers, size, chord: float, tol: float,
                 meeting: bool, material):
     """The size rounds of a solid's mesh (step 4 of the module docstring), shared by the
@@ -818,9 +838,9 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
             raise
         except (MeshingError, ArithmeticError, ValueError) as exc:
             problems = [str(exc).splitlines()[0] if str(exc) else type(exc).__name__]
-        else:
+        if not problems:
             worst = float(min_dihedral(res.points, res.tets).min()) if len(res.tets) else 0.0
-            if not problems and worst < PLAIN_DIHEDRAL:
+            if worst < PLAIN_DIHEDRAL:
                 problems = [f"its smallest dihedral angle is {worst:.1f} degrees"]
         if not problems:
             res.info["meeting_path"] = False

@@ -15,9 +15,10 @@ A mask is a boolean volume ``inside (nz, ny, nx)`` on the voxel centres ``origin
 2. *Size*: MMG remeshes the inside to ``delta_0 / |grad f|`` (as for solids of primitives,
    :mod:`hetmesh.tet.general`), the boundary within a Hausdorff distance of
    :data:`HAUSD` voxels of the contour, then shrinks the size at violators for a few rounds.
-   A round's remeshing is repeated while it removes more than :data:`SETTLE` of the
-   tetrahedra, up to :data:`SETTLE_PASSES` remeshings (:func:`remesh_round`): one pass
-   coarsens the far finer cut only part of the way. Round 0's remeshings are to the
+   A round's remeshing is repeated while it removes more than
+   :data:`~hetmesh.tet.general.SETTLE` of the tetrahedra, up to :data:`SETTLE_PASSES`
+   remeshings (:func:`remesh_round`): one pass coarsens the far finer cut only part of
+   the way. Round 0's remeshings are to the
    material's size; the later rounds' to the size MMG interpolated, shrunk at the
    violators (:func:`hetmesh.tet.general.next_size`). Each remeshing after the cut's first
    remeshes a surface MMG made, which may move it by up to the Hausdorff distance again:
@@ -119,10 +120,8 @@ FLIP_RADIUS_PASSES = 4
 FLIP_ROUNDS = 2
 #: size rounds before the bisection repair
 SIZE_ROUNDS = 6
-#: a size round's MMG remeshing is repeated while it removes more than this fraction of the
-#: tetrahedra (one pass from the finer cut does not coarsen all the way) ...
-SETTLE = 0.1
-#: ... up to this many remeshings in all
+#: a size round's MMG remeshing is repeated while it removes more than
+#: :data:`~hetmesh.tet.general.SETTLE` of the tetrahedra, up to this many remeshings in all
 SETTLE_PASSES = 2
 #: MMG's gradation
 HGRAD = 1.3
@@ -483,7 +482,8 @@ def remesh_round(solid: VoxelSolid, p, t, phase, size, hausd: float, kept: bool,
     """One size round's MMG remeshing (:func:`remesh_phases`) to ``size`` (per point),
     repeated to the size at the new vertices (``size_of(points)``; None: the size MMG
     interpolated at them) while a remeshing removes more than
-    :data:`SETTLE` of the tetrahedra, up to :data:`SETTLE_PASSES` remeshings: one MMG pass
+    :data:`~hetmesh.tet.general.SETTLE` of the tetrahedra, up to :data:`SETTLE_PASSES`
+    remeshings (:func:`~hetmesh.tet.general.remesh_until_settled`): one MMG pass
     coarsens a finer mesh only part of the way (phase_volume at 0.3: the cut's 307,178
     tetrahedra became 77,328 in one pass, 61,059 in a second to the same size, then 58,157
     and 56,253; more passes made the test mask's mean radius ratio miss 0.75, so
@@ -492,22 +492,21 @@ def remesh_round(solid: VoxelSolid, p, t, phase, size, hausd: float, kept: bool,
     the voxel claims (:func:`voxel_claims`) is redone from its start with the boundary and
     the interfaces kept (MMG's ``nosurf``), as are all after it (``kept``). ``(points,
     tets, phase, size MMG interpolated, kept, remeshings)``."""
-    passes, h_mmg = 0, None
-    for passes in range(1, SETTLE_PASSES + 1):
-        n = len(t)
-        if passes > 1:
-            size = h_mmg if size_of is None else size_of(p)
-        new = remesh_phases(p, t, phase, size, hausd, **({"nosurf": 1} if kept else {}))
+    from .general import remesh_until_settled
+
+    def once(state, k):
+        p, t, phase, h_mmg, kept, checked = state
+        sz = size if k == 1 else (h_mmg if size_of is None else size_of(p))
+        new = remesh_phases(p, t, phase, sz, hausd, **({"nosurf": 1} if kept else {}))
         if checked and not kept and voxel_claims(solid, *new[:3]):
             log.info("mask: a remeshing moved the surface out of the voxel claims; again "
                      "with the surface kept")
             kept = True
-            new = remesh_phases(p, t, phase, size, hausd, nosurf=1)
-        p, t, phase, h_mmg = new
-        checked = True
-        log.debug("mask: remeshing %d: %d tetrahedra (from %d)", passes, len(t), n)
-        if len(t) >= (1.0 - SETTLE) * n:
-            break
+            new = remesh_phases(p, t, phase, sz, hausd, nosurf=1)
+        return (*new, kept, True)
+
+    (p, t, phase, h_mmg, kept, _), passes = remesh_until_settled(
+        once, (p, t, phase, None, kept, checked), most=SETTLE_PASSES)
     return p, t, phase, h_mmg, kept, passes
 
 
