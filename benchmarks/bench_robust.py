@@ -522,7 +522,8 @@ def main(argv=None) -> int:
     print(f"\ntotal benchmark time {total:.0f} s; load average at end "
           f"{' '.join(f'{x:.2f}' for x in env['loadavg_end'])}")
     if a.json:
-        save_json(a.json, {"environment": env, "options": {**vars(a), "json": str(a.json)},
+        save_json(a.json, {"environment": env, "options": {**vars(a), "json": str(a.json),
+                                               "peers_from": a.peers_from and str(a.peers_from)},
                            "families": fam, "peers": peer, "runs": records,
                            "total_seconds": total})
     return 0
