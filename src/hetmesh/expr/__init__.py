@@ -28,9 +28,9 @@ array(-0.03333333)
 from __future__ import annotations
 
 from .compiled import Expr
-from .conditions import split_conditions
+from .conditions import condition_level, split_conditions
 from .interval import Interval
 from .parse import FUNCTIONS, MAX_DEPTH, MAX_LENGTH, MAX_NODES, compile_expr
 
 __all__ = ["compile_expr", "Expr", "FUNCTIONS", "MAX_LENGTH", "MAX_NODES", "MAX_DEPTH",
-           "split_conditions", "Interval"]
+           "split_conditions", "condition_level", "Interval"]

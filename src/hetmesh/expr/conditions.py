@@ -6,9 +6,9 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from .compiled import Expr
-from .tree import ONE, ZERO, Node, const, post_order
+from .tree import ONE, ZERO, Node, const, post_order, sub
 
-__all__ = ["split_conditions"]
+__all__ = ["split_conditions", "condition_level"]
 
 _COMPARISONS = ("lt", "le", "gt", "ge")
 
@@ -103,3 +103,23 @@ def split_conditions(exprs: Iterable[Expr], prefix: str = "_c"
         fixed.append(Expr(node, (*e.variables, *names), e.where,
                           text=None if node is not e.node else e.text))
     return conditions, fixed
+
+
+def condition_level(cond: Expr) -> Expr:
+    """A function whose zero set is where the jump condition ``cond`` (one of
+    :func:`split_conditions`' comparisons) changes: ``b - a`` for ``a < b`` or ``a <= b``,
+    ``a - b`` for ``a > b`` or ``a >= b``; positive where the condition holds (up to the
+    zero set itself). The 3-D meshers cut the tetrahedra along it.
+
+    >>> from hetmesh.expr import compile_expr
+    >>> conds, _ = split_conditions([compile_expr("where(x**2 + y**2 < 0.25, 0.2, 0.8)")])
+    >>> condition_level(conds[0]).text
+    '0.25 - (x**2 + y**2)'
+    """
+    n = cond.node
+    if n.op not in _COMPARISONS:
+        raise ValueError(f"{cond.where}: {cond.text!r} is not a comparison")
+    a, b = n.args
+    level = sub(b, a) if n.op in ("lt", "le") else sub(a, b)
+    return Expr(level, cond.variables, cond.where)
+

@@ -533,6 +533,14 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
         if (why := carve_refusal(swept, material if material2d is None else material2d)):
             raise ctx.fail(*why)
         material2d = None
+    from ..tet.jumps import has_jumps
+    from ..tet.masked import VoxelSolid
+    from ..tet.surface import SurfaceSolid
+    if isinstance(solid, (SurfaceSolid, VoxelSolid)):
+        if has_jumps(material):  # embedded in solids of primitives and in sweeps only
+            raise ctx.fail("material", "a composition with jumps (where, sign) is not "
+                                       "available for a solid from a surface file or a mask "
+                                       "(its remeshing does not keep the discontinuities)")
     if check:
         samples = solid.sample(20)
         try:

@@ -29,7 +29,7 @@ from collections.abc import Sequence as _SequenceABC
 import numpy as np
 
 from ..errors import MaterialError
-from ..expr import compile_expr, split_conditions
+from ..expr import compile_expr, condition_level, split_conditions
 from .field import as_points
 
 __all__ = ["AnalyticField", "CallableField", "Shiftable", "check_constituents", "SINGULAR_STEP",
@@ -299,6 +299,21 @@ class AnalyticField(Shiftable):
         self._cond_names = tuple(f"_c{i}" for i in range(len(conds)))
         self._fixed = fixed if conds else []
         self._fixed_grads = [tuple(e.diff(v) for v in self._vars) for e in self._fixed]
+        self._levels = None  # the conditions' level functions, made when first asked for
+
+    def _level_exprs(self):
+        """Per condition: its level function (:func:`hetmesh.expr.condition_level`), the
+        gradient's and the Hessian's (upper triangle, row by row) expressions."""
+        if self._levels is None:
+            out = []
+            for c in self._conds:
+                g = condition_level(c)
+                grad = tuple(g.diff(v) for v in self._vars)
+                hess = tuple(grad[i].diff(self._vars[j]) for i in range(self.dim)
+                             for j in range(i, self.dim))
+                out.append((g, grad, hess))
+            self._levels = out
+        return self._levels
 
     def __repr__(self) -> str:
         body = ", ".join(f"{c}={t!r}" for c, t in self.formulas.items())
@@ -334,6 +349,39 @@ class AnalyticField(Shiftable):
     def _region(self, points) -> np.ndarray:
         p = self._global(points)
         return self._bits(p) @ (np.int64(1) << np.arange(len(self._conds), dtype=np.int64))
+
+    def levels(self, points, order: int = 0) -> np.ndarray:
+        """The jump conditions' level functions at ``points (N, d)``: zero where a condition
+        changes, positive where it holds (``b - a`` for ``a < b``; see
+        :func:`hetmesh.expr.condition_level`). ``order`` 0: values ``(N, k)``; 1: gradients
+        ``(N, k, d)``; 2: Hessians ``(N, k, d, d)``. Not finite where a side of a comparison
+        is not. The 3-D meshers embed the jumps by cutting along these zero sets.
+
+        >>> f = AnalyticField({"metal": "where(x < 0.5, 0.2, 0.8)"}, ["ceramic", "metal"])
+        >>> f.levels([[0.25, 0.0]]).tolist(), f.levels([[0.25, 0.0]], 1).tolist()
+        ([[0.25]], [[[-1.0, 0.0]]])
+        """
+        p = self._global(points)
+        d, k = self.dim, len(self._conds)
+        if order == 0:
+            out = np.empty((len(p), k))
+            for i, (g, _, _) in enumerate(self._level_exprs()):
+                out[:, i] = self._eval(g, p)
+            return out
+        if order == 1:
+            out = np.empty((len(p), k, d))
+            for i, (_, grad, _) in enumerate(self._level_exprs()):
+                for a, e in enumerate(grad):
+                    out[:, i, a] = self._eval(e, p)
+            return out
+        if order == 2:
+            out = np.empty((len(p), k, d, d))
+            pairs = [(a, b) for a in range(d) for b in range(a, d)]
+            for i, (_, _, hess) in enumerate(self._level_exprs()):
+                for (a, b), e in zip(pairs, hess):
+                    out[:, i, a, b] = out[:, i, b, a] = self._eval(e, p)
+            return out
+        raise MaterialError(f"{self!r}: levels() order must be 0, 1 or 2, got {order!r}")
 
     def describe_jump(self, ra: int, rb: int) -> str:
         """``"<where>material.composition.<key>: condition '<text>'"`` for the first condition

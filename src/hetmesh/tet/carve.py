@@ -91,9 +91,10 @@ from .general import (
     split_bits,
 )
 from .implicit import Box, Cylinder, Sphere, Surface, surface_sample
+from .levelset import split_across
 from .mesher import CHORD, TetResult
 from .quality import min_dihedral
-from .refine import bisect_edges, repair, select_edges
+from .refine import repair
 from .solid import Prism, grid_inside
 from .verify import raise_problems
 
@@ -682,44 +683,6 @@ def snapped_levels(prim, k: int, p, t, snap: float) -> np.ndarray:
         log.debug("cut of surface %d: %d vertices near it not snapped (they would crush a "
                   "tetrahedron)", k, int(kept.sum()))
     return ls
-
-
-def split_across(p, t, refs, ls, bit: int, only=None):
-    """The tetrahedra with vertices on both sides of the zero set of the vertex values
-    ``ls`` (MMG's level-set split leaves one whole where it finds an edge's split invalid),
-    of those where ``only (M,) bool`` (default all), split exactly: edges across it
-    bisected at the zero of ``ls`` along them (on a plane its exact crossing), a set with no
-    two in one tetrahedron at a time (:func:`hetmesh.tet.refine.select_edges`), until none
-    is across; the pieces' references get the side bits of
-    :func:`hetmesh.tet.general.split_bits` (``bit``) by their vertices' signs. ``(points,
-    tets, refs, ls)``, the new points after ``p`` with ``ls`` 0."""
-    minus, plus = 2 ** (2 * bit + 1), 2 ** (2 * bit + 2)
-    touched = np.zeros(len(t), dtype=bool)
-    only = np.ones(len(t), dtype=bool) if only is None else np.asarray(only, dtype=bool)
-    for _ in range(64):
-        v = ls[t]
-        across = (v > 0).any(axis=1) & (v < 0).any(axis=1) & only
-        if not across.any():
-            break
-        # an edge across has the largest jump of the signs (2) in its tetrahedron
-        e = select_edges(t, np.sign(ls), across)
-        a, b = ls[e[:, 0]], ls[e[:, 1]]
-        w = (a / (a - b))[:, None]
-        new = p[e[:, 0]] + w * (p[e[:, 1]] - p[e[:, 0]])
-        p, t, parent = bisect_edges(p, t, e, new, with_parents=True)
-        ls = np.r_[ls, np.zeros(len(e))]
-        refs, touched, only = refs[parent], touched[parent] | across[parent], only[parent]
-    else:
-        raise MeshingError("tetrahedra across a subtracted primitive's surface could not be "
-                           "split along it")
-    if touched.any():
-        v = ls[t[touched]]
-        side = np.where((v < 0).any(axis=1), minus, np.where((v > 0).any(axis=1), plus, 0))
-        r = refs[touched]
-        refs[touched] = np.where(side > 0, (r & ~(minus | plus)) | side, r)
-        log.debug("level-set cut %d: %d tetrahedra left across it, split", bit,
-                  int(touched.sum()))
-    return p, t, refs, ls
 
 
 def _carve_one(prim, p, t, chord: float):

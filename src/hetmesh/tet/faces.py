@@ -14,7 +14,7 @@ import numpy as np
 from ..topology import unique
 from .quality import TET_FACES
 
-__all__ = ["boundary_faces"]
+__all__ = ["boundary_faces", "interface_faces"]
 
 
 def boundary_faces(tets: np.ndarray, *, owners: bool = False):
@@ -35,3 +35,19 @@ def boundary_faces(tets: np.ndarray, *, owners: bool = False):
     if owners:
         return f[rows], counts, rows
     return f[rows], counts
+
+
+def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles between tetrahedra of different phases, once each, with the phases of
+    the tetrahedra on either side: ``(faces (K, 3), sides (K, 2))``."""
+    f = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
+                        tets[:, [0, 2, 1]]])
+    owner = np.tile(np.arange(len(tets)), 4)
+    key = np.sort(f, axis=1)
+    order = np.lexsort(key.T[::-1])
+    ks = key[order]
+    same = (ks[1:] == ks[:-1]).all(axis=1)
+    a, b = order[:-1][same], order[1:][same]
+    differ = phase[owner[a]] != phase[owner[b]]
+    a, b = a[differ], b[differ]
+    return f[a], np.column_stack([phase[owner[a]], phase[owner[b]]])

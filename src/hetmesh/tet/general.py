@@ -59,14 +59,26 @@ import time
 
 import numpy as np
 
-from ..errors import BudgetError, MeshingError
+from ..errors import BudgetError, MaterialError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import drop_unused, unique
+from ..tri.discontinuity import DISCONTINUITY
 from .collapse import collapse_edges, face_incidence, same_boundary
-from .faces import boundary_faces
-from .flips import flip_slivers
-from .implicit import CSGSolid
+from .faces import boundary_faces, interface_faces
+from .flips import flip_improve, flip_slivers
+from .implicit import CSGSolid, onto_surfaces
+from .jumps import (
+    cut_jumps,
+    has_jumps,
+    interface_off,
+    jump_cap,
+    jump_problems,
+    jump_radius,
+    onto_jumps,
+    phase_delta,
+)
+from .levelset import levelset_cut, quiet_mmg, split_bits
 from .mesher import CHORD, TetResult
 from .quality import min_dihedral
 from .refine import repair
@@ -77,7 +89,8 @@ __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "
            "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
            "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
            "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",
-           "SETTLE"]
+           "SETTLE", "solid_start", "onto_phases", "INTERFACE_REF", "with_interfaces",
+           "recorded_interface_problems", "check_jumps", "onto_planes", "flip_plain"]
 
 log = logging.getLogger(__name__)
 
@@ -95,24 +108,11 @@ MAX_CELLS = 40
 REPROJECT = 4
 #: MMG's gradation (largest ratio of adjacent edge lengths)
 HGRAD = 1.3
-
-
-def _mmg():
-    try:
-        import mmgpy
-    except ImportError as exc:  # a core dependency: a broken installation
-        raise MeshingError(f"the general-solid mesher needs mmgpy (MMG): {exc}") from None
-    return mmgpy
-
-
-def _quiet_mmg():
-    """MMG prints warnings to stdout in C; nothing to do here but keep them in its logger."""
-    mmgpy = _mmg()
-    try:
-        mmgpy.set_log_level("ERROR")
-    except Exception:  # noqa: BLE001  (logging configuration is optional)
-        pass
-    return mmgpy
+#: the jumps' cuts count a vertex within this x the background spacing of a jump surface as
+#: on it (:func:`hetmesh.tet.jumps.cut_jumps`; it is moved there afterwards)
+JUMP_SNAP = 0.05
+#: MMG's reference of the triangles between two phases (above every face's marker + 1)
+INTERFACE_REF = 1_000_000
 
 
 # -- 1. background ---------------------------------------------------------------------
@@ -169,45 +169,7 @@ def orient_positive(p, t):
     return t
 
 
-#: public names for the other MMG-based meshers (:mod:`hetmesh.tet.masked`)
-quiet_mmg = _quiet_mmg
-
-
 # -- 2. cuts ---------------------------------------------------------------------------
-
-def levelset_cut(p, t, refs, phi, split: dict, what: str):
-    """One MMG level-set cut (``mmg3d -ls`` without remeshing) of the tetrahedra whose
-    reference is a key of ``split`` (``{ref: (ref_minus, ref_plus)}``, the references of
-    their parts on the negative and the positive side of the zero set of the vertex values
-    ``phi``; the others are kept whole): ``(points, tets, refs)``, MMG's points (the input
-    ones first, then the new ones)."""
-    mmgpy = _quiet_mmg()
-    m = mmgpy.MmgMesh3D(np.ascontiguousarray(p), np.ascontiguousarray(t, dtype=np.int32))
-    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
-                     np.ascontiguousarray(refs, dtype=np.int32))
-    mats = []
-    for r in unique(refs).tolist():
-        lo, hi = split.get(r, (r, r))
-        mats.append(dict(ref=int(r), split=int(r in split), ref_minus=int(lo),
-                         ref_plus=int(hi)))
-    m.set_multi_materials(mats)
-    out = m.remesh_levelset(np.ascontiguousarray(phi, dtype=np.float64).reshape(-1, 1),
-                            verbose=-1, noinsert=1, noswap=1, nomove=1)
-    if out.get("return_code", 0) != 0:
-        raise MeshingError(f"MMG's level-set cut of {what} failed (code "
-                           f"{out.get('return_code')})")
-    p = np.array(m.get_vertices(), dtype=np.float64)
-    tt, rr = m.get_tetrahedra_with_refs()
-    return p, np.asarray(tt, dtype=np.int64), np.asarray(rr, dtype=np.int64)
-
-
-def split_bits(refs, bit: int) -> dict:
-    """The ``split`` of :func:`levelset_cut` that splits every tetrahedron and records its
-    side in the references: ``+ 2**(2 bit + 1)`` on the negative side, ``+ 2**(2 bit + 2)``
-    on the positive one."""
-    return {int(r): (int(r + 2 ** (2 * bit + 1)), int(r + 2 ** (2 * bit + 2)))
-            for r in unique(refs).tolist()}
-
 
 def cut_solid(solid: CSGSolid, spacing: float, *, meeting: bool) -> tuple[np.ndarray, np.ndarray]:
     """The tetrahedra of the background grid cut by every curved surface, those in the solid
@@ -279,7 +241,7 @@ def _cut_meeting(solid: CSGSolid, p, t, spacing: float) -> tuple[np.ndarray, np.
     cross along a polyline near the exact curve: the edge stays sharp. ``(p, t)``: the
     background grid's points and the tetrahedra kept; returns ``(points, tets)`` of the
     solid."""
-    mmgpy = _quiet_mmg()
+    mmgpy = quiet_mmg()
     curved = solid.curved
     used = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
@@ -370,25 +332,7 @@ def project(solid: CSGSolid, points: np.ndarray, faces: np.ndarray, markers: np.
         combos.setdefault(tuple(sorted({key[j] for j in np.flatnonzero(inc[r])})), []).append(r)
     for combo, ids in combos.items():
         ids = np.asarray(ids)
-        surfs = [surf_of[j] for j in combo[:3]]
-        x = p[ids]
-        for _ in range(iters):
-            g = np.stack([s.g(x) for s in surfs], axis=1)            # (n, k)
-            J = np.stack([s.grad(x) for s in surfs], axis=1)         # (n, k, 3)
-            JJ = np.einsum("nki,nli->nkl", J, J)
-            try:
-                lam = np.linalg.solve(JJ, g[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                lam = np.linalg.lstsq(JJ.reshape(-1, len(surfs)), g.reshape(-1),
-                                      rcond=None)[0].reshape(g.shape)
-            step = np.einsum("nki,nk->ni", J, lam)
-            x = x - step
-            if np.abs(step).max() <= 1e-15 * max(1.0, float(np.abs(x).max())):
-                break
-        for s in surfs:
-            if s.kind == "plane":
-                x[:, s.axis] = s.value
-        p[ids] = x
+        p[ids] = onto_surfaces(p[ids], [surf_of[j] for j in combo[:3]], iters)
     return p
 
 
@@ -445,7 +389,12 @@ def _project_safely(solid, points, tets, faces, markers, meeting: bool,
     :data:`PARTIAL`."""
     want = project(solid, points, faces, markers)
     if not meeting:
-        q = keep_positive(points, want, tets, (want != points).any(axis=1), rounds)
+        moved = (want != points).any(axis=1)
+        q = keep_positive(points, want, tets, moved, rounds)
+        left = moved & (q != want).any(axis=1)
+        if left.any():  # planar faces are exact: their coordinates at least, if that fits
+            flat = onto_planes(solid, q, faces, markers)
+            q = keep_positive(q, flat, tets, left & (flat != q).any(axis=1), rounds)
         _check_positive(q, tets, "after projecting the boundary vertices")
         return q
     floor = MIN_VOLUME * solid.diameter ** 3
@@ -463,6 +412,19 @@ def _project_safely(solid, points, tets, faces, markers, meeting: bool,
                  int(back.sum()), int((want != points).any(axis=1).sum()),
                  float(np.linalg.norm(want[back] - q[back], axis=1).max()))
     _check_positive(q, tets, "after projecting the boundary vertices")
+    return q
+
+
+def onto_planes(solid: CSGSolid, points, faces, markers) -> np.ndarray:
+    """``points`` with the coordinate of every planar face's plane set at its vertices
+    (the planar part of :func:`project`, which a vertex whose whole move would flatten a
+    tetrahedron can often still make: a vertex MMG moved along the edge between a plane
+    and a curved face)."""
+    q = points.copy()
+    for fi, f in enumerate(solid.faces):
+        if f.surface.kind == "plane":
+            ids = unique(faces[markers == fi])
+            q[ids, f.surface.axis] = f.surface.value
     return q
 
 
@@ -488,19 +450,25 @@ def keep_positive(old: np.ndarray, new: np.ndarray, tets: np.ndarray, moved: np.
     return q
 
 
-def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
-    """Where curved faces meet: the boundary vertices the projection left more than
+def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float, phase=None):
+    """Where curved faces meet (and wherever the projection left a vertex short): the
+    boundary vertices the projection left more than
     ``short`` from their place ``want`` collapsed, the farthest first, each onto the
     neighbour nearest to its place that lies on every face it lies on, where the
     tetrahedra changed keep volumes above ``floor`` and the boundary stays the faces'
     triangles less the two collapsed. Such a vertex sits where the cuts' polyline zigzags
     among tiny tetrahedra (too small for its move); MMG's ridge analysis makes it a corner
     (a sharp turn of the ridge), which it never moves or removes, so the size rounds alone
-    keep it. ``(points, tets, faces, markers, kept, number collapsed)``, the vertices no
-    longer used dropped (``kept``: the indices of those kept)."""
+    keep it. With ``phase`` (the tetrahedra's phases, carried), a vertex of an interface
+    between phases is not collapsed. ``(points, tets, faces, markers, kept, number
+    collapsed, phase)``, the vertices no longer used dropped (``kept``: the indices of those
+    kept)."""
     n = len(p)
     inc = face_incidence(n, faces, markers)
     left = np.linalg.norm(want - p, axis=1)
+    if phase is not None:  # not the vertices of interfaces between phases
+        inter, _ = interface_faces(np.asarray(t, dtype=np.int64), np.asarray(phase))
+        left[unique(inter)] = 0.0
     stuck = np.flatnonzero(left > short)
     stuck = stuck[np.lexsort((stuck, -left[stuck]))]
     done = 0
@@ -522,14 +490,16 @@ def _collapse_stuck(p, t, faces, markers, want, floor: float, short: float):
             if not same_boundary(nt, nf):
                 continue
             t, faces, markers = nt, nf, markers[~fgone]
+            if phase is not None:
+                phase = phase[~gone]
             inc[w] |= inc[v]
             inc[v] = set()
             done += 1
             break
     if not done:
-        return p, t, faces, markers, unique(t), 0
+        return p, t, faces, markers, unique(t), 0, phase
     p, t, faces, used = drop_unused(p, t, faces)
-    return p, t, faces, markers, used, done
+    return p, t, faces, markers, used, done, phase
 
 
 def _collapse_slivers(solid, p, t, faces, markers, ok, chord: float):
@@ -598,16 +568,21 @@ def cap_curved(solid, size, faces, markers, chord):
     return size
 
 
-def mmg_remesh(p, t, faces, markers, size, hausd, *, ridge_angle: float | None = None):
+def mmg_remesh(p, t, faces, markers, size, hausd, *, ridge_angle: float | None = None,
+               phase=None):
     """One MMG remeshing of ``(p, t)`` to the isotropic ``size`` per vertex, the boundary
     triangles ``faces`` with their ``markers`` kept as references, Hausdorff distance
-    ``hausd``, gradation :data:`HGRAD`: ``(points, tets, faces, markers, size)``, the size
-    MMG interpolated at the new vertices. ``ridge_angle`` (degrees; None: MMG's 45):
+    ``hausd``, gradation :data:`HGRAD`: ``(points, tets, faces, markers, size, phase)``, the
+    size MMG interpolated at the new vertices. ``phase (M,)`` (or None): every
+    tetrahedron's phase (the subregion of a piecewise composition,
+    :mod:`hetmesh.tet.jumps`), given to MMG as its reference with the triangles between
+    phases, so that MMG keeps them as interfaces; the new tetrahedra's phases are returned
+    (None without). ``ridge_angle`` (degrees; None: MMG's 45):
     MMG's ridge angle, which makes a vertex whose two ridge edges turn by more than it a
     corner (never moved or removed); given, the edges between triangles of different
     markers are given to MMG as ridges, so that the angle does not decide those (but for
     those between coplanar triangles, which MMG would drop with a warning)."""
-    mmgpy = _quiet_mmg()
+    mmgpy = quiet_mmg()
     m = mmgpy.MmgMesh3D()
     ridges = np.zeros((0, 2), dtype=np.int64)
     if ridge_angle is not None:
@@ -618,12 +593,21 @@ def mmg_remesh(p, t, faces, markers, size, hausd, *, ridge_angle: float | None =
         flat = np.abs(np.einsum("ij,ij->i", nrm[ta], nrm[tb])) > 1.0 - 1e-5
         mk = np.asarray(markers)
         ridges = edges[(mk[ta] != mk[tb]) & ~flat]
-    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(faces),
+    tri, refs = np.asarray(faces), np.asarray(markers) + 1
+    if phase is not None:
+        inter, _ = interface_faces(np.asarray(t, dtype=np.int64), np.asarray(phase))
+        tri = np.concatenate([tri, inter])
+        refs = np.r_[refs, np.full(len(inter), INTERFACE_REF)]
+    m.set_mesh_size(vertices=len(p), tetrahedra=len(t), triangles=len(tri),
                     edges=len(ridges))
     m.set_vertices(np.ascontiguousarray(p))
-    m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32))
-    m.set_triangles(np.ascontiguousarray(faces, dtype=np.int32),
-                    np.ascontiguousarray(markers + 1, dtype=np.int32))
+    if phase is None:
+        m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32))
+    else:
+        m.set_tetrahedra(np.ascontiguousarray(t, dtype=np.int32),
+                         np.ascontiguousarray(np.asarray(phase) + 1, dtype=np.int32))
+    m.set_triangles(np.ascontiguousarray(tri, dtype=np.int32),
+                    np.ascontiguousarray(refs, dtype=np.int32))
     opts = {}
     if ridge_angle is not None:
         if len(ridges):
@@ -636,29 +620,72 @@ def mmg_remesh(p, t, faces, markers, size, hausd, *, ridge_angle: float | None =
     if out.get("return_code", 0) != 0:
         raise MeshingError(f"MMG remeshing failed (code {out.get('return_code')})")
     p = np.array(m.get_vertices(), dtype=np.float64)
-    t = orient_positive(p, np.asarray(m.get_tetrahedra(), dtype=np.int64))
+    tt, tr = m.get_tetrahedra_with_refs()
+    t = orient_positive(p, np.asarray(tt, dtype=np.int64))
     f, fr = m.get_triangles_with_refs()
     h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
-    return p, t, np.asarray(f, dtype=np.int64), np.asarray(fr, dtype=np.int64) - 1, h
+    phase = None if phase is None else np.asarray(tr, dtype=np.int64) - 1
+    return p, t, np.asarray(f, dtype=np.int64), np.asarray(fr, dtype=np.int64) - 1, h, phase
 
 
 def remesh_solid(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: float):
     """:func:`_remesh` on the path the solid's pairs of meeting curved faces
-    (:func:`meeting_pairs`) choose."""
-    return _remesh(solid, p, t, faces, markers, size, hausd, tol, bool(meeting_pairs(solid)))
+    (:func:`meeting_pairs`) choose: ``(points, tets, faces, markers, size MMG
+    interpolated)``."""
+    return _remesh(solid, p, t, faces, markers, size, hausd, tol,
+                   bool(meeting_pairs(solid)))[:5]
 
 
 def _remesh(solid: CSGSolid, p, t, faces, markers, size, hausd: float, tol: float,
-            meeting: bool):
+            meeting: bool, phase=None, field=None):
     """One MMG remeshing of a solid's mesh to ``size`` (:func:`mmg_remesh`), its boundary
     triangles named again (within ``tol`` of their faces) and its boundary vertices projected
-    onto them (:func:`_project_safely`, ``meeting`` its path): ``(points, tets, faces,
-    markers, size MMG interpolated)``."""
-    p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd,
-                                     ridge_angle=RIDGE_ANGLE if meeting else None)
+    onto them (:func:`_project_safely`, ``meeting`` its path); with ``phase``, the phases
+    kept and the interface vertices moved back onto the jump surfaces of ``field``
+    (:func:`onto_phases`; in part where a whole move would flatten a tetrahedron: the next
+    round remeshes around them): ``(points, tets, faces, markers, size MMG interpolated,
+    phase)``."""
+    p, t, fm, rm, h_mmg, phase = mmg_remesh(p, t, faces, markers, size, hausd,
+                                            ridge_angle=RIDGE_ANGLE if meeting else None,
+                                            phase=phase)
     faces, markers = _faces_after(solid, p, t, fm, rm, tol)
-    return (_project_safely(solid, p, t, faces, markers, meeting), t, faces, markers,
-            h_mmg)
+    p = _project_safely(solid, p, t, faces, markers, meeting)
+    if phase is not None:
+        p = onto_phases(solid, field, p, t, faces, markers, phase)
+    return p, t, faces, markers, h_mmg, phase
+
+
+def onto_phases(solid: CSGSolid, field, p, t, faces, markers, phase) -> np.ndarray:
+    """The vertices of the interfaces between phases moved onto their jump surfaces
+    (:func:`hetmesh.tet.jumps.onto_jumps`; a boundary vertex onto its faces' surfaces as
+    well), except where a move would leave a tetrahedron around it without a positive
+    volume (:func:`keep_positive`)."""
+    inc = face_incidence(len(p), faces, markers)
+
+    def face_surfaces(ids):
+        out = []
+        for v in ids.tolist():
+            surfs = []
+            for fi in sorted(inc[v]):
+                s = solid.faces[fi].surface
+                if all(s != o for o in surfs):
+                    surfs.append(s)
+            out.append(surfs)
+        return out
+
+    want = onto_jumps(field, p, t, phase, face_surfaces)
+    pending = (want != p).any(axis=1)
+    q = p
+    for frac in PARTIAL:  # what a whole move would flatten, in part
+        if not pending.any():
+            break
+        cand = q.copy()
+        cand[pending] = q[pending] + frac * (want[pending] - q[pending])
+        new = keep_positive(q, cand, t, pending)
+        pending &= ~(new != q).any(axis=1) | (frac < 1.0)
+        q = new
+    _check_positive(q, t, "after moving the interface vertices onto the jumps")
+    return q
 
 
 def off_faces(solid: CSGSolid, p, faces, markers) -> float:
@@ -757,45 +784,50 @@ def remesh_until_settled(remesh, state, *, most: int, least: int = 1):
 
 
 def size_rounds(solid: CSGSolid, p, t, faces, markers, size, chord: float, tol: float,
-                meeting: bool, material):
+                meeting: bool, material, phase=None, field=None):
     """The size rounds of a solid's mesh (step 4 of the module docstring), shared by the
     adaptive mesh and the uniform baseline: MMG remeshes ``(p, t)`` to ``size`` (Hausdorff
     distance half the chord tolerance ``chord``) and the boundary vertices are projected
     onto their faces (:func:`_remesh`; ``tol`` names the faces of the triangles MMG did not
     report); on the path for meeting curved faces (``meeting``), the vertices left short of
     their faces are collapsed after each round but the last (:func:`_collapse_stuck`).
-    ``material(points, tets, size MMG interpolated, round)`` checks the budget and says
-    whether the material is met, with a callable giving the next round's size (before the
-    chord cap) otherwise. The rounds (at most :data:`SIZE_ROUNDS` after the first) end when
+    ``material(points, tets, size MMG interpolated, round, phase)`` checks the budget and
+    says whether the material is met, with a callable giving the next round's size (before
+    the chord cap) otherwise. ``phase`` (None: none): the tetrahedra's phases, kept as
+    interfaces through every remeshing, their vertices put back on the jump surfaces of
+    ``field`` (:func:`_remesh`). The rounds (at most :data:`SIZE_ROUNDS` after the first) end when
     the material is met and, on the path for meeting faces, no vertex was collapsed and every
     boundary vertex is within :data:`SETTLED` x ``chord`` of its faces. ``(points, tets,
-    faces, markers, last round)``."""
+    faces, markers, last round, phase)``."""
     hausd = 0.5 * chord
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, faces, markers, h_mmg = _remesh(solid, p, t, faces, markers, size, hausd, tol,
-                                              meeting)
+        p, t, faces, markers, h_mmg, phase = _remesh(solid, p, t, faces, markers, size,
+                                                     hausd, tol, meeting, phase, field)
         collapsed = 0
-        if meeting and rounds < SIZE_ROUNDS:
-            # MMG keeps the vertices the projection left short (its corners): collapsed
-            # here, MMG remeshes around their neighbours in the next round
-            p, t, faces, markers, kept, collapsed = _collapse_stuck(
-                p, t, faces, markers, project(solid, p, faces, markers),
-                MIN_VOLUME * solid.diameter ** 3, STUCK * chord)
+        want = project(solid, p, faces, markers) if rounds < SIZE_ROUNDS else p
+        if meeting or (np.linalg.norm(want - p, axis=1) > STUCK * chord).any():
+            # MMG keeps the vertices the projection left short (its corners; on the plain
+            # path, a vertex it moved along the edge between a plane and a curved face,
+            # next to a tetrahedron the move would flatten): collapsed here, MMG remeshes
+            # around their neighbours in the next round
+            p, t, faces, markers, kept, collapsed, phase = _collapse_stuck(
+                p, t, faces, markers, want, MIN_VOLUME * solid.diameter ** 3,
+                STUCK * chord, phase)
             if collapsed:
                 h_mmg = h_mmg[kept]
                 p = _project_safely(solid, p, t, faces, markers, meeting)
                 log.info("solid: %d boundary vertices short of their faces collapsed",
                          collapsed)
-        met, resize = material(p, t, h_mmg, rounds)
+        met, resize = material(p, t, h_mmg, rounds, phase)
         # where curved faces meet, the rounds go on until the projection has put the
         # boundary vertices on their faces (MMG remeshes what it could not move)
-        settled = not meeting or (
-            not collapsed and off_faces(solid, p, faces, markers) <= SETTLED * chord)
+        settled = not collapsed and (
+            not meeting or off_faces(solid, p, faces, markers) <= SETTLED * chord)
         if (met and settled) or rounds == SIZE_ROUNDS:
             break
         size = cap_curved(solid, resize(), faces, markers, chord)
-    return p, t, faces, markers, rounds
+    return p, t, faces, markers, rounds, phase
 
 
 def finish_meeting(solid: CSGSolid, p, t, faces, markers, comp, threshold: float,
@@ -829,6 +861,7 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     (a cylinder with a wider spherical cavity, two crossing bores)."""
     kw = dict(seed=seed, chord_tol=chord_tol, max_elements=max_elements, max_size=max_size)
     meeting = bool(meeting_pairs(solid))
+    check_jumps(solid, field)
     if meeting:
         chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
         try:
@@ -852,6 +885,41 @@ def generate_solid(solid: CSGSolid, field, threshold: float, *, seed: int = 0,
     return res
 
 
+def check_jumps(solid: CSGSolid, field) -> bool:
+    """Whether the composition has jumps to embed (:func:`hetmesh.tet.jumps.has_jumps`);
+    :class:`MaterialError` if it has and curved faces of ``solid`` meet (not supported)."""
+    jumps = has_jumps(field)
+    if jumps and meeting_pairs(solid):
+        raise MaterialError(f"{field.describe_jump(0, 1)}: a composition with jumps in a "
+                            f"solid whose curved faces meet is not supported (the jumps are "
+                            f"embedded in solids whose curved faces do not meet)")
+    return jumps
+
+
+def solid_start(solid: CSGSolid, field, meeting: bool):
+    """Steps 1-3 of the module docstring, shared by the adaptive mesh and the uniform
+    baseline: the background grid cut along the curved surfaces (``meeting``: the path for
+    meeting curved faces) and, for a piecewise composition, along its jumps
+    (:func:`hetmesh.tet.jumps.cut_jumps`: the background's spacing then also fits
+    :data:`CELLS_PER_RADIUS` cells across the jump surfaces' smallest radius of curvature,
+    and the interface vertices are moved onto them), the boundary triangles named:
+    ``(points, tets, faces, markers, phase or None, background spacing)``."""
+    spacing = background_spacing(solid)
+    phase = None
+    jumps = check_jumps(solid, field)
+    if jumps:
+        lo, hi = solid.bounds
+        spacing = max(min(spacing, jump_radius(field, lo, hi) / CELLS_PER_RADIUS),
+                      float((hi - lo).max()) / MAX_CELLS)
+    p, t = cut_solid(solid, spacing, meeting=meeting)
+    if jumps:
+        p, t, phase = cut_jumps(field, p, t, JUMP_SNAP * spacing)
+    faces, markers = _boundary(solid, p, t, 0.5 * spacing)
+    if phase is not None:  # the cut's interpolated crossings onto the jump surfaces
+        p = onto_phases(solid, field, p, t, faces, markers, phase)
+    return p, t, faces, markers, phase, spacing
+
+
 def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, seed: int,
                     chord_tol, max_elements, max_size, check: bool) -> TetResult:
     """:func:`generate_solid` on one path: the one for meeting curved faces if ``meeting``
@@ -865,37 +933,46 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
     if max_elements is not None and est > max_elements:
         raise BudgetError(f"about {est:.0f} tetrahedra are needed for delta_0 = {threshold} "
                           f"but the budget is {max_elements}")
-    spacing = background_spacing(solid)
+    p, t, faces, markers, phase, spacing = solid_start(solid, field, meeting)
     lo, hi = solid.bounds
     h_max = float((hi - lo).max()) / 4
     if max_size is not None:
         h_max = min(h_max, float(max_size))
     h_min = 1e-4 * solid.diameter
-    tol = 0.5 * spacing
-    p, t = cut_solid(solid, spacing, meeting=meeting)
-    faces, markers = _boundary(solid, p, t, tol)
-    size = cap_curved(solid, size_field(field, p, threshold, h_max, h_min), faces, markers,
-                      chord)
+
+    def capped(size, p):  # at curved jump surfaces (the curved faces: cap_curved)
+        return size if phase is None else jump_cap(field, p, size, chord)
+
+    size = cap_curved(solid, capped(size_field(field, p, threshold, h_max, h_min), p), faces,
+                      markers, chord)
     mtol = max(0.25 * h_max, 10 * chord)
 
-    def material(p, t, h_mmg, rounds):
+    def material(p, t, h_mmg, rounds, phase):
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
-        bad = delta_vertices(field.composition(p), t) >= threshold
-        log.info("solid: size round %d: %d tetrahedra, %d over delta_0", rounds, len(t),
-                 int(bad.sum()))
-        return not bad.any(), lambda: next_size(h_mmg, field, p, t, bad, threshold, h_max,
-                                                h_min)
+        bad = phase_delta(field, p, t, phase) >= threshold
+        off = interface_off(field, p, t, phase)  # the rounds go on until the jumps settle
+        log.info("solid: size round %d: %d tetrahedra, %d over delta_0%s", rounds, len(t),
+                 int(bad.sum()), "" if phase is None else f", interfaces {off:.3g} off")
+        met = not bad.any() and off <= SETTLED * chord
+        return met, lambda: capped(next_size(h_mmg, field, p, t, bad, threshold, h_max,
+                                             h_min), p)
 
-    p, t, faces, markers, rounds = size_rounds(solid, p, t, faces, markers, size, chord,
-                                               mtol, meeting, material)
+    p, t, faces, markers, rounds, phase = size_rounds(solid, p, t, faces, markers, size,
+                                                      chord, mtol, meeting, material, phase,
+                                                      field)
     t_place = time.perf_counter() - t0
     passes = 0
     comp = field.composition(p)
     for _ in range(REPROJECT):
-        p, t, comp, delta, n = repair(p, t, field, threshold, comp=comp,
-                                      max_elements=max_elements)
+        if phase is None:
+            p, t, comp, delta, n = repair(p, t, field, threshold, comp=comp,
+                                          max_elements=max_elements)
+        else:  # every tetrahedron's corners in its phase; the children keep it
+            p, t, _, delta, n, trace = repair(p, t, field, threshold,
+                                              max_elements=max_elements, regions=phase)
+            phase = phase[trace.parent]
         passes += n
         faces, _ = boundary_faces(t)
         markers = solid.classify(p[faces], mtol)
@@ -908,26 +985,54 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
         if not len(moved):
             break
         p = q
-        comp = comp.copy()
-        comp[moved] = field.composition(p[moved])
+        if phase is None:
+            comp = comp.copy()
+            comp[moved] = field.composition(p[moved])
     else:
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
     if meeting:
         p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
                                                            threshold, chord)
+    else:  # (a vertex on a jump: its own subregion's composition)
+        p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+        comp = field.composition(p)
     t = t.astype(np.int32)
     info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
             "estimate": est, "composition": comp, "time_place": t_place,
             "background_spacing": spacing, "h_max": h_max}
-    res = TetResult(p, t, faces.astype(np.int32), (markers + 1).astype(np.int32),
-                    tuple(solid.face_names), delta, float(threshold), info)
+    if phase is not None:
+        info["regions"] = phase.astype(np.int32)
+    res = with_interfaces(TetResult(p, t, faces.astype(np.int32),
+                                    (markers + 1).astype(np.int32), tuple(solid.face_names),
+                                    delta, float(threshold), info), field, len(solid.faces))
     if check:
         raise_problems(solid_problems(res, solid, field, chord))
     res.info["time_total"] = time.perf_counter() - t0
     log.info("solid mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, %.2f s",
              len(p), len(t), rounds, passes, res.info["time_total"])
     return res
+
+
+def flip_plain(field, p, t, faces, phase, threshold: float):
+    """On the plain path, the tetrahedra under :data:`FLIP_BOUND` degrees (MMG leaves a
+    few where its ridges meet: a plane and a curved face, a jump surface and the boundary)
+    improved by flips, edge removals and collapses of inner vertices within each phase
+    (:func:`hetmesh.tet.flips.flip_improve`; every new tetrahedron's delta below
+    ``threshold`` in its phase); the boundary triangles and the interfaces between phases
+    stay. A mesh without such tetrahedra is returned as it is. ``(points, tets, faces,
+    phase, delta)``, the vertices no longer used dropped."""
+    own = None if phase is None else np.asarray(phase)
+    if len(t) and float(min_dihedral(p, t).min()) < FLIP_BOUND:
+        ph = np.zeros(len(t), dtype=np.int64) if own is None else own
+
+        def ok(tets, r):
+            return phase_delta(field, p, tets, None if own is None else r) < threshold
+
+        t, ph = flip_improve(p, t, ph, ok, bound=FLIP_BOUND)
+        p, t, faces, _ = drop_unused(p, t, faces)
+        own = None if own is None else ph
+    return p, t, faces, own, phase_delta(field, p, t, own)
 
 
 def _flip_meeting(p, t, faces, comp, threshold: float):
@@ -955,6 +1060,47 @@ _BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5
                   [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
 
 
+def recorded_interface_problems(res, recorded) -> list[str]:
+    """One line if the interface triangles recorded as faces (``recorded``) are not exactly
+    the triangles between the tetrahedra's phases (``res.info["regions"]``)."""
+    phase = res.info.get("regions")
+    if phase is None:
+        return [f"{len(recorded)} triangles recorded after the faces of the solid, but the "
+                f"mesh has no phases"]
+    inter, _ = interface_faces(np.asarray(res.tets, dtype=np.int64), np.asarray(phase))
+    a = {tuple(f) for f in np.sort(inter, axis=1).tolist()}
+    b = {tuple(f) for f in np.sort(recorded, axis=1).tolist()}
+    if a != b or len(b) != len(recorded):
+        return [f"{len(recorded)} interface triangles recorded, {len(inter)} between the "
+                f"phases of the tetrahedra ({len(a ^ b)} differ)"]
+    return []
+
+
+def with_interfaces(res: TetResult, field, n_faces: int) -> TetResult:
+    """``res`` with the triangles between its phases (``info["regions"]``) recorded after
+    its boundary as faces ``discontinuity[k]``, one per jump condition of ``field`` that has
+    any (a triangle between phases that differ in several conditions goes to the first);
+    ``n_faces`` the solid's own faces. Unchanged without phases."""
+    phase = res.info.get("regions")
+    if phase is None:
+        return res
+    inter, sides = interface_faces(np.asarray(res.tets, dtype=np.int64), np.asarray(phase))
+    if not len(inter):
+        return res
+    bits = (sides[:, 0] ^ sides[:, 1]).astype(np.int64)
+    first = np.zeros(len(bits), dtype=np.int64)
+    for i in reversed(range(len(field.conditions))):
+        first[(bits >> i & 1) == 1] = i
+    present = unique(first)
+    marker = np.searchsorted(present, first) + n_faces + 1
+    names = tuple(f"{DISCONTINUITY}[{k}]" for k in range(len(present)))
+    res.faces = np.concatenate([res.faces, inter.astype(np.int32)])
+    res.face_markers = np.concatenate([res.face_markers, marker.astype(np.int32)])
+    res.face_names = tuple(res.face_names[:n_faces]) + names
+    res.info["jump_conditions"] = tuple(field.conditions[i] for i in present.tolist())
+    return res
+
+
 def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
     """Every broken claim of a mesh of ``solid``, one line each (empty: valid). delta is
     recomputed from ``field`` at the vertices (None: the result's own delta, as another
@@ -964,6 +1110,10 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
         return ["no tetrahedra"]
     out = validity_problems(p, t)
     faces, markers = res.faces, res.face_markers.astype(np.int64) - 1
+    inner = markers >= len(solid.faces)  # the jumps' interfaces, recorded after the boundary
+    if inner.any():
+        out += recorded_interface_problems(res, faces[inner])
+        faces, markers = faces[~inner], markers[~inner]
     bf, _ = boundary_faces(t)
     if len(bf) != len(faces):
         out.append(f"{len(faces)} boundary triangles recorded, {len(bf)} in the tetrahedra")
@@ -1078,7 +1228,10 @@ def edge_problems(points, faces, markers, solid: CSGSolid, chord_tol: float) -> 
 def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) -> list[str]:
     """The last checks of a remeshed solid: every tetrahedron's centroid inside ``solid``
     (``solid.contains(points, tol)``, called ``what`` in the message), and delta_max below
-    delta_0 (``res.delta``, or recomputed at the vertices from ``field`` if given)."""
+    delta_0 (``res.delta``, or recomputed at the vertices from ``field`` if given). A mesh
+    with phases (``res.info["regions"]``, the jumps of a piecewise composition) has delta
+    measured in every tetrahedron's phase and the claims of
+    :func:`hetmesh.tet.jumps.jump_problems` checked too."""
     out = []
     p, t = res.points, res.tets
     cen = p[t].mean(axis=1)
@@ -1087,7 +1240,10 @@ def centroid_and_delta_problems(res, solid, field, chord_tol: float, what: str) 
         c = cen[outside][0]
         out.append(f"{int(outside.sum())} tetrahedra outside {what} (e.g. at "
                    f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
-    delta = res.delta if field is None else delta_vertices(field.composition(p), t)
+    phase = res.info.get("regions") if field is not None and has_jumps(field) else None
+    if phase is not None:
+        out += jump_problems(field, p, t, phase, chord_tol)
+    delta = res.delta if field is None else phase_delta(field, p, t, phase)
     if not float(delta.max()) < res.threshold:
         out.append(f"delta_max = {float(delta.max()):.6g} is not below delta_0 = "
                    f"{res.threshold:g}")
@@ -1135,31 +1291,38 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     along the edge collapsed and flipped as in the adaptive mesh (:func:`finish_meeting`, no
     changed tetrahedron's delta reaching ``threshold``). Where curved faces meet, the path
     for meeting faces is taken at once (the adaptive mesher tries the plain one first).
-    ``delta`` over the vertices is measured, ``threshold`` recorded but not required
-    (:func:`hetmesh.tet.uniform.uniform_model` searches ``h``)."""
+    The jumps of a piecewise composition are cut and kept as in the adaptive mesh
+    (:func:`solid_start`; the size capped at curved jump surfaces, the rounds going on until
+    the interface vertices are on them). ``delta`` over the vertices is measured,
+    ``threshold`` recorded but not required (:func:`hetmesh.tet.uniform.uniform_model`
+    searches ``h``)."""
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     est = check_estimate(h, estimate_regular(solid, h), max_elements)
     meeting = bool(meeting_pairs(solid))
-    spacing = background_spacing(solid)
-    p, t = cut_solid(solid, spacing, meeting=meeting)
-    faces, markers = _boundary(solid, p, t, 0.5 * spacing)
+    p, t, faces, markers, phase, _ = solid_start(solid, field, meeting)
 
-    def constant(p, t, h_mmg, rounds):
+    def sized(p):  # h, capped at curved jump surfaces (the curved faces: cap_curved)
+        size = np.full(len(p), float(h))
+        return size if phase is None else jump_cap(field, p, size, chord)
+
+    def constant(p, t, h_mmg, rounds, phase):
         check_count(h, len(t), max_elements)
-        return True, lambda: np.full(len(p), float(h))
+        return interface_off(field, p, t, phase) <= SETTLED * chord, lambda: sized(p)
 
-    p, t, faces, markers, rounds = size_rounds(
-        solid, p, t, faces, markers,
-        cap_curved(solid, np.full(len(p), float(h)), faces, markers, chord), chord,
-        max(0.25 * h, 10 * chord), meeting, constant)
+    p, t, faces, markers, rounds, phase = size_rounds(
+        solid, p, t, faces, markers, cap_curved(solid, sized(p), faces, markers, chord),
+        chord, max(0.25 * h, 10 * chord), meeting, constant, phase, field)
     comp = field.composition(p)
     if meeting:
         p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
                                                            threshold, chord)
     else:
-        delta = delta_vertices(comp, t)
+        p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+        comp = field.composition(p)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
             "chord_tol": chord, "composition": comp, "size_rounds": rounds}
-    return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
-                     (markers + 1).astype(np.int32), tuple(solid.face_names), delta,
-                     float(threshold), info)
+    if phase is not None:
+        info["regions"] = phase.astype(np.int32)
+    return with_interfaces(TetResult(p, t.astype(np.int32), faces.astype(np.int32),
+                                     (markers + 1).astype(np.int32), tuple(solid.face_names),
+                                     delta, float(threshold), info), field, len(solid.faces))

@@ -30,7 +30,7 @@ from ..errors import GeometryError
 from .solid import grid_inside
 
 __all__ = ["Surface", "Box", "Cylinder", "Sphere", "CSGSolid", "BOX_FACES", "EDGE_SAMPLES",
-           "surface_sample"]
+           "surface_sample", "onto_surfaces"]
 
 #: the face names of a box, in the order of its planes (x = lo, x = hi, y = lo, ...)
 BOX_FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
@@ -81,6 +81,36 @@ class Surface:
         d = self._rel(p)
         n = np.linalg.norm(d, axis=1)
         return d / np.where(n > 0, n, 1.0)[:, None]
+
+
+def onto_surfaces(x: np.ndarray, surfs, iters: int = 30) -> np.ndarray:
+    """Points ``x (n, 3)`` moved onto every surface of ``surfs`` at once (at most three;
+    anything with ``g(points)``, ``grad(points)`` and ``kind``: a :class:`Surface`, a jump
+    surface of :mod:`hetmesh.tet.jumps`) by Gauss-Newton with the least-norm step; plane
+    coordinates set exactly at the end.
+
+    >>> s = Surface("sphere", center=(0.0, 0.0, 0.0), radius=2.0)
+    >>> onto_surfaces(np.array([[3.0, 0.0, 0.0]]), [s]).tolist()
+    [[2.0, 0.0, 0.0]]
+    """
+    x = np.array(x, dtype=np.float64).reshape(-1, 3)
+    for _ in range(iters):
+        g = np.stack([s.g(x) for s in surfs], axis=1)            # (n, k)
+        J = np.stack([s.grad(x) for s in surfs], axis=1)         # (n, k, 3)
+        JJ = np.einsum("nki,nli->nkl", J, J)
+        try:
+            lam = np.linalg.solve(JJ, g[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            lam = np.linalg.lstsq(JJ.reshape(-1, len(surfs)), g.reshape(-1),
+                                  rcond=None)[0].reshape(g.shape)
+        step = np.einsum("nki,nk->ni", J, lam)
+        x = x - step
+        if np.abs(step).max() <= 1e-15 * max(1.0, float(np.abs(x).max())):
+            break
+    for s in surfs:
+        if s.kind == "plane":
+            x[:, s.axis] = s.value
+    return x
 
 
 def _cyl_center3(center2, axis: int) -> tuple:

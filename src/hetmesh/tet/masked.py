@@ -89,7 +89,7 @@ import numpy as np
 from ..errors import BudgetError, GeometryError, MeshingError
 from ..metrics import delta_vertices
 from ..topology import unique
-from .faces import boundary_faces
+from .faces import boundary_faces, interface_faces
 from .mesher import TetResult
 from .refine import repair
 from .verify import raise_problems, validity_problems
@@ -418,22 +418,6 @@ def cut_mask(solid: VoxelSolid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 # -- 2. size -------------------------------------------------------------------------------
-
-def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The triangles between tetrahedra of different phases, once each, with the phases of
-    the tetrahedra on either side: ``(faces (K, 3), sides (K, 2))``."""
-    f = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]],
-                        tets[:, [0, 2, 1]]])
-    owner = np.tile(np.arange(len(tets)), 4)
-    key = np.sort(f, axis=1)
-    order = np.lexsort(key.T[::-1])
-    ks = key[order]
-    same = (ks[1:] == ks[:-1]).all(axis=1)
-    a, b = order[:-1][same], order[1:][same]
-    differ = phase[owner[a]] != phase[owner[b]]
-    a, b = a[differ], b[differ]
-    return f[a], np.column_stack([phase[owner[a]], phase[owner[b]]])
-
 
 def remesh_phases(p, t, phase, size, hausd, **options):
     """MMG's remeshing to ``size`` with the boundary and the phases' interfaces kept within

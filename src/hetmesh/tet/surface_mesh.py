@@ -116,7 +116,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     hausd = 0.5 * chord
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
-        p, t, fm, rm, h_mmg = mmg_remesh(p, t, faces, markers, size, hausd)
+        p, t, fm, rm, h_mmg, _ = mmg_remesh(p, t, faces, markers, size, hausd)
         faces, markers = keep_markers(solid, p, t, fm, rm, chord)
         if max_elements is not None and len(t) > max_elements:
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "

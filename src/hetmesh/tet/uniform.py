@@ -377,7 +377,7 @@ def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     est = _check_estimate(solid, h, max_elements)
     p, t, faces, markers = surface_start(solid, chord) if start is None else start
-    p, t, fm, rm, _ = mmg_remesh(p, t, faces, markers, np.full(len(p), float(h)),
+    p, t, fm, rm, _, _ = mmg_remesh(p, t, faces, markers, np.full(len(p), float(h)),
                                  0.5 * chord)
     check_count(h, len(t), max_elements)
     faces, markers = keep_markers(solid, p, t, fm, rm, chord)
