@@ -190,6 +190,10 @@ def test_a_plane_jump_meets_the_curved_face(tmp_path):
     assert len(rim) > 10  # the circle where the plane meets the sphere
     cen = p[t].mean(axis=1)
     assert ((cen[:, 0] < 0.2).astype(int) == region).all()
+    # the thin tetrahedra where the plane meets the sphere collapsed and flipped
+    from hetmesh.tet.quality import min_dihedral
+
+    assert min_dihedral(p, t).min() >= 10.0
 
 
 def test_same_model_same_mesh(tmp_path):

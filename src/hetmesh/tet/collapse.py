@@ -42,7 +42,8 @@ def same_boundary(tets: np.ndarray, faces: np.ndarray) -> bool:
 
 def collapse_edges(p: np.ndarray, t: np.ndarray, faces: np.ndarray, markers: np.ndarray, *,
                    angle: Callable, bad: Callable, ok: Callable | None = None,
-                   keeps: Callable | None = None, passes: int = 64):
+                   keeps: Callable | None = None, passes: int = 64,
+                   phase: np.ndarray | None = None, same: Callable | None = None):
     """Boundary edges of the tetrahedra that ``bad(angle(p, t))`` marks collapsed, the
     shortest first, one per pass (at most ``passes``): an end ``v`` onto the other ``w``
     where ``w`` lies on every face ``v`` lies on, and only if the tetrahedra changed have
@@ -50,7 +51,13 @@ def collapse_edges(p: np.ndarray, t: np.ndarray, faces: np.ndarray, markers: np.
     pass ``ok(tets)`` (an array of bools, e.g. delta < delta_0), the boundary triangles
     at ``w`` pass ``keeps(faces, markers)`` (the verification's checks of their faces),
     and the boundary is the faces' triangles less the two collapsed.
-    ``(tets, faces, markers)``; the points do not move."""
+    ``(tets, faces, markers)``; the points do not move.
+
+    With ``phase`` (a value per tetrahedron, carried to the tetrahedra kept, and returned
+    last), ``ok(tets, phase)`` takes the phases too, and ``same(tets, faces, markers,
+    phase)`` replaces the check that the boundary is the faces' triangles (``faces`` may
+    then hold the interfaces between phases as well, each with a marker of its own, so
+    that a vertex collapses only onto one on every interface it is on)."""
     inc = face_incidence(len(p), faces, markers)
     tried: set = set()
     for _ in range(passes):
@@ -77,7 +84,9 @@ def collapse_edges(p: np.ndarray, t: np.ndarray, faces: np.ndarray, markers: np.
                 new = angle(p, nt[ch])
                 if (new <= 0).any() or new.min() <= ang[star].min():
                     continue
-                if ok is not None and not ok(nt[ch]).all():
+                nph = None if phase is None else phase[~gone]
+                if ok is not None and not (ok(nt[ch]) if phase is None
+                                           else ok(nt[ch], nph[ch])).all():
                     continue
                 fgone = (faces == v).any(axis=1) & (faces == w).any(axis=1)
                 nf = np.where(faces == v, w, faces)[~fgone]
@@ -85,9 +94,9 @@ def collapse_edges(p: np.ndarray, t: np.ndarray, faces: np.ndarray, markers: np.
                 at = (nf == w).any(axis=1)
                 if keeps is not None and not keeps(nf[at], nm[at]):
                     continue
-                if not same_boundary(nt, nf):
+                if not (same_boundary(nt, nf) if same is None else same(nt, nf, nm, nph)):
                     continue
-                t, faces, markers = nt, nf, nm
+                t, faces, markers, phase = nt, nf, nm, nph
                 inc[w] |= inc[v]
                 inc[v] = set()
                 done = True
@@ -96,4 +105,4 @@ def collapse_edges(p: np.ndarray, t: np.ndarray, faces: np.ndarray, markers: np.
                 break
         if not done:
             break
-    return t, faces, markers
+    return (t, faces, markers) if phase is None else (t, faces, markers, phase)

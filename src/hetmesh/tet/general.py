@@ -69,6 +69,7 @@ from .faces import boundary_faces, interface_faces
 from .flips import flip_improve, flip_slivers
 from .implicit import CSGSolid, onto_surfaces
 from .jumps import (
+    JumpSurface,
     cut_jumps,
     has_jumps,
     interface_off,
@@ -90,7 +91,8 @@ __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "
            "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
            "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",
            "SETTLE", "solid_start", "onto_phases", "INTERFACE_REF", "with_interfaces",
-           "recorded_interface_problems", "check_jumps", "onto_planes", "flip_plain"]
+           "recorded_interface_problems", "check_jumps", "onto_planes", "flip_plain",
+           "collapse_phase_slivers"]
 
 log = logging.getLogger(__name__)
 
@@ -996,6 +998,10 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
                                                            threshold, chord)
     else:  # (a vertex on a jump: its own subregion's composition)
         p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+        if phase is not None:
+            p, t, faces, markers, phase = collapse_phase_slivers(
+                solid, field, p, t, faces, markers, phase, threshold, chord)
+            p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
         comp = field.composition(p)
     t = t.astype(np.int32)
     info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
@@ -1033,6 +1039,62 @@ def flip_plain(field, p, t, faces, phase, threshold: float):
         p, t, faces, _ = drop_unused(p, t, faces)
         own = None if own is None else ph
     return p, t, faces, own, phase_delta(field, p, t, own)
+
+
+def collapse_phase_slivers(solid: CSGSolid, field, p, t, faces, markers, phase,
+                           threshold: float, chord: float):
+    """Where a jump surface meets the boundary, the tetrahedra under :data:`COLLAPSE_BOUND`
+    degrees whose vertices all lie on the boundary or an interface (no flip reaches them)
+    improved by edge collapses (:func:`hetmesh.tet.collapse.collapse_edges`, at most
+    :data:`COLLAPSE_PASSES`): an end onto the other only where that one lies on every face
+    and interface the first is on, the tetrahedra changed get a larger smallest dihedral
+    angle and keep delta below ``threshold`` in their phases, the triangles at the kept end
+    stay on their faces (planes exactly, curved faces within ``chord``) and their jump
+    surfaces (within ``chord``), and the boundary and the interfaces stay those of the
+    tetrahedra and their phases. ``(points, tets, faces, markers, phase)``, the vertices no
+    longer used dropped; unchanged without phases or such tetrahedra."""
+    if phase is None or not len(t) or float(min_dihedral(p, t).min()) >= COLLAPSE_BOUND:
+        return p, t, faces, markers, phase
+    nb = len(solid.faces)
+    inter, sides = interface_faces(np.asarray(t, dtype=np.int64), np.asarray(phase))
+    allf = np.concatenate([faces, inter]).astype(np.int64)
+    allm = np.r_[markers, nb + (sides[:, 0] ^ sides[:, 1])].astype(np.int64)
+    exact = 1e-9 * solid.diameter
+
+    def keeps(f, m) -> bool:
+        for fi in unique(m).tolist():
+            at = np.einsum("bk,nkd->nbd", _BARY, p[f[m == fi]]).reshape(-1, 3)
+            if fi < nb:
+                surf = solid.faces[fi].surface
+                if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved
+                                                                  else exact):
+                    return False
+                continue
+            for i in range(len(field.conditions)):
+                if (fi - nb) >> i & 1 and \
+                        float(JumpSurface(field, i).distance(at).max()) > chord:
+                    return False
+        return True
+
+    def same(nt, nf, nm, nph) -> bool:
+        bnd = nm < nb
+        if not same_boundary(nt, nf[bnd]):
+            return False
+        it, _ = interface_faces(nt, nph)
+        return len(it) == int((~bnd).sum()) and np.array_equal(
+            np.unique(np.sort(it, axis=1), axis=0), np.unique(np.sort(nf[~bnd], axis=1),
+                                                              axis=0))
+
+    def ok(tets, ph):
+        return phase_delta(field, p, tets, ph) < threshold
+
+    t, allf, allm, phase = collapse_edges(
+        p, t, allf, allm, angle=min_dihedral, bad=lambda ang: ang < COLLAPSE_BOUND, ok=ok,
+        keeps=keeps, passes=COLLAPSE_PASSES, phase=np.asarray(phase, dtype=np.int64),
+        same=same)
+    faces, markers = allf[allm < nb], allm[allm < nb]
+    p, t, faces, _ = drop_unused(p, t, faces)
+    return p, t, faces, markers, phase
 
 
 def _flip_meeting(p, t, faces, comp, threshold: float):
@@ -1318,6 +1380,10 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
                                                            threshold, chord)
     else:
         p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+        if phase is not None:
+            p, t, faces, markers, phase = collapse_phase_slivers(
+                solid, field, p, t, faces, markers, phase, threshold, chord)
+            p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
         comp = field.composition(p)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
             "chord_tol": chord, "composition": comp, "size_rounds": rounds}
