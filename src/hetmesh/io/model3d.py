@@ -294,6 +294,33 @@ def _general(value) -> bool:
     return not all(_is_through(t, axis, s0, s1) for t in subs)
 
 
+def _as_csg(ctx, value):
+    """The ``[solid]`` table of a sphere, box or cylinder as a solid of primitives
+    (:class:`hetmesh.tet.implicit.CSGSolid`)."""
+    key = "solid"
+    base = _primitive(ctx, {k: v for k, v in value.items()
+                            if k not in ("subtract", "clip", "inner_radius")}, key, base=True)
+    if value.get("type") != "sphere" and "inner_radius" in value:
+        raise ctx.fail(key, "unknown key 'solid.inner_radius' (a sphere's)")
+    return _csg(ctx, value, base, key)
+
+
+def _jumps_move_along(material, solid) -> bool:
+    """Whether the jumps of a piecewise ``material`` change along a prism's axis (then they
+    are not the sweep of section curves)."""
+    from ..tet.jumps import has_jumps
+    from ..tet.sweep_regions import check_swept_regions
+
+    if not has_jumps(material):
+        return False
+    try:
+        check_swept_regions(material, solid.section, solid.to3d,
+                            np.linspace(solid.s0, solid.s1, 9), "the axis")
+    except MaterialError:
+        return True
+    return False
+
+
 def _solid(ctx, value, top):
     if not isinstance(value, Mapping):
         raise ctx.fail("solid", "expected a table")
@@ -301,12 +328,7 @@ def _solid(ctx, value, top):
     key = "solid"
     try:
         if kind == "sphere" or (kind in ("box", "cylinder") and _general(value)):
-            base = _primitive(ctx, {k: v for k, v in value.items()
-                                    if k not in ("subtract", "clip", "inner_radius")},
-                              key, base=True)
-            if kind != "sphere" and "inner_radius" in value:
-                raise ctx.fail(key, "unknown key 'solid.inner_radius' (a sphere's)")
-            return _csg(ctx, value, base, key)
+            return _as_csg(ctx, value)
         if kind == "box":
             t = ctx.table(value, key, required=("type", "min", "max"), optional=("subtract",))
             lo, hi = _point3(ctx, t["min"], "solid.min"), _point3(ctx, t["max"], "solid.max")
@@ -528,6 +550,13 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
                                             "analytic material (formulas in x, y, z)")
     swept = getattr(solid, "swept", solid)
     material, material2d = _material(ctx, top["material"], swept, parameters, top)
+    if isinstance(solid, Prism) and top["solid"].get("type") == "box" and \
+            _jumps_move_along(material, solid):
+        # a box whose jumps change along its axis (a laminate, say): a solid of primitives,
+        # whose mesher cuts any jump surface (a sweep embeds only the sweeps of section
+        # curves)
+        solid = swept = _as_csg(ctx, top["solid"])
+        material, material2d = _material(ctx, top["material"], solid, parameters, top)
     if swept is not solid:  # carved: meshed as a whole, not as a swept section
         from ..tet.carve import carve_refusal
         if (why := carve_refusal(swept, material if material2d is None else material2d)):

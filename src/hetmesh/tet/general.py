@@ -677,8 +677,13 @@ def onto_phases(solid: CSGSolid, field, p, t, faces, markers, phase) -> np.ndarr
 
     want = onto_jumps(field, p, t, phase, face_surfaces)
     pending = (want != p).any(axis=1)
+    # on a curved face, a part of the move would leave the surface: whole moves only
+    curved = np.array([any(solid.faces[fi].surface.curved for fi in fs) for fs in inc],
+                      dtype=bool).reshape(-1)
     q = p
     for frac in PARTIAL:  # what a whole move would flatten, in part
+        if frac < 1.0:
+            pending &= ~curved
         if not pending.any():
             break
         cand = q.copy()
