@@ -1164,8 +1164,9 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
     material. The same start as :func:`generate_solid` (the cut background grid), remeshed
     by MMG to ``h`` (capped on curved faces for the chord tolerance ``chord_tol``, absolute,
     as the adaptive mesh is) with the boundary vertices projected onto their faces
-    (:func:`size_rounds`: once, or, where curved faces meet, until they are on them, the
-    vertices left short collapsed between the rounds); where curved faces meet, the slivers
+    (:func:`size_rounds`: one round, remeshed again while that coarsens, or, where curved
+    faces meet, rounds until the vertices are on their faces, those left short collapsed
+    between the rounds); where curved faces meet, the slivers
     along the edge collapsed and flipped as in the adaptive mesh (:func:`finish_meeting`, no
     changed tetrahedron's delta reaching ``threshold``). Where curved faces meet, the path
     for meeting faces is taken at once (the adaptive mesher tries the plain one first).
