@@ -420,11 +420,12 @@ SETTLE = 0.1
 #: ... up to this many remeshings in a size round of a solid on the plain path (one where
 #: curved faces meet: :func:`size_rounds`)
 SETTLE_PASSES = 4
-#: MMG's Hausdorff distance in the size rounds of a solid, x the chord tolerance: at half of
-#: it graded_sphere at 0.3 had 12,643 tetrahedra with one remeshing a round, 9,513 with it
-#: (and the repeated remeshing); the edges of curved faces stay within the chord-limited size
-#: (:func:`cap_curved`) and the verification checks the triangles against the tolerance
-HAUSD = 1.0
+#: MMG's Hausdorff distance in the size rounds of a solid, x the chord tolerance. At 1.0 (as
+#: for carved solids) graded_sphere had 9,513 tetrahedra at 0.3 (10,787 at 0.5), but at 0.1
+#: about as many as at 0.5 (227,298 against 232,230) and the analysis of docs/fea.md on it
+#: 1.3 % off the exact radial stress at R1 (0.85 % at 0.5): the facets of the inner sphere
+#: nearer the chord tolerance
+HAUSD = 0.5
 #: on the path for meeting curved faces, MMG's ridge angle (degrees; its default is 45): a
 #: vertex whose two ridge edges turn by more than this is one of MMG's corners, which it
 #: never moves or removes. The cuts' polyline zigzags near the curve where curved faces meet,
@@ -785,17 +786,17 @@ def size_rounds(solid: CSGSolid, p, t, faces, markers, size, chord: float, tol: 
     :data:`SETTLE` of the tetrahedra (:func:`remesh_until_settled`, at most
     :data:`SETTLE_PASSES` remeshings, at least two from the start, whose first remeshing
     refines the boundary as it coarsens the inside); on the path for meeting curved faces
-    (``meeting``), one remeshing a round (repeated, the cylinder with a wider spherical
-    cavity of tests/test_csg_edges.py at delta_0 = 0.4 and chord 0.01 went from 4,074 to
-    591 tetrahedra, the mean radius ratio from 0.755 to 0.737 under the target, the slivers
-    along the edge a larger share), and the vertices left short of their faces are
-    collapsed after each round but the last (:func:`_collapse_stuck`). ``material(points,
-    tets, size MMG interpolated, round)`` checks the budget and says whether the material is
-    met, with a callable giving the next round's size (before the chord cap) otherwise. The
-    rounds (at most :data:`SIZE_ROUNDS` after the first) end when the material is met and,
-    on the path for meeting faces, no vertex was collapsed and every boundary vertex is
-    within :data:`SETTLED` x ``chord`` of its faces. ``(points, tets, faces, markers, last
-    round)``."""
+    (``meeting``), one remeshing a round (repeated, with the chord tolerance as Hausdorff
+    distance, the cylinder with a wider spherical cavity of tests/test_csg_edges.py at
+    delta_0 = 0.4 and chord 0.01 went from 4,074 to 591 tetrahedra, the mean radius ratio
+    from 0.755 to 0.737 under the target, the slivers along the edge a larger share), and
+    the vertices left short of their faces are collapsed after each round but the last
+    (:func:`_collapse_stuck`). ``material(points, tets, size MMG interpolated, round)``
+    checks the budget and says whether the material is met, with a callable giving the next
+    round's size (before the chord cap) otherwise. The rounds (at most :data:`SIZE_ROUNDS`
+    after the first) end when the material is met and, on the path for meeting faces, no
+    vertex was collapsed and every boundary vertex is within :data:`SETTLED` x ``chord`` of
+    its faces. ``(points, tets, faces, markers, last round)``."""
     hausd = HAUSD * chord
     ref = p  # the points the round's size is given at
 
