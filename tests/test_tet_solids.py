@@ -102,6 +102,13 @@ def test_graded_sphere_meets_every_guarantee():
     names = dict(enumerate(res.face_names, start=1))
     inner = res.faces[np.array([names[k] == "inner" for k in res.face_markers])]
     assert np.abs(np.linalg.norm(res.points[inner], axis=2) - 10).max() <= chord
+    # economy: N_iso3 = 6 sqrt(2) int |grad f|^3 dV / d0^3 in closed form (|grad f| =
+    # (r - 10)/50 over the octant of the shell); the mesh had 6.0 x at 0.3 while each size
+    # round remeshed once, 3.3 x since
+    # int_0^10 (s/50)^3 (s + 10)^2 ds with s = r - 10, over a solid angle of pi/2
+    integral = math.pi / 2 * (10 ** 6 / 6 + 20 * 10 ** 5 / 5 + 100 * 10 ** 4 / 4) / 50 ** 3
+    n_iso3 = 6 * math.sqrt(2) * integral / d0 ** 3
+    assert len(res.tets) <= 4.0 * n_iso3
 
 
 def test_partial_subtractions(tmp_path):
