@@ -94,7 +94,7 @@ __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "
            "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",
            "SETTLE", "SETTLE_PASSES", "HAUSD", "carry", "solid_start", "onto_phases",
            "INTERFACE_REF", "with_interfaces", "recorded_interface_problems", "check_jumps",
-           "onto_planes", "flip_plain", "collapse_phase_slivers"]
+           "onto_planes", "flip_plain", "collapse_phase_slivers", "finish_plain"]
 
 log = logging.getLogger(__name__)
 
@@ -1038,11 +1038,8 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
         p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
                                                            threshold, chord)
     else:  # (a vertex on a jump: its own subregion's composition)
-        p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
-        if phase is not None:
-            p, t, faces, markers, phase = collapse_phase_slivers(
-                solid, field, p, t, faces, markers, phase, threshold, chord)
-            p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+        p, t, faces, markers, phase, delta = finish_plain(solid, field, p, t, faces, markers,
+                                                          phase, threshold, chord)
         comp = field.composition(p)
     t = t.astype(np.int32)
     info = {"placement": "general", "size_rounds": rounds, "repair_passes": passes,
@@ -1059,6 +1056,19 @@ def _generate_solid(solid: CSGSolid, field, threshold: float, *, meeting: bool, 
     log.info("solid mesh: %d points, %d tetrahedra, %d size rounds, %d repair passes, %.2f s",
              len(p), len(t), rounds, passes, res.info["time_total"])
     return res
+
+
+def finish_plain(solid: CSGSolid, field, p, t, faces, markers, phase, threshold: float,
+                 chord: float):
+    """The last step of the plain path, shared by the adaptive mesh and the uniform
+    baseline: :func:`flip_plain`, and with phases :func:`collapse_phase_slivers` and
+    :func:`flip_plain` again. ``(points, tets, faces, markers, phase, delta)``."""
+    p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+    if phase is not None:
+        p, t, faces, markers, phase = collapse_phase_slivers(
+            solid, field, p, t, faces, markers, phase, threshold, chord)
+        p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+    return p, t, faces, markers, phase, delta
 
 
 def flip_plain(field, p, t, faces, phase, threshold: float):
@@ -1421,11 +1431,8 @@ def uniform_solid_at(solid: CSGSolid, field, h: float, threshold: float, *,
         p, t, faces, markers, comp, delta = finish_meeting(solid, p, t, faces, markers, comp,
                                                            threshold, chord)
     else:
-        p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
-        if phase is not None:
-            p, t, faces, markers, phase = collapse_phase_slivers(
-                solid, field, p, t, faces, markers, phase, threshold, chord)
-            p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+        p, t, faces, markers, phase, delta = finish_plain(solid, field, p, t, faces, markers,
+                                                          phase, threshold, chord)
         comp = field.composition(p)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
             "chord_tol": chord, "composition": comp, "size_rounds": rounds}
