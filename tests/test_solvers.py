@@ -460,8 +460,7 @@ uy = 0
     assert np.abs(T[:n, 0] - ours.temperature).max() <= 1e-3 * np.ptp(ours.temperature)
     # the deck's material is constant per composition bin (0.0125 wide: properties off by up
     # to about 1 %), hetmesh fea's per element; displacements follow the stiffness error
-    # (0.63 % of the largest on the quadratic mesh auto makes since its tiny-model starts)
-    assert np.abs(U[:n, :2] - ours.displacement).max() <= 1e-2 * np.abs(ours.displacement).max()
+    assert np.abs(U[:n, :2] - ours.displacement).max() <= 5e-3 * np.abs(ours.displacement).max()
 
 
 # ------------------------------------------------------------ plane stress, exact checks

@@ -122,16 +122,6 @@ QUALITY_WEIGHT = math.log(1.12) / 0.005
 
 #: the placements ``"auto"`` compares on small models
 AUTO_STARTS = ("layers", "springs", "springs-dense")
-#: the springs starts ``"auto"`` adds on tiny models (a-priori estimate at most
-#: :data:`TINY_BELOW` elements), from 0.7, 2.0 and 2.2 x the density's node count: there a
-#: start costs about a second, and where the elements are few the outcome varies much from
-#: one start to another. On the robustness benchmark's 88 runs up to 5,000 elements (each
-#: start meshed alone, the choice made by :func:`_better` as in a run): q_avg within 0.01 of
-#: Gmsh's and fewer elements than Gmsh in 81 -> 83 runs, none lost (random-0007-gentle at
-#: 0.13 and random-0038-sfgm at 0.13 gained); the coarse start alone gives 82
-TINY_STARTS = ("springs-coarse", "springs-fine", "springs-finer")
-#: the largest a-priori estimate for which ``"auto"`` also tries :data:`TINY_STARTS`
-TINY_BELOW = 2_000
 #: those the 3D sweeps compare for their sections: the layers and the two CVT starts. The
 #: springs starts' sections were measured to give fewer tetrahedra on some sweeps
 #: (graded_cylinder at 0.3: 1,088 against 1,330) and 58 % more on graded_ring, and a
@@ -145,16 +135,12 @@ def candidates(method: str, ctx: Context, est: float,
                starts: tuple[str, ...] | None = None) -> list[str]:
     """The placements to try, in order. ``"auto"`` tries ``starts`` (default
     :data:`AUTO_STARTS`: the layers and the springs placements from 1.3 and from 1.5 x the
-    density's node count, and on tiny models, an estimate up to :data:`TINY_BELOW`
-    elements, :data:`TINY_STARTS` after them) on small models, and on models of more than
-    two constituents always: their rows follow one constituent's level curves
-    (:func:`row_constituent`), which bound the others' variation only where they share
-    level curves, and the isotropic starts may be the better ones; on large models the
-    first alone."""
+    density's node count) on small models, and on models of more than two constituents
+    always: their rows follow one constituent's level curves (:func:`row_constituent`),
+    which bound the others' variation only where they share level curves, and the
+    isotropic starts may be the better ones; on large models the first alone."""
     if method == "auto":
-        if starts is None:
-            starts = AUTO_STARTS + (TINY_STARTS if est <= TINY_BELOW else ())
-        every = list(starts)
+        every = list(AUTO_STARTS if starts is None else starts)
         many = len(ctx.field.constituents) > 2
         return every if est <= COMPARE_BELOW or many else every[:1]
     return [method]
@@ -277,9 +263,7 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         elements) or "cvt" (the paper's CVT start). "auto" meshes from the layers placement
         and, where the model is small (a-priori estimate up to 50,000 elements) or has more
         than two constituents, from the springs placement too (from 1.3 and from 1.5 x the
-        density's node count: ``"springs"`` and ``"springs-dense"``; on tiny models, up to
-        2,000 elements, also from 0.7, 2.0 and 2.2 x: ``"springs-coarse"``,
-        ``"springs-fine"``, ``"springs-finer"``), and keeps the best mesh
+        density's node count: ``"springs"`` and ``"springs-dense"``), and keeps the best mesh
         (the lower ``Ne exp(-22.7 q_avg)``: each 0.005 of mean quality is worth 12 % of the
         elements); ``Result.options["placements"]`` has every outcome and ``["method"]``
         the one kept.
@@ -302,9 +286,8 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         elements next to ones of size ``max_size``, which the quality refinement then has
         to grade at a higher cost. Like ``max_size`` it never relaxes the delta guarantee.
     starts : the placements ``"auto"`` compares on small models (default
-        :data:`AUTO_STARTS`: the layers and the two springs starts, and
-        :data:`TINY_STARTS` on tiny models; the first alone on large models); only with
-        ``method="auto"``. The 3D sweeps mesh their sections with
+        :data:`AUTO_STARTS`: the layers and the two springs starts; the first alone on
+        large models); only with ``method="auto"``. The 3D sweeps mesh their sections with
         :data:`SWEEP_STARTS`.
 
     If the layers placement fails on a model (an internal error of the row tracing or a

@@ -8,9 +8,7 @@ Three placements, by ``method`` name (:data:`PLACEMENTS`):
 * ``"springs"`` -- nodes at the same isotropic size as ``"cvt"``'s (from 1.3 x the
   density's node count), relaxed as a truss of springs (:mod:`hetmesh.tri.springs`): nearly
   equilateral elements, for the best mean quality where the element count allows;
-  ``"springs-dense"`` the same from 1.5 x, ``"springs-coarse"`` from 0.7 x and
-  ``"springs-fine"`` and ``"springs-finer"`` from 2.0 and 2.2 x (the starts
-  :func:`hetmesh.tri.pipeline.candidates` adds on tiny models);
+  ``"springs-dense"`` the same from 1.5 x;
 * ``"layers"`` -- rows of nodes on the composition's level curves
   (:mod:`hetmesh.tri.layers`).
 """
@@ -28,8 +26,7 @@ from .springs import relax
 from .workset import Context, WorkSet, add_free_points, smooth, triangulate, workset_from_pslg
 
 __all__ = ["place_cvt", "place_springs", "size_fn", "sample_interior", "PLACEMENTS",
-           "DENSE_START", "SPRING_START", "SPRING_DENSE_START", "SPRING_COARSE_START",
-           "SPRING_FINE_STARTS"]
+           "DENSE_START", "SPRING_START", "SPRING_DENSE_START"]
 
 
 def size_fn(ctx: Context, factor: float):
@@ -93,17 +90,6 @@ DENSE_START = 1.3
 #: tries: fewer elements violate delta_0 after the relaxation, so the repair's insertions
 #: spoil fewer shapes (three_phase at 0.1: 346 elements of q_avg 0.977 against 323 of 0.959)
 SPRING_DENSE_START = 1.5
-#: the coarser springs start that ``"auto"`` also tries on tiny models: the repair then
-#: inserts nodes only where delta_0 needs them. Where the density overcounts (a composition
-#: whose gradient is unbounded at a plateau's edge, yet whose variation across an element
-#: is small) it keeps far fewer elements: random-0038-sfgm at 0.13, 388 of q_avg 0.947
-#: against 509 of 0.956 from 1.5 x (Gmsh: 394 of 0.936)
-SPRING_COARSE_START = 0.7
-#: the two finer springs starts that ``"auto"`` also tries on tiny models, where a few more
-#: nodes can buy much shape: random-0007-gentle at 0.13, 212 elements of q_avg 0.952 from
-#: 2.2 x against 189 of 0.944 from 1.5 x. Two, because a tiny model's outcome varies by
-#: about 0.01 of q_avg from one start to a close one
-SPRING_FINE_STARTS = (2.0, 2.2)
 
 
 def place_springs(ctx: Context, rng, chord_tol: float, progress=None,
@@ -122,7 +108,4 @@ def place_springs(ctx: Context, rng, chord_tol: float, progress=None,
 PLACEMENTS = {"cvt": place_cvt, "layers": place_layers,
               "cvt-dense": functools.partial(place_cvt, start=DENSE_START),
               "springs": place_springs,
-              "springs-dense": functools.partial(place_springs, start=SPRING_DENSE_START),
-              "springs-coarse": functools.partial(place_springs, start=SPRING_COARSE_START),
-              "springs-fine": functools.partial(place_springs, start=SPRING_FINE_STARTS[0]),
-              "springs-finer": functools.partial(place_springs, start=SPRING_FINE_STARTS[1])}
+              "springs-dense": functools.partial(place_springs, start=SPRING_DENSE_START)}
