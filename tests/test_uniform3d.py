@@ -50,8 +50,8 @@ def _delta_independent(model, mesh):
 
 #: examples whose uniform size search takes a minute or more: in the slow step (the
 #: graded sphere's search remeshes every size until it settles, 40 s on the loaded
-#: machine; test_a_sphere_of_primitives_gets_a_verified_uniform_mesh covers that path in
-#: the default step)
+#: machine; tests/test_tet_jumps.py meshes a solid of primitives' uniform baseline in the
+#: default step)
 SLOW = {"carved_plate", "graded_sphere"}
 
 
@@ -86,6 +86,7 @@ def test_every_3d_example_gets_a_verified_uniform_mesh(path):
     assert _edges(m.points, m.cells).max() <= 2.0 * h
 
 
+@pytest.mark.slow  # 45 s: the size search remeshes every size until it settles
 def test_a_sphere_of_primitives_gets_a_verified_uniform_mesh():
     """A solid of primitives (a hollow sphere): MMG's mesh at one size, checked from the
     arrays (volumes, delta, the two spheres within the chord tolerance); the fewest elements
