@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..mesh import simplex_measures
-from .faces import boundary_faces
+from .faces import boundary_faces, same_triangles
 
 __all__ = ["face_incidence", "same_boundary", "collapse_edges"]
 
@@ -35,9 +35,7 @@ def face_incidence(n: int, faces: np.ndarray, markers: np.ndarray) -> list[set]:
 
 def same_boundary(tets: np.ndarray, faces: np.ndarray) -> bool:
     """Whether the boundary triangles of ``tets`` are exactly ``faces`` (as vertex sets)."""
-    bf, _ = boundary_faces(tets)
-    return len(bf) == len(faces) and np.array_equal(np.unique(np.sort(bf, axis=1), axis=0),
-                                                    np.unique(np.sort(faces, axis=1), axis=0))
+    return same_triangles(boundary_faces(tets)[0], faces)
 
 
 def collapse_edges(p: np.ndarray, t: np.ndarray, faces: np.ndarray, markers: np.ndarray, *,

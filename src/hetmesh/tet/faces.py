@@ -14,7 +14,14 @@ import numpy as np
 from ..topology import unique
 from .quality import TET_FACES
 
-__all__ = ["boundary_faces", "interface_faces"]
+__all__ = ["boundary_faces", "interface_faces", "same_triangles", "BARY"]
+
+#: the barycentric points at which the verifications check a triangle against its surface
+#: (a curved face, an interface, a voxel contour): the corners, the edge midpoints, the
+#: centroid and five more
+BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                 [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
+                 [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
 
 
 def boundary_faces(tets: np.ndarray, *, owners: bool = False):
@@ -51,3 +58,10 @@ def interface_faces(tets: np.ndarray, phase: np.ndarray) -> tuple[np.ndarray, np
     differ = phase[owner[a]] != phase[owner[b]]
     a, b = a[differ], b[differ]
     return f[a], np.column_stack([phase[owner[a]], phase[owner[b]]])
+
+
+def same_triangles(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether the triangles ``a (K, 3)`` and ``b`` are the same, each once (as vertex sets,
+    in any order)."""
+    return len(a) == len(b) and np.array_equal(np.unique(np.sort(a, axis=1), axis=0),
+                                               np.unique(np.sort(b, axis=1), axis=0))

@@ -67,7 +67,7 @@ from ..metrics import delta_vertices
 from ..topology import drop_unused, unique
 from ..tri.discontinuity import DISCONTINUITY
 from .collapse import collapse_edges, face_incidence, same_boundary
-from .faces import boundary_faces, interface_faces
+from .faces import BARY, boundary_faces, interface_faces, same_triangles
 from .flips import flip_improve, flip_slivers
 from .implicit import CSGSolid, onto_surfaces
 from .jumps import (
@@ -529,7 +529,7 @@ def _collapse_slivers(solid, p, t, faces, markers, ok, chord: float):
     def keeps(f, m) -> bool:
         for fi in unique(m).tolist():
             surf = solid.faces[fi].surface
-            at = np.einsum("bk,nkd->nbd", _BARY, p[f[m == fi]]).reshape(-1, 3)
+            at = np.einsum("bk,nkd->nbd", BARY, p[f[m == fi]]).reshape(-1, 3)
             if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved else exact):
                 return False
         return not edge_problems(p, f, m, solid, chord)
@@ -1079,17 +1079,13 @@ def flip_plain(field, p, t, faces, phase, threshold: float):
     ``threshold`` in its phase); the boundary triangles and the interfaces between phases
     stay. A mesh without such tetrahedra is returned as it is. ``(points, tets, faces,
     phase, delta)``, the vertices no longer used dropped."""
-    own = None if phase is None else np.asarray(phase)
     if len(t) and float(min_dihedral(p, t).min()) < FLIP_BOUND:
-        ph = np.zeros(len(t), dtype=np.int64) if own is None else own
-
-        def ok(tets, r):
-            return phase_delta(field, p, tets, None if own is None else r) < threshold
-
-        t, ph = flip_improve(p, t, ph, ok, bound=FLIP_BOUND)
+        ph = np.zeros(len(t), dtype=np.int64) if phase is None else np.asarray(phase)
+        t, ph = flip_improve(p, t, ph, lambda tets, r: phase_delta(field, p, tets, r)
+                             < threshold, bound=FLIP_BOUND)
         p, t, faces, _ = drop_unused(p, t, faces)
-        own = None if own is None else ph
-    return p, t, faces, own, phase_delta(field, p, t, own)
+        phase = None if phase is None else ph
+    return p, t, faces, phase, phase_delta(field, p, t, phase)
 
 
 def collapse_phase_slivers(solid: CSGSolid, field, p, t, faces, markers, phase,
@@ -1114,7 +1110,7 @@ def collapse_phase_slivers(solid: CSGSolid, field, p, t, faces, markers, phase,
 
     def keeps(f, m) -> bool:
         for fi in unique(m).tolist():
-            at = np.einsum("bk,nkd->nbd", _BARY, p[f[m == fi]]).reshape(-1, 3)
+            at = np.einsum("bk,nkd->nbd", BARY, p[f[m == fi]]).reshape(-1, 3)
             if fi < nb:
                 surf = solid.faces[fi].surface
                 if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved
@@ -1129,12 +1125,8 @@ def collapse_phase_slivers(solid: CSGSolid, field, p, t, faces, markers, phase,
 
     def same(nt, nf, nm, nph) -> bool:
         bnd = nm < nb
-        if not same_boundary(nt, nf[bnd]):
-            return False
-        it, _ = interface_faces(nt, nph)
-        return len(it) == int((~bnd).sum()) and np.array_equal(
-            np.unique(np.sort(it, axis=1), axis=0), np.unique(np.sort(nf[~bnd], axis=1),
-                                                              axis=0))
+        return same_boundary(nt, nf[bnd]) and same_triangles(interface_faces(nt, nph)[0],
+                                                             nf[~bnd])
 
     def ok(tets, ph):
         return phase_delta(field, p, tets, ph) < threshold
@@ -1167,12 +1159,6 @@ def _check_positive(p, t, when):
                            f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
 
 
-#: barycentric points at which curved triangles are checked against the chord tolerance
-_BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
-                  [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
-                  [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
-
-
 def recorded_interface_problems(res, recorded) -> list[str]:
     """One line if the interface triangles recorded as faces (``recorded``) are not exactly
     the triangles between the tetrahedra's phases (``res.info["regions"]``)."""
@@ -1181,11 +1167,9 @@ def recorded_interface_problems(res, recorded) -> list[str]:
         return [f"{len(recorded)} triangles recorded after the faces of the solid, but the "
                 f"mesh has no phases"]
     inter, _ = interface_faces(np.asarray(res.tets, dtype=np.int64), np.asarray(phase))
-    a = {tuple(f) for f in np.sort(inter, axis=1).tolist()}
-    b = {tuple(f) for f in np.sort(recorded, axis=1).tolist()}
-    if a != b or len(b) != len(recorded):
+    if not same_triangles(inter, recorded):
         return [f"{len(recorded)} interface triangles recorded, {len(inter)} between the "
-                f"phases of the tetrahedra ({len(a ^ b)} differ)"]
+                f"phases of the tetrahedra"]
     return []
 
 
@@ -1241,7 +1225,7 @@ def solid_problems(res, solid: CSGSolid, field, chord_tol: float) -> list[str]:
         if not sel.any():
             continue
         tri = p[faces[sel]]
-        pts = np.einsum("bk,nkd->nbd", _BARY, tri).reshape(-1, 3)
+        pts = np.einsum("bk,nkd->nbd", BARY, tri).reshape(-1, 3)
         dev = np.abs(f.surface.g(pts))
         lim = chord_tol if f.surface.curved else exact
         if float(dev.max()) > lim * (1 + 1e-9):

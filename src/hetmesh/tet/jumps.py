@@ -48,12 +48,12 @@ from ..errors import MeshingError
 from ..material import has_subregions
 from ..metrics import delta_vertices
 from ..topology import unique
-from .faces import interface_faces
+from .faces import BARY, interface_faces
+from .implicit import onto_surfaces
 from .levelset import split_across
 
 __all__ = ["has_jumps", "JumpSurface", "cut_jumps", "jump_cap", "onto_jumps",
-           "jump_problems", "interface_bits", "phase_delta", "jump_radius", "interface_off",
-           "BARY"]
+           "jump_problems", "interface_bits", "phase_delta", "jump_radius", "interface_off"]
 
 log = logging.getLogger(__name__)
 
@@ -61,13 +61,6 @@ log = logging.getLogger(__name__)
 #: parent indices the references carry
 _SIDE_BIT = 20
 _PARENT = (1 << 41) - 1
-
-#: barycentric points at which interface triangles are checked against the chord tolerance
-#: (the corners, the edge midpoints, the centroid and five more)
-BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
-                 [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
-                 [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
-
 
 def has_jumps(field) -> bool:
     """Whether ``field`` is piecewise with level functions for its jumps (a formula field
@@ -82,7 +75,6 @@ class JumpSurface:
     vertices onto."""
 
     kind = "jump"
-    curved = True
 
     def __init__(self, field, i: int):
         self.field = field
@@ -147,12 +139,14 @@ def cut_jumps(field, p: np.ndarray, t: np.ndarray, snap: float) -> tuple[np.ndar
     return p, t, phase
 
 
-def phase_delta(field, p: np.ndarray, t: np.ndarray, phase) -> np.ndarray:
+def phase_delta(field, p: np.ndarray, t: np.ndarray, phase, comp=None) -> np.ndarray:
     """delta over every tetrahedron's vertices (Eqs. 14-15), each evaluated in the
-    tetrahedron's phase (None: every vertex in its own subregion)."""
-    if phase is None:
-        return delta_vertices(field.composition(p), t)
-    return element_delta(field, p, t, regions=np.asarray(phase))
+    tetrahedron's phase where the field has subregions (a piecewise formula, a label
+    volume's phases), else every vertex in its own (``phase`` None, or a field of one
+    region: a mask's). ``comp``: the vertex compositions, if known."""
+    if phase is None or getattr(field, "n_regions", 1) <= 1:
+        return delta_vertices(field.composition(p) if comp is None else comp, t)
+    return element_delta(field, p, t, composition=comp, regions=np.asarray(phase))
 
 
 def interface_bits(t: np.ndarray, phase: np.ndarray, n: int):
@@ -178,8 +172,6 @@ def onto_jumps(field, p: np.ndarray, t: np.ndarray, phase: np.ndarray,
     (``face_surfaces(ids) -> list per id of surfaces``; None: inner vertices only), by
     :func:`hetmesh.tet.implicit.onto_surfaces` (three surfaces at most). The caller makes
     the moves that keep every tetrahedron positive."""
-    from .implicit import onto_surfaces
-
     _, _, per = interface_bits(t, phase, len(p))
     ids = np.flatnonzero(per)
     want = p.copy()

@@ -87,9 +87,9 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import BudgetError, GeometryError, MeshingError
-from ..metrics import delta_vertices
 from ..topology import unique
-from .faces import boundary_faces, interface_faces
+from .faces import BARY, boundary_faces, interface_faces
+from .jumps import phase_delta
 from .mesher import TetResult
 from .refine import repair
 from .verify import raise_problems, validity_problems
@@ -128,10 +128,6 @@ HGRAD = 1.3
 #: the a-priori count's tetrahedra per voxel face of the contour (:func:`boundary_estimate`):
 #: MMG's meshes at the Hausdorff distance HAUSD[0] have 7.3 on the two examples (docs/tet.md)
 CONTOUR_TETS = 7.5
-#: barycentric points at which the boundary triangles are checked
-_BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
-                  [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
-                  [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
 _SIX = np.array([[[0, 0, 0], [0, 1, 0], [0, 0, 0]], [[0, 1, 0], [1, 1, 1], [0, 1, 0]],
                  [[0, 0, 0], [0, 1, 0], [0, 0, 0]]], bool)
 
@@ -449,16 +445,6 @@ def remesh_phases(p, t, phase, size, hausd, **options):
     if size is not None:
         h = np.asarray(m.get_field("metric"), dtype=np.float64).reshape(-1)
     return p, t, np.asarray(rr, dtype=np.int64) - 1, h
-
-
-def phase_delta(field, p, t, phase, comp):
-    """delta over the vertices, each tetrahedron's in its own phase (a label volume's
-    field has regions; a mask's is one field)."""
-    from ..delta import element_delta
-
-    if getattr(field, "n_regions", 1) > 1:
-        return element_delta(field, p, t, composition=comp, regions=phase)
-    return delta_vertices(comp, t)
 
 
 def remesh_round(solid: VoxelSolid, p, t, phase, size, hausd: float, kept: bool,
@@ -844,7 +830,7 @@ def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None)
         c = org + np.array([i, j, k]) * np.asarray(solid.spacing)
         out.append(f"{int(other.sum())} voxel centres in a tetrahedron of another phase "
                    f"(e.g. the centre ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
-    pts = np.einsum("bk,nkd->nbd", _BARY, p[res.faces]).reshape(-1, 3)
+    pts = np.einsum("bk,nkd->nbd", BARY, p[res.faces]).reshape(-1, 3)
     mixed, _ = solid.stencil(pts)
     if not mixed.all():
         c = pts[np.flatnonzero(~mixed)[0]]
@@ -854,8 +840,8 @@ def mask_problems(res, solid: VoxelSolid, field, chord_tol: float | None = None)
     if regions is not None:
         inter, sides = interface_faces(np.asarray(t, np.int64), phase)
         if len(inter):
-            pts = np.einsum("bk,nkd->nbd", _BARY, p[inter]).reshape(-1, 3)
-            s = np.repeat(sides, len(_BARY), axis=0)
+            pts = np.einsum("bk,nkd->nbd", BARY, p[inter]).reshape(-1, 3)
+            s = np.repeat(sides, len(BARY), axis=0)
             ok = solid.between(pts, s[:, 0], s[:, 1])
             if not ok.all():
                 c = pts[np.flatnonzero(~ok)[0]]

@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import BudgetError, MeshingError
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
-from .faces import boundary_faces
+from .faces import BARY, boundary_faces
 from .general import (
     HGRAD,
     SIZE_ROUNDS,
@@ -186,10 +186,6 @@ def keep_markers(solid, p, t, known, known_markers, chord):
     return faces, markers
 
 
-#: barycentric points at which boundary triangles are checked against the surface
-_BARY = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
-                  [1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6],
-                  [1 / 6, 1 / 6, 2 / 3], [.25, .25, .5], [.5, .25, .25]])
 
 
 def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[str]:
@@ -204,7 +200,7 @@ def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[
     if len(bf) != len(faces):
         out.append(f"{len(faces)} boundary triangles recorded, {len(bf)} in the tetrahedra")
     lim = chord_tol * (1 + 1e-9)
-    pts = np.einsum("bk,nkd->nbd", _BARY, p[faces]).reshape(-1, 3)
+    pts = np.einsum("bk,nkd->nbd", BARY, p[faces]).reshape(-1, 3)
     far = np.flatnonzero(np.isinf(solid.distance_within(pts, lim)))
     if len(far):
         dev = solid.distance(pts[far[:1000]])
@@ -224,7 +220,7 @@ def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[
         out.append(f"{int(((markers < 0) | (markers >= len(solid.face_names))).sum())} "
                    f"boundary triangles on no face")
     elif len(solid.face_names) > 1:
-        mark = np.repeat(markers, len(_BARY))
+        mark = np.repeat(markers, len(BARY))
         for k, name in enumerate(solid.face_names):
             sel = np.flatnonzero(mark == k)
             own = solid.F[solid.patch == k]

@@ -605,8 +605,8 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
         raise_problems(mask_problems(best, solid, model.material))
     elif isinstance(solid, CarvedSolid):
         raise_problems(carved_problems(best, solid, model.material, chord_abs))
-    elif remeshed:
-        raise_problems(solid_problems(best, solid, None, chord_abs))
+    elif remeshed:  # with the field: delta per phase and the jumps' claims
+        raise_problems(solid_problems(best, solid, model.material, chord_abs))
     else:
         verify_uniform(best, solid)
     best.info["composition"] = np.asarray(model.material.composition(best.points),
