@@ -265,7 +265,7 @@ metal = "{formula}"
      "extrusion length must be positive, got 0"),
     (EXTRUDED.format(length=-2, formula="x/10"), "solid.length",
      "extrusion length must be positive, got -2"),
-    (EXTRUDED.format(length=3, formula="where(z < 1, 0.2, 0.6) + 0.01*x"),
+    (EXTRUDED.format(length=3, formula="where(z < 1 + 0.1*x, 0.2, 0.6) + 0.01*x"),
      "material.composition.metal", "the subregion changes with z near"),
     (REVOLVED.format(formula="where(atan2(y, x) < 0.5, 0.2, 0.6)"),
      "material.composition.metal", "the subregion changes with the angle near"),

@@ -243,10 +243,12 @@ def test_jumps_in_a_surface_solid_fail_in_one_line(tmp_path, capsys):
     assert "material: a composition with jumps" in err
 
 
-#: a two-layer plate: a coating over a graded substrate, the jump across the thickness
-LAMINATE = """
+#: a box cut by an inclined jump plane x + z = 2.5, which moves along its sweep axis (a
+#: plane across the axis, such as a coating's z = 1, is embedded by the sweep instead:
+#: tests/test_tet_jump_planes.py)
+INCLINED = """
 [model]
-name = "laminate"
+name = "inclined"
 
 [solid]
 type = "box"
@@ -257,14 +259,14 @@ max = [4, 2, 2]
 constituents = ["ceramic", "metal"]
 
 [material.composition]
-metal = "where(z < 1, 0.2 + 0.1*x, 0.8)"
+metal = "where(x + z < 2.5, 0.2 + 0.1*x, 0.8)"
 """
 
 
 def test_a_box_whose_jump_changes_along_its_axis_is_cut_through(tmp_path):
-    """The jump plane z = 1 crosses the box's sweep axis: the box is meshed as a solid of
-    primitives, the plane exactly an interface, each layer's delta recomputed."""
-    model = load_model(write(tmp_path, LAMINATE))
+    """The inclined jump plane crosses the box's sweep axis: the box is meshed as a solid of
+    primitives, the plane exactly an interface, each side's delta recomputed."""
+    model = load_model(write(tmp_path, INCLINED))
     res = mesh_model(model, 0.2)
     assert res.info["placement"] == "general"
     p, t = res.points, res.tets.astype(np.int64)
@@ -272,11 +274,11 @@ def test_a_box_whose_jump_changes_along_its_axis_is_cut_through(tmp_path):
     assert vol.sum() == pytest.approx(16.0, rel=1e-12)
     region = np.asarray(res.info["regions"])
     cen = p[t].mean(axis=1)
-    assert ((cen[:, 2] < 1).astype(int) == region).all()
+    assert ((cen[:, 0] + cen[:, 2] < 2.5).astype(int) == region).all()
     inter, _ = interfaces(t, region)
-    assert (p[inter][..., 2] == 1.0).all()
+    assert np.abs(p[inter][..., 0] + p[inter][..., 2] - 2.5).max() < 1e-9
     area = 0.5 * np.linalg.norm(np.cross(p[inter[:, 1]] - p[inter[:, 0]],
                                          p[inter[:, 2]] - p[inter[:, 0]]), axis=1).sum()
-    assert area == pytest.approx(8.0, rel=1e-12)
+    assert area == pytest.approx(2.0 * 8 ** 0.5, rel=1e-9)
     v = np.where(region[:, None] == 1, 0.2 + 0.1 * p[t][..., 0], 0.8)
     assert (v.max(axis=1) - v.min(axis=1)).max() < 0.2

@@ -64,7 +64,7 @@ def test_the_3d_examples_exist():
 
 
 #: the examples meshed in the default run; the others (larger at any threshold) run with -m slow
-FAST_3D = ("unit_cube", "graded_rod", "seamed_plate_z")
+FAST_3D = ("unit_cube", "graded_rod", "seamed_plate_z", "coated_rod")
 
 
 @pytest.mark.parametrize("path", [p if p.stem in FAST_3D else

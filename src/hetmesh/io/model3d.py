@@ -306,16 +306,16 @@ def _as_csg(ctx, value):
 
 
 def _jumps_move_along(material, solid) -> bool:
-    """Whether the jumps of a piecewise ``material`` change along a prism's axis (then they
-    are not the sweep of section curves)."""
+    """Whether the jumps of a piecewise ``material`` change along a prism's axis other than
+    on planes across it (then the sweep, which embeds those planes and the sweeps of section
+    curves, cannot embed them)."""
+    from ..tet.extrude import prism_cuts
     from ..tet.jumps import has_jumps
-    from ..tet.sweep_regions import check_swept_regions
 
     if not has_jumps(material):
         return False
     try:
-        check_swept_regions(material, solid.section, solid.to3d,
-                            np.linspace(solid.s0, solid.s1, 9), "the axis")
+        prism_cuts(solid, material)
     except MaterialError:
         return True
     return False
@@ -552,9 +552,9 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
     material, material2d = _material(ctx, top["material"], swept, parameters, top)
     if isinstance(solid, Prism) and top["solid"].get("type") == "box" and \
             _jumps_move_along(material, solid):
-        # a box whose jumps change along its axis (a laminate, say): a solid of primitives,
-        # whose mesher cuts any jump surface (a sweep embeds only the sweeps of section
-        # curves)
+        # a box whose jumps change along its axis on other surfaces than planes across it
+        # (an inclined one, say): a solid of primitives, whose mesher cuts any jump surface
+        # (a sweep embeds the sweeps of section curves and planes across its axis)
         solid = swept = _as_csg(ctx, top["solid"])
         material, material2d = _material(ctx, top["material"], solid, parameters, top)
     if swept is not solid:  # carved: meshed as a whole, not as a swept section

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import OptionError
 from ..kernel import Result
+from ..material import has_subregions
 from ..mesh import Mesh
 from ..metrics import delta_vertices, dihedral_angles, statistics, tet_quality
 from ..options import DEFAULT_GRADATION, DEFAULT_ROW_SPACING
@@ -143,6 +144,8 @@ def _planar_prism(solid, field):
     from .mesher import is_planar
     from .solid import box
 
+    if has_subregions(field):  # its jumps are embedded by the sweep (the layers would
+        return None  # refine across them without end)
     if is_planar(field, solid, solid.sample(16)):
         return solid
     names = solid.face_names

@@ -57,7 +57,8 @@ import numpy as np
 from ..topology import edge_keys, unique
 from .quality import TET_FACES
 
-__all__ = ["column_tets", "column_counts", "vertex_size", "section_interfaces", "strip_faces",
+__all__ = ["column_tets", "layered_column_tets", "column_counts", "vertex_size",
+           "section_interfaces", "strip_faces",
            "strip_problems", "face_multiplicity", "swept_interfaces", "carriers",
            "carried_strip_faces"]
 
@@ -126,6 +127,46 @@ def column_tets(points2: np.ndarray, tris2: np.ndarray, counts: np.ndarray, s0: 
     new = start[vid] + lvl
     tets = np.column_stack([front, new])
     return pts, tets, tri
+
+
+def layered_column_tets(points2: np.ndarray, tris2: np.ndarray, counts: np.ndarray,
+                        levels: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`column_tets` through the layers between consecutive ``levels (K + 1,)``, with
+    ``counts (K, N)`` intervals per layer and column: every column has a point on every
+    level, shared by the layers below and above it, so no tetrahedron crosses a level (the
+    sweep's jump planes). ``(points (P, 3), tets (M, 4), tri (M,), column (P,))``,
+    ``column`` the section vertex of every point; one layer gives :func:`column_tets`'s.
+
+    >>> p2 = np.array([[0, 0], [1, 0], [0, 1.0]]); t2 = np.array([[0, 1, 2]])
+    >>> p, t, tri, col = layered_column_tets(p2, t2, np.array([[1, 1, 1], [2, 1, 1]]),
+    ...                                      np.array([0.0, 1.0, 3.0]))
+    >>> len(p), len(t), sorted(set(p[:, 2].tolist()))
+    (10, 7, [0.0, 1.0, 2.0, 3.0])
+    """
+    counts = np.atleast_2d(np.asarray(counts, dtype=np.int64))
+    n = len(points2)
+    pts, tets, tris, cols = [], [], [], []
+    top, offset = None, 0
+    for k in range(len(counts)):
+        pl, tt, tri = column_tets(points2, tris2, counts[k], levels[k], levels[k + 1])
+        start = np.concatenate([[0], np.cumsum(counts[k] + 1)])
+        col = np.repeat(np.arange(n), counts[k] + 1)
+        keep = np.ones(len(pl), dtype=bool)
+        if top is not None:  # the bottom points are the layer below's top ones
+            keep[start[:-1]] = False
+        ids = np.empty(len(pl), dtype=np.int64)
+        ids[keep] = offset + np.arange(int(keep.sum()))
+        if top is not None:
+            ids[start[:-1]] = top
+        pts.append(pl[keep])
+        cols.append(col[keep])
+        tets.append(ids[tt])
+        tris.append(tri)
+        top = ids[start[1:] - 1]
+        offset += int(keep.sum())
+    return (np.concatenate(pts), np.concatenate(tets), np.concatenate(tris),
+            np.concatenate(cols))
 
 
 def section_interfaces(section, points2: np.ndarray, tris2: np.ndarray, edges2: np.ndarray,

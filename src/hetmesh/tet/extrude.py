@@ -47,9 +47,10 @@ from ..errors import BudgetError
 from ..material import has_subregions
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
+from ..tri.discontinuity import DISCONTINUITY
 from .columns import (
     column_counts,
-    column_tets,
+    layered_column_tets,
     strip_problems,
     vertex_size,
 )
@@ -60,8 +61,10 @@ from .smooth import smooth
 from .sweep_mmg import improve_result
 from .sweep_regions import (
     PlaneField,
-    check_swept_regions,
+    axial_cuts,
     interface_edges,
+    plane_faces,
+    plane_problems,
     region_problems,
     repaired_sweep,
     surface_problems,
@@ -69,7 +72,8 @@ from .sweep_regions import (
 )
 from .verify import tet_problems
 
-__all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field"]
+__all__ = ["prism_tets", "generate_extruded", "SectionField", "mid_section_field", "prism_cuts",
+           "cut_face_names"]
 
 log = logging.getLogger(__name__)
 
@@ -160,12 +164,23 @@ def mid_section_field(solid, field3d):
 
     s_mid = 0.5 * (solid.s0 + solid.s1)
     if has_subregions(field3d):
+        levels = np.concatenate([[solid.s0], prism_cuts(solid, field3d), [solid.s1]])
+        k = int(np.argmax(np.diff(levels)))  # the thickest layer's middle, off any cut
+        if len(levels) > 2:
+            s_mid = 0.5 * (levels[k] + levels[k + 1])
         return PlaneField(field3d, lambda q: solid.to3d(q, np.full(len(q), s_mid)), solid.uv)
 
     def f2(x, y):
         q = np.column_stack([np.ravel(x), np.ravel(y)])
         return field3d.composition(solid.to3d(q, np.full(len(q), s_mid)))
     return CallableField(f2, field3d.constituents)
+
+
+def prism_cuts(solid, field3d) -> np.ndarray:
+    """The axis values of the planes across a prism on which its piecewise composition's
+    jumps lie (:func:`~hetmesh.tet.sweep_regions.axial_cuts`; :class:`MaterialError` if
+    its jumps are neither those nor swept section curves)."""
+    return axial_cuts(field3d, solid.section, solid.to3d, solid.s0, solid.s1, "z")
 
 
 def generate_extruded(solid, field3d, threshold: float, section_model, *, swept: bool,
@@ -197,10 +212,10 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
 
     t0 = time.perf_counter()
     sec = solid.section
+    cuts = np.zeros(0)
     if not swept and has_subregions(field3d):  # its jumps embedded in the section's mesh
-        check_swept_regions(field3d, sec, solid.to3d,
-                            np.linspace(solid.s0, solid.s1, 9), "z")
-        if not has_subregions(section_model.material):
+        cuts = prism_cuts(solid, field3d)  # and on planes across the axis
+        if len(cuts) or not has_subregions(section_model.material):
             section_model = replace(section_model,
                                     material=mid_section_field(solid, field3d))
     field2d = section_model.material
@@ -218,25 +233,32 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     gs = 0.0 if swept else _axial_gradient(field3d, solid)
     if gs > 0:
         cap = min(cap if cap is not None else np.inf, BETA * threshold / gs)
-    counts = column_counts(solid.length, size, ratio=COLUMN_RATIO, cap=cap)
-    ntet = int(counts[t2].sum())
+    levels = np.concatenate([[solid.s0], cuts, [solid.s1]])  # the layers between cuts
+    counts = np.stack([column_counts(float(b - a), size, ratio=COLUMN_RATIO, cap=cap)
+                       for a, b in zip(levels[:-1], levels[1:])])
+    ntet = int(counts[:, t2].sum())
     if max_elements is not None and ntet > max_elements:
         raise BudgetError(f"about {ntet} tetrahedra are needed for delta_0 = {threshold} "
                           f"({len(t2)} triangles in the section, {int(counts.min())} to "
                           f"{int(counts.max())} layers) but the budget is {max_elements}")
-    pl, tets, tri_of = column_tets(p2, t2, counts, solid.s0, solid.s1)
+    # col: the section vertex of every point
+    pl, tets, tri_of, col = layered_column_tets(p2, t2, counts, levels)
     points = solid.to3d(pl[:, :2], pl[:, 2])
     tets = _orient(points, tets)
     ntri = len(t2)
-    col = np.repeat(np.arange(len(p2)), counts + 1)  # the section vertex of every point
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
     regions = None if sub2 is None else np.asarray(sub2)[tri_of]
+    if len(cuts):  # every layer's own subregions (no tetrahedron crosses a cut)
+        regions = np.asarray(field3d.region(points[tets].mean(axis=1)), dtype=np.int64)
     comp = None
     chord_abs = _chord_abs(kw.get("chord_tol", CHORD_TOL), sec)
     tol = 1e-9 * solid.diameter
     ie, imark, disc = interface_edges(sec, r2.model.domain, p2, t2, m2.facets, tol, chord_abs,
                                       len(solid.face_names))
     traced = not swept and len(ie) + (regions is not None) > 0
+    nb = len(solid.face_names) + len(disc)
+    cut_names = cut_face_names(disc, len(cuts))
+    planes = {nb + 1 + k: float(c) for k, c in enumerate(cuts)}  # marker -> axis value
     carrier = None
     if swept:
         delta = _swept_delta(field2d, p2, col[tets], regions)
@@ -254,14 +276,19 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     inter, im = sweep_faces(sec, p2, t2, m2.facets, tets, col, tol, chord_abs, edges=ie,
                             markers=imark, n_faces=len(solid.face_names),
                             discontinuities=disc, traced=traced, carrier=carrier)
+    if len(cuts):  # the jump planes across the axis, after the swept interfaces
+        pf, pk = plane_faces(points, tets, solid.axis, cuts)
+        inter, im = np.concatenate([inter, pf]), np.concatenate([im, nb + 1 + pk])
     if len(inter):
         faces = np.concatenate([faces, inter])
         markers = np.concatenate([markers, im])
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
-                    tuple(solid.face_names) + disc, delta, float(threshold),
+                    tuple(solid.face_names) + disc + cut_names, delta, float(threshold),
                     {"placement": "swept" if swept else "swept+repair",
-                     "layers": (int(counts.min()), int(counts.max())),
+                     "layers": (int(counts.sum(axis=0).min()), int(counts.sum(axis=0).max())),
                      "section_triangles": ntri, "time_total": 0.0})
+    if len(cuts):
+        res.info["jump_planes"] = tuple(float(c) for c in cuts)
     if regions is not None:
         res.info["regions"] = regions.astype(np.int32)
     if comp is not None:
@@ -274,6 +301,10 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         if traced:  # every tetrahedron in its subregion, the strips on their surfaces
             out += region_problems(field3d, r.points, r.tets, r.info.get("regions"))
             out += surface_problems(solid.to2d(r.points)[0], inter, im, curves, tol, chord_abs)
+        if planes:  # the jump planes, whole and flat
+            on = np.isin(im, list(planes))
+            out += plane_problems(r.points, inter[on], im[on] - nb - 1, solid.axis, cuts,
+                                  r.faces[r.face_markers == 1], tol)
         return out
 
     if check:
@@ -282,8 +313,8 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
             from ..errors import VerificationError
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
     if not swept and MMG_PASS:
-        res = _mmg_pass(res, solid, sec, field3d, threshold, curves, chord_abs, problems,
-                        max_elements)
+        res = _mmg_pass(res, solid, sec, field3d, threshold, curves, planes, chord_abs,
+                        problems, max_elements)
     res.info["time_total"] = time.perf_counter() - t0
     log.info("swept tet mesh: %d triangles, %d to %d layers -> %d tetrahedra, %.2f s", ntri,
              int(counts.min()), int(counts.max()),
@@ -292,30 +323,34 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
 
 
 def _mmg_pass(res: TetResult, solid, sec, field3d, threshold: float, curves: dict,
-              chord_abs: float, problems, max_elements) -> TetResult:
+              planes: dict, chord_abs: float, problems, max_elements) -> TetResult:
     """:func:`hetmesh.tet.sweep_mmg.improve_result` of a verified swept + repaired prism
     mesh: the triangles of arcs' sweeps required, the others' vertices snapped back
-    (:func:`_snap`). ``curves``: the section curves of every interface marker."""
+    (:func:`_snap`). ``curves``: the section curves of every interface marker; ``planes``:
+    the axis value of every jump plane's marker."""
     nb = len(solid.face_names)
     curved = {m for m in range(3, nb + 1)
               if hasattr(sec.curves[m - 3].curve, "radius")}
     curved |= {m for m, cs in curves.items() if any(hasattr(c.curve, "radius") for c in cs)}
-    return improve_result(res, field3d, threshold, curved=curved, interfaces=set(curves),
-                          hausd=chord_abs,
-                          snap=lambda p, f, m: _snap(solid, curves, p, f, m),
+    return improve_result(res, field3d, threshold, curved=curved,
+                          interfaces=set(curves) | set(planes), hausd=chord_abs,
+                          snap=lambda p, f, m: _snap(solid, curves, planes, p, f, m),
                           classify=lambda p, f: solid.classify_faces(p[f]) + 1,
                           problems=problems, max_elements=max_elements)
 
 
-def _snap(solid, curves: dict, points, faces, markers) -> np.ndarray:
+def _snap(solid, curves: dict, planes: dict, points, faces, markers) -> np.ndarray:
     """``points`` with the vertices of the triangles ``faces`` on the caps (markers 1, 2)
-    at the cap's axis value and those on straight side faces or interfaces (``curves``:
-    the section curves of every interface marker) projected onto their segment, in
-    section coordinates (exact for the axis-aligned planes)."""
+    and on the jump planes (``planes``: marker -> axis value) at their axis value and
+    those on straight side faces or interfaces (``curves``: the section curves of every
+    interface marker) projected onto their segment, in section coordinates (exact for the
+    axis-aligned planes)."""
     q, s = solid.to2d(points)
     q, s = q.copy(), s.copy()
     s[np.unique(faces[markers == 1])] = solid.s0
     s[np.unique(faces[markers == 2])] = solid.s1
+    for m, c in planes.items():
+        s[np.unique(faces[markers == m])] = c
     sec = solid.section
     on = {m: [sec.curves[m - 3]] for m in range(3, len(solid.face_names) + 1)}
     on.update(curves)
@@ -339,6 +374,14 @@ def _surface_curves(sec, domain2, names, disc) -> dict:
     for j, name in enumerate(disc):
         out[len(names) + 1 + j] = [c for c in domain2.curves if c.name == name]
     return out
+
+
+def cut_face_names(disc: tuple, n: int) -> tuple[str, ...]:
+    """Names of ``n`` jump planes: the discontinuity faces' after the section's ``disc``."""
+    used = [int(d[len(DISCONTINUITY) + 1:-1]) for d in disc
+            if d.startswith(DISCONTINUITY + "[") and d[len(DISCONTINUITY) + 1:-1].isdigit()]
+    first = max(used, default=-1) + 1
+    return tuple(f"{DISCONTINUITY}[{first + k}]" for k in range(n))
 
 
 def _chord_abs(rel, sec) -> float:

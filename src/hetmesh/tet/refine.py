@@ -45,11 +45,14 @@ def unique_edges(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def select_edges(tets: np.ndarray, comp: np.ndarray, bad: np.ndarray, *,
-                 corners: np.ndarray | None = None) -> np.ndarray:
+                 corners: np.ndarray | None = None, hashed: bool = False) -> np.ndarray:
     """Edges ``(K, 2)`` to bisect together: one per violating tetrahedron ``bad (M,) bool``
     at most, none two in a tetrahedron. An edge's jump is the range of ``comp`` over its
     ends or, with ``corners (M, 4, m)`` (every tetrahedron's own corner compositions, e.g.
-    each in its subregion), the largest range over the tetrahedra holding it."""
+    each in its subregion), the largest range over the tetrahedra holding it. An edge is
+    taken where its jump leads in every tetrahedron holding it; equal jumps go to the
+    smaller edge id or, ``hashed``, to the larger hash of it (where all jumps are equal on a
+    structured grid, the ids leave a single leader per round, a hash many)."""
     edges, te = unique_edges(tets)
     if corners is None:
         c = comp if comp.ndim == 2 else comp[:, None]
@@ -65,7 +68,9 @@ def select_edges(tets: np.ndarray, comp: np.ndarray, bad: np.ndarray, *,
     best = te[rows, np.argmax(local, axis=1)]
     cand = unique(best)
     # priority: larger jump first, then smaller id (rank of (-jump, id))
-    order = np.lexsort((cand, -jump[cand]))
+    tie = (cand.astype(np.uint64) * np.uint64(2654435761)) % np.uint64(2 ** 32) \
+        if hashed else cand
+    order = np.lexsort((tie, -jump[cand]))
     prio = np.full(len(edges), -1, dtype=np.int64)
     prio[cand[order]] = len(cand) - np.arange(len(cand))
     tp = prio[te]  # (M, 6)

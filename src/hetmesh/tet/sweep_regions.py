@@ -39,6 +39,7 @@ from ..material import has_subregions
 from ..material.analytic import Shiftable
 from ..material.field import thread_safe
 from ..metrics import delta_vertices
+from ..topology import unique
 from ..tri.discontinuity import DISCONTINUITY
 from .columns import (
     carried_strip_faces,
@@ -47,12 +48,23 @@ from .columns import (
     strip_faces,
     swept_interfaces,
 )
+from .quality import TET_FACES
 from .refine import corner_compositions, repair
 from .smooth import smooth
 
-__all__ = ["PlaneField", "check_swept_regions", "interface_edges", "repaired_sweep",
-           "sweep_faces",
+__all__ = ["PlaneField", "check_swept_regions", "axial_cuts", "plane_faces", "plane_problems",
+           "interface_edges", "repaired_sweep", "sweep_faces", "MAX_CUTS",
            "interface_faces", "surface_problems", "region_problems"]
+
+
+#: planes across a sweep's axis its jumps may lie on, at most (more: an inclined surface)
+MAX_CUTS = 64
+#: the grid over the section along whose lines the jump planes are found
+CUT_GRID = 24
+#: samples of the subregion along each line (the thinnest layer found: length / 512)
+CUT_SAMPLES = 513
+#: bisection steps of every change (from length / 512: down to the rounding error)
+BISECT_STEPS = 48
 
 
 class PlaneField(Shiftable):
@@ -103,17 +115,24 @@ class PlaneField(Shiftable):
         return np.ascontiguousarray(g[..., list(self.axes)])
 
 
-def check_swept_regions(field3d, section, place, params: np.ndarray, what: str) -> None:
+def _section_grid(section, n: int) -> np.ndarray:
+    """The points of an ``n`` x ``n`` grid over ``section``'s bounding box inside it."""
+    x0, y0, x1, y1 = section.bounds
+    gx, gy = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
+    q = np.column_stack([gx.ravel(), gy.ravel()])
+    return q[section.contains(q)]
+
+
+def check_swept_regions(field3d, section, place, params: np.ndarray, what: str, *,
+                        planes: bool = False) -> None:
     """:class:`MaterialError` if the subregions of a piecewise ``field3d`` change along the
     sweep: at a grid of 48 x 48 points of ``section`` (those inside), placed at every sweep
     parameter of ``params`` by ``place(q (N, 2), s (N,)) -> (N, 3)``; ``what`` names the
-    sweep coordinate in the message ("z", "the angle")."""
+    sweep coordinate in the message ("z", "the angle"), ``planes`` whether jumps on planes
+    across it are embedded too (the message says so)."""
     if not has_subregions(field3d):
         return
-    x0, y0, x1, y1 = section.bounds
-    gx, gy = np.meshgrid(np.linspace(x0, x1, 48), np.linspace(y0, y1, 48), indexing="ij")
-    q = np.column_stack([gx.ravel(), gy.ravel()])
-    q = q[section.contains(q)]
+    q = _section_grid(section, 48)
     if not len(q):
         return
     ref = np.asarray(field3d.region(place(q, np.full(len(q), params[0]))))
@@ -127,10 +146,159 @@ def check_swept_regions(field3d, section, place, params: np.ndarray, what: str) 
             describe = getattr(field3d, "describe_jump", None)
             head = describe(int(ref[i]), int(r[i])) if callable(describe) else \
                 "material.composition"
+            kinds = f"swept section curves or planes across {what}" if planes else \
+                "swept section curves"
             raise MaterialError(f"{head}: the "
                                 f"subregion changes with {what} near ({x:.6g}, {y:.6g}, "
-                                f"{z:.6g}); in a sweep the jumps must not depend on {what} "
-                                f"(they are embedded as swept section curves)")
+                                f"{z:.6g}); in a sweep the jumps must not move with {what} "
+                                f"(they are embedded as {kinds})")
+
+
+def axial_cuts(field3d, section, place, s0: float, s1: float, what: str) -> np.ndarray:
+    """The sweep parameters in ``(s0, s1)`` of the planes across the axis on which a
+    piecewise ``field3d``'s jumps lie, sorted (none for a field without subregions, or
+    whose subregions do not change along the sweep).
+
+    A coating over a substrate (``where(z < 1, ...)``) has one; a laminate one per layer
+    boundary. Found along the sweep at the points of a :data:`CUT_GRID` x :data:`CUT_GRID`
+    grid of ``section`` (``place`` as in :func:`check_swept_regions`): the subregion is
+    sampled at :data:`CUT_SAMPLES` parameters, every change bisected to the rounding
+    error, and the changes gathered into planes (within ``1e-9`` of the length). A layer
+    thinner than the sampling's step (the length / 512) may be missed; its jumps are then
+    caught below.
+
+    :class:`MaterialError` (one line, naming the condition and a point) if the jumps are not
+    so: more than :data:`MAX_CUTS` planes (a jump surface inclined to the axis), a change
+    along the sweep between two planes (:func:`check_swept_regions` on each layer), or
+    layers whose section jumps differ (then they are not swept curves; with a formula's
+    conditions, each in either the section's coordinates or the axis', they never do).
+
+    >>> from hetmesh.material import AnalyticField
+    >>> from hetmesh.tri.geometry import Domain, Loop
+    >>> f = AnalyticField({"metal": "where(z < 1.25, 0.2, 0.7 + 0.1*x)"},
+    ...                   ["ceramic", "metal"], dim=3)
+    >>> sq = Domain(Loop.polygon([(0, 0), (1, 0), (1, 1), (0, 1)]))
+    >>> to3d = lambda q, s: np.column_stack([q, s])
+    >>> axial_cuts(f, sq, to3d, 0.0, 2.0, "z").round(12).tolist()
+    [1.25]
+    """
+    if not has_subregions(field3d):
+        return np.zeros(0)
+    q = _section_grid(section, CUT_GRID)
+    if not len(q):
+        return np.zeros(0)
+    length = float(s1 - s0)
+    s = s0 + length * np.linspace(0.0, 1.0, CUT_SAMPLES)
+    s[-1] = s1
+    reg = np.asarray(field3d.region(place(np.tile(q, (len(s), 1)), np.repeat(s, len(q)))))
+    reg = reg.reshape(len(s), len(q))
+    i, j = np.nonzero(reg[1:] != reg[:-1])
+    lo, hi = s[i], s[i + 1]
+    qj, r0 = q[j], reg[i, j]
+    for _ in range(BISECT_STEPS):  # the last parameter still in the first subregion
+        mid = 0.5 * (lo + hi)
+        same = np.asarray(field3d.region(place(qj, mid))) == r0
+        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+    tol = 1e-9 * length
+    pos = np.sort(0.5 * (lo + hi))
+    pos = pos[(pos > s0 + tol) & (pos < s1 - tol)]
+    if not len(pos):
+        cuts = np.zeros(0)
+    else:
+        split = np.flatnonzero(np.diff(pos) > tol) + 1
+        cuts = np.array([float(np.median(g)) for g in np.split(pos, split)])
+    if len(cuts) > MAX_CUTS:
+        x, y, z = place(qj[[0]], lo[[0]])[0]
+        describe = getattr(field3d, "describe_jump", None)
+        head = describe(int(r0[0]), int(reg[i[0] + 1, j[0]])) if callable(describe) else \
+            "material.composition"
+        raise MaterialError(f"{head}: the subregion changes with {what} at {len(cuts)} "
+                            f"levels or more, e.g. near ({x:.6g}, {y:.6g}, {z:.6g}); in a "
+                            f"sweep the jumps must not move with {what} (they are embedded "
+                            f"as swept section curves or at most {MAX_CUTS} planes across "
+                            f"{what})")
+    edges = np.concatenate([[s0], cuts, [s1]])
+    mids = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        params = a + (b - a) * np.linspace(0.01, 0.99, 9)
+        check_swept_regions(field3d, section, place, params, what, planes=True)
+        mids.append(0.5 * (a + b))
+    if len(mids) > 1:
+        _same_partitions(field3d, section, place, np.array(mids), what)
+    return cuts
+
+
+def _same_partitions(field3d, section, place, mids: np.ndarray, what: str) -> None:
+    """:class:`MaterialError` unless the section's subregions divide it the same way in
+    every layer (at the layers' middles ``mids``): one labelling, renamed."""
+    q = _section_grid(section, 48)
+    if not len(q):
+        return
+    ref = np.asarray(field3d.region(place(q, np.full(len(q), mids[0]))))
+    for s in mids[1:]:
+        r = np.asarray(field3d.region(place(q, np.full(len(q), s))))
+        pairs, inv = unique(np.column_stack([ref, r]), axis=0, return_inverse=True)
+        _, ia = unique(pairs[:, 0], return_inverse=True)
+        _, ib = unique(pairs[:, 1], return_inverse=True)
+        shared = (np.bincount(ia)[ia] > 1) | (np.bincount(ib)[ib] > 1)  # per pair
+        if not shared.any():
+            continue
+        k = int(np.flatnonzero(shared[np.ravel(inv)])[0])
+        a, b = int(ref[k]), int(r[k])
+        x, y, z = place(q[[k]], np.array([s]))[0]
+        describe = getattr(field3d, "describe_jump", None)
+        head = describe(int(a), int(b)) if callable(describe) else "material.composition"
+        raise MaterialError(f"{head}: the section's jumps differ between the layers "
+                            f"across {what} (near ({x:.6g}, {y:.6g}, {z:.6g})); in a sweep "
+                            f"the jumps must be swept section curves or planes across "
+                            f"{what}")
+
+
+def plane_faces(points: np.ndarray, tets: np.ndarray, axis: int, cuts: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The faces of ``tets`` on the planes ``points[:, axis] == cuts[k]`` (exactly: the
+    sweep's layers put their points there, and a bisection keeps them) and the ``k`` of
+    each: ``(faces (F, 3), k (F,))``, every face once, oriented as a face of its first
+    tetrahedron."""
+    t = np.asarray(tets, dtype=np.int64)
+    if not len(cuts) or not len(t):
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    s = np.asarray(points)[:, axis]
+    level = np.full(len(s), -1, dtype=np.int64)
+    for k, c in enumerate(cuts):
+        level[s == c] = k
+    f = t[:, TET_FACES].reshape(-1, 3)
+    lv = level[f]
+    on = (lv[:, 0] >= 0) & (lv[:, 0] == lv[:, 1]) & (lv[:, 0] == lv[:, 2])
+    f, k = f[on], lv[on, 0]
+    _, first = unique(np.sort(f, axis=1), axis=0, return_index=True)
+    first = np.sort(first)
+    return f[first], k[first]
+
+
+def _area(points: np.ndarray, faces: np.ndarray) -> float:
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    p = np.asarray(points)
+    return 0.5 * float(np.linalg.norm(np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]]),
+                                      axis=1).sum())
+
+
+def plane_problems(points: np.ndarray, faces: np.ndarray, k: np.ndarray, axis: int,
+                   cuts: np.ndarray, cap: np.ndarray, tol: float) -> list[str]:
+    """One line per jump plane whose recorded triangles leave it (farther than ``tol``) or do
+    not cover the section: their area off the area of the triangles ``cap`` (an end face:
+    the same polygon, the curved sides' chords included) by more than 1e-9 of it."""
+    out = []
+    p = np.asarray(points)
+    section_area = _area(p, cap)
+    for j, c in enumerate(cuts):
+        f = np.asarray(faces, dtype=np.int64)[np.asarray(k) == j]
+        off = np.abs(p[f.ravel(), axis] - c).max(initial=0.0)
+        a = _area(p, f)
+        if off > tol or abs(a - section_area) > 1e-9 * section_area:
+            out.append(f"the jump plane at {c:.9g} along the axis: its triangles are "
+                       f"{off:.3g} off it and cover {a:.9g} of the section's {section_area:.9g}")
+    return out
 
 
 def interface_edges(section, domain2, points2: np.ndarray, tris2: np.ndarray,

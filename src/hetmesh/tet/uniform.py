@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import BudgetError, OptionError, VerificationError
 from ..kernel import Result
+from ..material import has_subregions
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
@@ -57,7 +58,7 @@ from .carve import (
     section_field,
 )
 from .columns import face_multiplicity, strip_faces, strip_problems, swept_interfaces
-from .extrude import prism_tets
+from .extrude import cut_face_names, prism_cuts, prism_tets
 from .faces import boundary_faces
 from .general import (
     HGRAD,
@@ -83,7 +84,7 @@ from .masked import (
 )
 from .mesher import TetResult
 from .surface import SurfaceSolid
-from .sweep_regions import interface_edges
+from .sweep_regions import interface_edges, plane_faces, region_problems
 from .verify import raise_problems
 
 __all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
@@ -169,10 +170,20 @@ class SectionMesher:
         return mesh, delta
 
 
-def _sweep_prism(solid, p2, t2, h):
-    nl = max(1, int(math.ceil(solid.length / h - 1e-9)))
-    levels = solid.s0 + solid.length * np.arange(nl + 1) / nl
-    levels[-1] = solid.s1
+def _layer_levels(s0: float, s1: float, h: float) -> np.ndarray:
+    nl = max(1, int(math.ceil((s1 - s0) / h - 1e-9)))
+    levels = s0 + (s1 - s0) * np.arange(nl + 1) / nl
+    levels[-1] = s1
+    return levels
+
+
+def _sweep_prism(solid, p2, t2, h, cuts=()):
+    """The section mesh swept through layers of thickness at most ``h``, every jump plane
+    of ``cuts`` (axis values) a level."""
+    ends = np.concatenate([[solid.s0], np.asarray(cuts, dtype=float), [solid.s1]])
+    levels = np.concatenate([_layer_levels(a, b, h)[:-1] for a, b in zip(ends[:-1], ends[1:])]
+                            + [[solid.s1]])
+    nl = len(levels) - 1
     pl, tets, _ = prism_tets(p2, t2, levels)
     points = solid.to3d(pl[:, :2], pl[:, 2])
     tri_of = np.tile(np.repeat(np.arange(len(t2)), 3), nl)
@@ -238,16 +249,21 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     est = check_estimate(h, estimate_uniform(solid, h), max_elements)
     m2, _ = sections(h, min_angle=min_angle, max_elements=max_elements)
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
+    cuts = ()
     if revolved:
         points, tets, tri_of, info = _sweep_revolution(solid, p2, t2, h, chord)
     else:
-        points, tets, tri_of, info = _sweep_prism(solid, p2, t2, h)
+        cuts = prism_cuts(solid, model.material) if has_subregions(model.material) else ()
+        points, tets, tri_of, info = _sweep_prism(solid, p2, t2, h, cuts)
     check_count(h, len(tets), max_elements)
     v = simplex_measures(points, tets)
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
     tets = tets.astype(np.int32)
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
     regions = None if sub2 is None else np.asarray(sub2)[tri_of].astype(np.int32)
+    if len(cuts):  # every layer's own subregions
+        regions = np.asarray(model.material.region(points[tets].mean(axis=1)),
+                             dtype=np.int32)
     delta = _delta(model.material, points, tets, regions)
     faces, _ = boundary_faces(tets)
     markers = solid.classify_faces(points[faces]) + 1
@@ -264,19 +280,27 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
         d = imark > len(solid.face_names)
         f2, k2 = strip_faces(tets, column, ie[d])
         faces, markers = np.concatenate([faces, f2]), np.concatenate([markers, imark[d][k2]])
+    cut_names = ()
+    if len(cuts):  # then the jump planes across the axis
+        f3, k3 = plane_faces(points, tets, solid.axis, np.asarray(cuts))
+        cut_names = cut_face_names(disc, len(cuts))
+        faces = np.concatenate([faces, f3])
+        markers = np.concatenate([markers, len(solid.face_names) + len(disc) + 1 + k3])
+        info["jump_planes"] = tuple(float(c) for c in cuts)
     info.update({"placement": "uniform swept" if not revolved else "uniform revolved",
                  "size": float(h), "section_triangles": int(len(t2)), "estimate": est,
                  "chord_tol": chord, "section_chord_tol": sec_rel * dom.diameter})
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
-                    tuple(solid.face_names) + disc, delta, float(threshold), info)
+                    tuple(solid.face_names) + disc + cut_names, delta, float(threshold), info)
     if regions is not None:
         res.info["regions"] = regions
     return res
 
 
-def verify_uniform(res: TetResult, solid) -> None:
+def verify_uniform(res: TetResult, solid, field=None) -> None:
     """Raise :class:`VerificationError` naming the first broken claim of a uniform mesh
-    (validity, faces, chord tolerance, volume, delta_max < delta_0)."""
+    (validity, faces, chord tolerance, volume, delta_max < delta_0; with the ``field``,
+    every tetrahedron in its subregion)."""
     if _is_revolution(solid):
         from .revolve import revolution_problems
         probs = revolution_problems(res, solid, None, res.info["chord_tol"])
@@ -290,6 +314,8 @@ def verify_uniform(res: TetResult, solid) -> None:
     # tetrahedra, as the adaptive sweeps check theirs
     inner = face_multiplicity(res.tets, res.faces) != 1
     probs = probs + strip_problems(res.tets, res.faces[inner])
+    if field is not None:
+        probs += region_problems(field, res.points, res.tets, res.info.get("regions"))
     if probs:
         raise VerificationError(f"uniform tetrahedral mesh verification failed: {probs[0]}"
                                 + (f" (and {len(probs) - 1} more)" if len(probs) > 1 else ""))
@@ -608,7 +634,7 @@ def uniform_model(model, threshold: float, *, chord_tol: float | None = None,
     elif remeshed:  # with the field: delta per phase and the jumps' claims
         raise_problems(solid_problems(best, solid, model.material, chord_abs))
     else:
-        verify_uniform(best, solid)
+        verify_uniform(best, solid, model.material)
     best.info["composition"] = np.asarray(model.material.composition(best.points),
                                           dtype=np.float64)
     best.mesh = to_mesh(best, model.constituents)
