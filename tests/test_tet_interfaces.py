@@ -267,7 +267,7 @@ metal = "{formula}"
      "extrusion length must be positive, got -2"),
     (EXTRUDED.format(length=3, formula="where(z < 1 + 0.1*x, 0.2, 0.6) + 0.01*x"),
      "material.composition.metal", "the subregion changes with z near"),
-    (REVOLVED.format(formula="where(atan2(y, x) < 0.5, 0.2, 0.6)"),
+    (REVOLVED.format(formula="where(atan2(y, x) < 0.5 + 0.02*z, 0.2, 0.6)"),
      "material.composition.metal", "the subregion changes with the angle near"),
 ], ids=["length-0", "length-negative", "extrusion-jump-in-z", "revolution-jump-in-angle"])
 def test_bad_interface_models_fail_in_one_line(tmp_path, capsys, text, key, message):

@@ -228,3 +228,101 @@ def test_an_inclined_jump_in_a_cylinder_fails_in_one_line(tmp_path, capsys):
     assert "material.composition.metal: condition 'z < 1 + 0.2*x'" in err
     assert "the subregion changes with z near" in err
     assert not out.exists()
+
+
+#: a ring (r from 20 to 30, z from 0 to 10), turned through ``angle`` degrees
+RING = """
+[model]
+name = "ring"
+
+[solid]
+type = "revolution"
+angle = {angle}
+
+[domain.outer]
+start = [20, 0]
+path = [{{ to = [30, 0] }}, {{ to = [30, 10] }}, {{ to = [20, 10] }}, {{ to = [20, 0] }}]
+
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "{formula}"
+"""
+
+#: a solid disc of radius 10 (the profile on the axis), two halves of different materials
+DISC = """
+[model]
+name = "disc"
+
+[solid]
+type = "revolution"
+angle = 360
+
+[domain.outer]
+start = [0, 0]
+path = [{ to = [10, 0] }, { to = [10, 4] }, { to = [0, 4] }, { to = [0, 0] }]
+
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "where(y > 0, 0.2 + 0.01*z, 0.6 + 0.02*x)"
+"""
+
+
+def check_half_planes(res, angles, profile_area):
+    """No tetrahedron has vertices off the axis on both sides of a half-plane (within 1e-9
+    of the diameter); the recorded faces of each are exactly the mesh's faces on it, each in
+    two tetrahedra, and cover the profile's area."""
+    p, t = res.points, res.tets.astype(np.int64)
+    a, b, c, d = (p[t[:, k]] for k in range(4))
+    assert np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)).min() > 0
+    tol = 1e-9 * np.ptp(p, axis=0).max()
+    f = faces_of(t)
+    name = [n for n in res.face_names if n.startswith("discontinuity[")]
+    rec = np.concatenate([np.sort(res.faces[res.face_markers == res.face_names.index(n) + 1],
+                                  axis=1) for n in name])
+    for th in angles:
+        n, e = np.array([-np.sin(th), np.cos(th), 0]), np.array([np.cos(th), np.sin(th), 0])
+        side = p @ n
+        ahead = p @ e > tol
+        s = np.where(ahead[t], side[t], 0.0)  # a vertex behind the axis is on no side
+        assert not ((s.min(axis=1) < -tol) & (s.max(axis=1) > tol)).any()
+        on = (np.abs(side) <= tol) & (p @ e >= -tol)
+        keys, counts = np.unique(f[on[f].all(axis=1)], axis=0, return_counts=True)
+        assert (counts == 2).all()
+        mine = rec[on[rec].all(axis=1)]
+        assert set(map(tuple, mine.tolist())) == set(map(tuple, keys.tolist()))
+        assert area(p, mine) == pytest.approx(profile_area, rel=1e-6)
+
+
+def test_a_ring_with_a_sector_of_another_material_is_cut_at_its_half_plane(tmp_path):
+    """A quarter ring whose sector past 0.5 rad is of another material: its half-plane is
+    an embedded surface, every tetrahedron on its own side."""
+    model = load_model(write(tmp_path, RING.format(
+        angle=90, formula="where(atan2(y, x) < 0.5, 0.2 + 0.01*z, 0.6)")))
+    res = mesh_model(model, 0.2)
+    assert res.info["placement"] == "revolved+repair"
+    assert res.info["jump_planes"] == pytest.approx((0.5,), abs=1e-12)
+    check_half_planes(res, (0.5,), 100.0)
+    c = res.points[res.tets.astype(np.int64)].mean(axis=1)
+    own = (np.arctan2(c[:, 1], c[:, 0]) < 0.5).astype(int)
+    assert (own == np.asarray(res.info["regions"])).all()
+
+
+@pytest.mark.parametrize("text, angles, profile_area", [
+    (RING.format(angle=360, formula="where(y > 0, 0.2 + 0.01*z, 0.6 + 0.005*x)"),
+     (0.0, np.pi), 100.0),
+    (DISC, (0.0, np.pi), 40.0),
+], ids=["ring", "disc"])
+def test_a_full_turn_in_two_halves_is_cut_at_angle_0_and_pi(tmp_path, text, angles,
+                                                             profile_area):
+    """The jump y = 0 of a full turn lies on the half-planes at 0 (where the turn closes)
+    and pi; on a disc both meet at the axis. The uniform baseline cuts there too."""
+    model = load_model(write(tmp_path, text))
+    for res in (mesh_model(model, 0.2), uniform_model(model, 0.2)):
+        assert res.info["jump_planes"] == pytest.approx(angles, abs=1e-12)
+        check_half_planes(res, angles, profile_area)
+        c = res.points[res.tets.astype(np.int64)].mean(axis=1)
+        assert ((c[:, 1] > 0).astype(int) == np.asarray(res.info["regions"])).all()

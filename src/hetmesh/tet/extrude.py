@@ -61,8 +61,10 @@ from .smooth import smooth
 from .sweep_mmg import improve_result
 from .sweep_regions import (
     PlaneField,
+    area,
     axial_cuts,
     interface_edges,
+    on_axial_planes,
     plane_faces,
     plane_problems,
     region_problems,
@@ -277,7 +279,7 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
                             markers=imark, n_faces=len(solid.face_names),
                             discontinuities=disc, traced=traced, carrier=carrier)
     if len(cuts):  # the jump planes across the axis, after the swept interfaces
-        pf, pk = plane_faces(points, tets, solid.axis, cuts)
+        pf, pk = plane_faces(tets, on_axial_planes(points, solid.axis, cuts))
         inter, im = np.concatenate([inter, pf]), np.concatenate([im, nb + 1 + pk])
     if len(inter):
         faces = np.concatenate([faces, inter])
@@ -301,10 +303,11 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         if traced:  # every tetrahedron in its subregion, the strips on their surfaces
             out += region_problems(field3d, r.points, r.tets, r.info.get("regions"))
             out += surface_problems(solid.to2d(r.points)[0], inter, im, curves, tol, chord_abs)
-        if planes:  # the jump planes, whole and flat
+        if planes:  # the jump planes, whole and flat (an end face is the same polygon)
             on = np.isin(im, list(planes))
-            out += plane_problems(r.points, inter[on], im[on] - nb - 1, solid.axis, cuts,
-                                  r.faces[r.face_markers == 1], tol)
+            out += plane_problems(r.points, inter[on], im[on] - nb - 1,
+                                  lambda p, c: np.abs(p[:, solid.axis] - c), cuts,
+                                  area(r.points, r.faces[r.face_markers == 1]), tol)
         return out
 
     if check:

@@ -18,7 +18,10 @@ bisection. The profile's interface curves, embedded in the 2D mesh, sweep into i
 surfaces of tetrahedron faces (:func:`hetmesh.tet.columns.swept_interfaces`), recorded with the
 boundary faces under their curves' names, then the embedded discontinuities as faces
 ``discontinuity[k]``; with a composition that varies with the angle,
-:mod:`hetmesh.tet.sweep_regions` keeps them (and the subregions) through the repair.
+:mod:`hetmesh.tet.sweep_regions` keeps them (and the subregions) through the repair. Jumps
+on half-planes through the axis (a sector of another material) are the angles between
+layers, each turned through its own steps (:func:`revolution_cuts`), recorded as faces
+``discontinuity[k]`` after the profile's.
 
 >>> from hetmesh.tri.geometry import Loop, make_domain
 >>> ring = Revolution(make_domain(Loop.polygon([(1, 0), (2, 0), (2, 1), (1, 1)], "p")))
@@ -41,8 +44,8 @@ from ..material import has_subregions
 from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
-from .columns import column_tets, strip_problems, vertex_size
-from .extrude import COLUMN_RATIO, SectionField
+from .columns import layered_column_tets, strip_problems, vertex_size
+from .extrude import COLUMN_RATIO, SectionField, cut_face_names
 from .faces import boundary_faces
 from .mesher import TetResult
 from .refine import corner_compositions, repair
@@ -51,17 +54,22 @@ from .solid import grid_inside
 from .sweep_mmg import improve_result
 from .sweep_regions import (
     PlaneField,
-    check_swept_regions,
+    area,
+    axial_cuts,
     interface_edges,
+    plane_faces,
+    plane_problems,
     region_problems,
     repaired_sweep,
+    section_grid,
     surface_problems,
     sweep_faces,
 )
 from .verify import validity_problems
 
 __all__ = ["Revolution", "RevolvedField", "generate_revolved", "is_axisymmetric",
-           "profile_field"]
+           "profile_field", "profile_angle", "revolution_cuts", "on_half_planes",
+           "half_plane_distance"]
 
 log = logging.getLogger(__name__)
 
@@ -202,13 +210,54 @@ def is_axisymmetric(field, solid: Revolution, n: int = 16) -> bool:
     return True
 
 
+def revolution_cuts(solid: Revolution, field) -> np.ndarray:
+    """The angles of the half-planes through the axis on which a piecewise composition's
+    jumps lie, sorted (:func:`~hetmesh.tet.sweep_regions.axial_cuts` over the sweep; for a
+    full turn also 0 if the subregions differ on either side of it).
+    :class:`~hetmesh.errors.MaterialError` if the jumps are neither those nor swept profile
+    curves."""
+    cuts = axial_cuts(field, solid.profile, solid.to3d, 0.0, solid.sweep, "the angle")
+    if solid.full and has_subregions(field):
+        first = cuts[0] if len(cuts) else solid.sweep
+        last = cuts[-1] if len(cuts) else 0.0
+        q = section_grid(solid.profile, 48)
+        if len(q):
+            a = field.region(solid.to3d(q, np.full(len(q), 0.01 * first)))
+            b = field.region(solid.to3d(q, np.full(len(q), solid.sweep - 0.01 *
+                                                   (solid.sweep - last))))
+            if (np.asarray(a) != np.asarray(b)).any():
+                cuts = np.concatenate([[0.0], cuts])
+    return cuts
+
+
+def _layer_levels(solid: Revolution, cuts: np.ndarray) -> np.ndarray:
+    """The angles between the layers of a revolution: 0, the cuts, the sweep."""
+    return np.concatenate([[0.0], cuts[cuts > 0], [solid.sweep]])
+
+
+def profile_angle(solid: Revolution, field) -> float:
+    """The angle of the profile a piecewise composition is meshed with: 0, or with jumps on
+    half-planes the middle of the widest layer between them (off every jump)."""
+    if not has_subregions(field):
+        return 0.0
+    cuts = revolution_cuts(solid, field)
+    if not len(cuts):
+        return 0.0
+    levels = _layer_levels(solid, cuts)
+    k = int(np.argmax(np.diff(levels)))
+    return float(0.5 * (levels[k] + levels[k + 1]))
+
+
 def profile_field(field, solid):
     """The composition in the plane at angle 0 as a 2D field of ``(r, z)`` (a piecewise
-    field's with its subregions: :class:`~hetmesh.tet.sweep_regions.PlaneField`)."""
+    field's with its subregions, at :func:`profile_angle`:
+    :class:`~hetmesh.tet.sweep_regions.PlaneField`)."""
     from ..material import CallableField
 
     if has_subregions(field):
-        return PlaneField(field, lambda q: solid.to3d(q, np.zeros(len(q))), (0, 2))
+        th = profile_angle(solid, field)
+        dirs = np.array([[math.cos(th), math.sin(th), 0.0], [0.0, 0.0, 1.0]])
+        return PlaneField(field, lambda q: solid.to3d(q, np.full(len(q), th)), dirs)
 
     def f2(x, y):
         q = np.column_stack([np.ravel(x), np.ravel(y)])
@@ -236,10 +285,10 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     axisym = axisymmetric
     f2 = profile_model.material
     prof = solid.profile
+    cuts = np.zeros(0)
     if not axisym and has_subregions(field):  # its jumps embedded in the profile's mesh
-        check_swept_regions(field, prof, solid.to3d, np.linspace(0.0, solid.sweep, 9),
-                            "the angle")
-        if not has_subregions(f2):
+        cuts = revolution_cuts(solid, field)  # and on half-planes through the axis
+        if len(cuts) or not has_subregions(f2):
             profile_model = replace(profile_model, material=profile_field(field, solid))
             f2 = profile_model.material
     # half of the tolerance for the profile's chords, half for the angular steps: an edge
@@ -252,19 +301,22 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
     n2 = len(p2)
     on_axis = np.abs(p2[:, 0]) <= 1e-12 * prof.diameter
-    counts = angular_counts(solid, p2, t2, chord, on_axis, max_size)
-    ntet = int(counts[t2].sum())
+    levels = _layer_levels(solid, cuts)  # the layers between the jump half-planes
+    counts = angular_counts(solid, p2, t2, chord, on_axis, max_size, levels=levels)
+    ntet = int(counts[:, t2].sum())
     if max_elements is not None and ntet > max_elements:
         from ..errors import BudgetError
         raise BudgetError(f"about {ntet} tetrahedra are needed for delta_0 = {threshold} "
-                          f"({len(t2)} triangles in the profile, {int(counts.max())} angular "
-                          f"steps at most) but the budget is {max_elements}")
-    pl, tets, tri_of = column_tets(p2, t2, counts, 0.0, solid.sweep)
-    start = np.concatenate([[0], np.cumsum(counts + 1)])
+                          f"({len(t2)} triangles in the profile, "
+                          f"{int(counts.sum(axis=0).max())} angular steps at most) but the "
+                          f"budget is {max_elements}")
+    pl, tets, tri_of, col = layered_column_tets(p2, t2, counts, levels)
     ids = np.arange(len(pl))
     if solid.full:  # the last angle of a column is its first
-        top = start[1:] - 1
-        ids[top[counts > 0]] = start[:-1][counts > 0]
+        first = np.full(n2, -1, dtype=np.int64)
+        first[col[::-1]] = ids[::-1]
+        top = pl[:, 2] == solid.sweep
+        ids[top] = first[col[top]]
     tets = ids[tets]
     used, inv = unique(tets, return_inverse=True)
     q = pl[used]
@@ -276,12 +328,16 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     tets[v < 0] = tets[v < 0][:, [0, 1, 3, 2]]
     sub2 = m2.cell_data.get("subregion") if m2.cell_data else None
     regions = None if sub2 is None else np.asarray(sub2)[tri_of]
-    prof_ids = np.repeat(np.arange(n2), counts + 1)[used]  # the 2D vertex of every point
+    if len(cuts):  # every layer's own subregions (no tetrahedron crosses a half-plane)
+        regions = np.asarray(field.region(points[tets].mean(axis=1)), dtype=np.int64)
+    prof_ids = col[used]  # the 2D vertex of every point
     tol = 1e-9 * solid.diameter
     pchord = kw["chord_tol"] * prof.diameter
     ie, imark, disc = interface_edges(prof, r2.model.domain, p2, t2, m2.facets, tol, pchord,
                                       len(solid.face_names))
     traced = not axisym and len(ie) + (regions is not None) > 0
+    nb = len(solid.face_names) + len(disc)
+    planes = {nb + 1 + k: float(c) for k, c in enumerate(cuts)}  # marker -> angle
     carrier = None
     if axisym:
         if regions is None:
@@ -306,15 +362,23 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     inter, im = sweep_faces(prof, p2, t2, m2.facets, tets, prof_ids, tol, pchord, edges=ie,
                             markers=imark, n_faces=len(solid.face_names),
                             discontinuities=disc, traced=traced, carrier=carrier)
+    if len(cuts):  # the jump half-planes, after the swept interfaces
+        pf, pk = plane_faces(tets, on_half_planes(points, cuts, tol))
+        inter, im = np.concatenate([inter, pf]), np.concatenate([im, nb + 1 + pk])
     if len(inter):
         faces = np.concatenate([faces, inter])
         markers = np.concatenate([markers, im])
+    steps = counts.sum(axis=0)
     res = TetResult(points, tets, faces.astype(np.int32), markers.astype(np.int32),
-                    tuple(solid.face_names) + disc, delta, float(threshold),
+                    tuple(solid.face_names) + disc + cut_face_names(disc, len(cuts)), delta,
+                    float(threshold),
                     {"placement": "revolved" if axisym else "revolved+repair",
-                     "angular_steps": (int(counts[~on_axis].min()), int(counts.max())),
+                     "angular_steps": (int(steps[~on_axis].min()), int(steps.max())),
                      "section_triangles": len(t2),
                      "repair_passes": passes})
+    if len(cuts):
+        res.info["jump_planes"] = tuple(float(c) for c in cuts)
+    profile_area = area(np.column_stack([p2, np.zeros(n2)]), t2)
     if regions is not None:
         res.info["regions"] = regions.astype(np.int32)
     if not axisym and comp is not None:
@@ -333,6 +397,10 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
             out += region_problems(field, r.points, r.tets, r.info.get("regions"))
             out += surface_problems(solid.to2d(r.points)[0], inter, im, curves, tol, chord,
                                     chord_all=True)
+        if planes:  # the jump half-planes, whole and flat
+            on = np.isin(im, list(planes))
+            out += plane_problems(r.points, inter[on], im[on] - nb - 1, half_plane_distance,
+                                  cuts, profile_area, tol)
         return out
 
     if check:
@@ -341,9 +409,9 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
     if not axisym and MMG_PASS:  # the end planes' vertices snapped back, the rest required
         res = improve_result(res, field, threshold,
-                             curved=set(range(3, len(res.face_names) + 1)),
-                             interfaces=set(curves), hausd=chord,
-                             snap=lambda p, f, m: _snap_ends(solid, p, f, m),
+                             curved=set(range(3, len(res.face_names) + 1)) - set(planes),
+                             interfaces=set(curves) | set(planes), hausd=chord,
+                             snap=lambda p, f, m: _snap_ends(solid, p, f, m, planes),
                              classify=lambda p, f: _classify(solid, p, f, chord),
                              problems=problems, max_elements=max_elements)
     res.info["time_total"] = time.perf_counter() - t0
@@ -351,11 +419,13 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
 
 
 def angular_counts(solid: Revolution, p2: np.ndarray, t2: np.ndarray, chord: float,
-                   on_axis: np.ndarray, max_size: float | None = None) -> np.ndarray:
+                   on_axis: np.ndarray, max_size: float | None = None, *,
+                   levels: np.ndarray | None = None) -> np.ndarray:
     """Angular steps of every profile vertex's column ``(N,)``: arcs of :data:`COLUMN_RATIO`
     x the mean edge at the vertex, at most :data:`MAX_STEP`, and within half the chord
     tolerance ``chord`` at the largest radius among the vertex and its neighbours (an edge
-    between two columns spans at most the larger of their steps); 0 on the axis."""
+    between two columns spans at most the larger of their steps); 0 on the axis. With the
+    angles ``levels (K + 1,)`` between layers: ``(K, N)``, the steps of every layer."""
     r = p2[:, 0]
     e = np.concatenate([t2[:, [0, 1]], t2[:, [1, 2]], t2[:, [2, 0]]])
     r_nb = r.copy()
@@ -367,23 +437,50 @@ def angular_counts(solid: Revolution, p2: np.ndarray, t2: np.ndarray, chord: flo
                                                     -1.0, 1.0)))
     if max_size is not None:
         step = np.minimum(step, float(max_size) / rs)
-    n = np.ceil(solid.sweep / step - 1e-9).astype(np.int64)
-    n = np.maximum(n, 3 if solid.full else 1)
-    n[on_axis] = 0
+    if levels is None or len(levels) <= 2:
+        n = np.ceil(solid.sweep / step - 1e-9).astype(np.int64)
+        n = np.maximum(n, 3 if solid.full else 1)
+        n[on_axis] = 0
+        return n if levels is None else n[None, :]
+    width = np.diff(np.asarray(levels, dtype=float))[:, None]
+    n = np.maximum(np.ceil(width / step[None, :] - 1e-9).astype(np.int64), 1)
+    n[:, on_axis] = 0
     return n
 
 
-def _snap_ends(solid: Revolution, points, faces, markers) -> np.ndarray:
+def _snap_ends(solid: Revolution, points, faces, markers, planes=None) -> np.ndarray:
     """``points`` with the vertices of the triangles ``faces`` on the end planes (markers 1
-    at angle 0, 2 at the sweep's end) turned back onto them exactly."""
-    if solid.full:
+    at angle 0, 2 at the sweep's end) and on the jump half-planes (``planes``: marker ->
+    angle) turned back onto them exactly."""
+    ends = [] if solid.full else [(1, 0.0), (2, solid.sweep)]
+    ends += list((planes or {}).items())
+    if not ends:
         return points
     out = np.array(points, dtype=np.float64)
-    for m, ang in ((1, 0.0), (2, solid.sweep)):
+    for m, ang in ends:
         ids = np.unique(faces[markers == m])
         q, _ = solid.to2d(out[ids])
         out[ids] = solid.to3d(q, np.full(len(ids), ang))
     return out
+
+
+def on_half_planes(points: np.ndarray, angles, tol: float) -> np.ndarray:
+    """``(P, K)``: whether every point is within ``tol`` of the half-plane through the z
+    axis at each angle (a point on the axis is on them all)."""
+    p = np.asarray(points, dtype=float)
+    a = np.asarray(angles, dtype=float)
+    across = np.abs(-p[:, [0]] * np.sin(a) + p[:, [1]] * np.cos(a))
+    along = p[:, [0]] * np.cos(a) + p[:, [1]] * np.sin(a)
+    return (across <= tol) & (along >= -tol)
+
+
+def half_plane_distance(points: np.ndarray, angle: float) -> np.ndarray:
+    """The distance of every point from the half-plane through the z axis at ``angle``."""
+    p = np.asarray(points, dtype=float)
+    c, s = math.cos(angle), math.sin(angle)
+    across = np.abs(-p[:, 0] * s + p[:, 1] * c)
+    along = p[:, 0] * c + p[:, 1] * s
+    return np.where(along >= 0, across, np.hypot(across, along))
 
 
 def _classify(solid: Revolution, points, faces, chord) -> np.ndarray:

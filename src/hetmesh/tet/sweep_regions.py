@@ -9,8 +9,10 @@ discontinuities: curves where the subregion changes. Both are kept through the r
 * the section is meshed with the composition on one plane as a 2D field that keeps the 3D
   field's subregions (:class:`PlaneField`), so the 2D mesher embeds the discontinuity curves
   (as ``discontinuity[k]``) and gives every triangle its subregion; the subregions must not
-  change along the sweep (:func:`check_swept_regions`), so every discontinuity is the sweep
-  of a curve;
+  change along the sweep (:func:`check_swept_regions`) except on planes across it (half-planes
+  through a revolution's axis), found by :func:`axial_cuts`, which become levels of the
+  sweep; so every discontinuity is the sweep of a curve or one of those planes
+  (:func:`plane_faces`);
 * every tetrahedron keeps its triangle's subregion, and the repair carries it to the
   children (:func:`hetmesh.tet.refine.repair` with ``regions``: a child lies in its parent)
   and evaluates every tetrahedron's corners in its subregion;
@@ -53,6 +55,7 @@ from .refine import corner_compositions, repair
 from .smooth import smooth
 
 __all__ = ["PlaneField", "check_swept_regions", "axial_cuts", "plane_faces", "plane_problems",
+           "on_axial_planes", "area", "section_grid",
            "interface_edges", "repaired_sweep", "sweep_faces", "MAX_CUTS",
            "interface_faces", "surface_problems", "region_problems"]
 
@@ -72,15 +75,18 @@ class PlaneField(Shiftable):
     coordinates that keeps the 3D field's subregions (``region``, ``n_regions``,
     ``composition(q, region=r)``): what the 2D mesher embeds the discontinuities of.
 
-    ``to3d(q (N, 2)) -> (N, 3)`` places section points on the plane; ``axes`` are the two
-    components of the 3D gradient along the section's coordinates there."""
+    ``to3d(q (N, 2)) -> (N, 3)`` places section points on the plane; ``axes`` are the
+    directions of the section's coordinates there: two coordinate axes (``(0, 1)``), or
+    two unit vectors ``(2, 3)`` (a revolution's profile at an angle: the radial direction
+    and z)."""
 
     dim = 2
 
-    def __init__(self, field3d, to3d, axes: tuple[int, int]):
+    def __init__(self, field3d, to3d, axes):
         self.field3d = field3d
         self._to3d = to3d
-        self.axes = (int(axes[0]), int(axes[1]))
+        a = np.asarray(axes)
+        self.dirs = np.eye(3)[a.astype(np.int64)] if a.ndim == 1 else a.astype(float)
         self.constituents = tuple(field3d.constituents)
         self.thread_safe = thread_safe(field3d)
         self._offset_xy = np.zeros(2)
@@ -112,10 +118,10 @@ class PlaneField(Shiftable):
         p = self._p3(points)
         g = self.field3d.gradient(p) if region is None else \
             self.field3d.gradient(p, region=region)
-        return np.ascontiguousarray(g[..., list(self.axes)])
+        return np.ascontiguousarray(g @ self.dirs.T)
 
 
-def _section_grid(section, n: int) -> np.ndarray:
+def section_grid(section, n: int) -> np.ndarray:
     """The points of an ``n`` x ``n`` grid over ``section``'s bounding box inside it."""
     x0, y0, x1, y1 = section.bounds
     gx, gy = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")
@@ -132,7 +138,7 @@ def check_swept_regions(field3d, section, place, params: np.ndarray, what: str, 
     across it are embedded too (the message says so)."""
     if not has_subregions(field3d):
         return
-    q = _section_grid(section, 48)
+    q = section_grid(section, 48)
     if not len(q):
         return
     ref = np.asarray(field3d.region(place(q, np.full(len(q), params[0]))))
@@ -184,7 +190,7 @@ def axial_cuts(field3d, section, place, s0: float, s1: float, what: str) -> np.n
     """
     if not has_subregions(field3d):
         return np.zeros(0)
-    q = _section_grid(section, CUT_GRID)
+    q = section_grid(section, CUT_GRID)
     if not len(q):
         return np.zeros(0)
     length = float(s1 - s0)
@@ -231,7 +237,7 @@ def axial_cuts(field3d, section, place, s0: float, s1: float, what: str) -> np.n
 def _same_partitions(field3d, section, place, mids: np.ndarray, what: str) -> None:
     """:class:`MaterialError` unless the section's subregions divide it the same way in
     every layer (at the layers' middles ``mids``): one labelling, renamed."""
-    q = _section_grid(section, 48)
+    q = section_grid(section, 48)
     if not len(q):
         return
     ref = np.asarray(field3d.region(place(q, np.full(len(q), mids[0]))))
@@ -254,50 +260,53 @@ def _same_partitions(field3d, section, place, mids: np.ndarray, what: str) -> No
                             f"{what}")
 
 
-def plane_faces(points: np.ndarray, tets: np.ndarray, axis: int, cuts: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """The faces of ``tets`` on the planes ``points[:, axis] == cuts[k]`` (exactly: the
-    sweep's layers put their points there, and a bisection keeps them) and the ``k`` of
-    each: ``(faces (F, 3), k (F,))``, every face once, oriented as a face of its first
+def plane_faces(tets: np.ndarray, on: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The faces of ``tets`` on jump planes and the plane ``k`` of each: ``on (P, K)`` tells
+    which planes every point lies on (a point of a revolution's axis lies on them all).
+    ``(faces (F, 3), k (F,))``, every face once, oriented as a face of its first
     tetrahedron."""
     t = np.asarray(tets, dtype=np.int64)
-    if not len(cuts) or not len(t):
+    on = np.asarray(on, dtype=bool)
+    if not on.shape[1] or not len(t):
         return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
-    s = np.asarray(points)[:, axis]
-    level = np.full(len(s), -1, dtype=np.int64)
-    for k, c in enumerate(cuts):
-        level[s == c] = k
     f = t[:, TET_FACES].reshape(-1, 3)
-    lv = level[f]
-    on = (lv[:, 0] >= 0) & (lv[:, 0] == lv[:, 1]) & (lv[:, 0] == lv[:, 2])
-    f, k = f[on], lv[on, 0]
+    all3 = on[f[:, 0]] & on[f[:, 1]] & on[f[:, 2]]  # (F, K)
+    hit = all3.any(axis=1)
+    f, k = f[hit], np.argmax(all3[hit], axis=1)
     _, first = unique(np.sort(f, axis=1), axis=0, return_index=True)
     first = np.sort(first)
     return f[first], k[first]
 
 
-def _area(points: np.ndarray, faces: np.ndarray) -> float:
+def on_axial_planes(points: np.ndarray, axis: int, cuts: np.ndarray) -> np.ndarray:
+    """``(P, K)``: whether every point is on the plane ``points[:, axis] == cuts[k]``,
+    exactly (a prism's layers put their points there, and a bisection keeps them)."""
+    return np.asarray(points)[:, axis][:, None] == np.asarray(cuts, dtype=float)[None, :]
+
+
+def area(points: np.ndarray, faces: np.ndarray) -> float:
+    """The total area of the triangles ``faces (F, 3)``."""
     f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     p = np.asarray(points)
     return 0.5 * float(np.linalg.norm(np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]]),
                                       axis=1).sum())
 
 
-def plane_problems(points: np.ndarray, faces: np.ndarray, k: np.ndarray, axis: int,
-                   cuts: np.ndarray, cap: np.ndarray, tol: float) -> list[str]:
-    """One line per jump plane whose recorded triangles leave it (farther than ``tol``) or do
-    not cover the section: their area off the area of the triangles ``cap`` (an end face:
-    the same polygon, the curved sides' chords included) by more than 1e-9 of it."""
+def plane_problems(points: np.ndarray, faces: np.ndarray, k: np.ndarray, distance,
+                   cuts: np.ndarray, section_area: float, tol: float) -> list[str]:
+    """One line per jump plane whose recorded triangles leave it (``distance(points, c) ->
+    (N,)`` over ``tol``) or do not cover the section (their area off ``section_area`` by
+    more than 1e-9 of it: the planes reach the sweep's boundary everywhere)."""
     out = []
     p = np.asarray(points)
-    section_area = _area(p, cap)
     for j, c in enumerate(cuts):
         f = np.asarray(faces, dtype=np.int64)[np.asarray(k) == j]
-        off = np.abs(p[f.ravel(), axis] - c).max(initial=0.0)
-        a = _area(p, f)
+        off = float(np.max(distance(p[np.unique(f)], c), initial=0.0))
+        a = area(p, f)
         if off > tol or abs(a - section_area) > 1e-9 * section_area:
-            out.append(f"the jump plane at {c:.9g} along the axis: its triangles are "
-                       f"{off:.3g} off it and cover {a:.9g} of the section's {section_area:.9g}")
+            out.append(f"the jump plane at {c:.9g} along the sweep: its triangles are "
+                       f"{off:.3g} off it and cover {a:.9g} of the section's "
+                       f"{section_area:.9g}")
     return out
 
 

@@ -84,7 +84,7 @@ from .masked import (
 )
 from .mesher import TetResult
 from .surface import SurfaceSolid
-from .sweep_regions import interface_edges, plane_faces, region_problems
+from .sweep_regions import interface_edges, on_axial_planes, plane_faces, region_problems
 from .verify import raise_problems
 
 __all__ = ["uniform_tets", "uniform_model", "uniform_tets_at", "verify_uniform",
@@ -197,12 +197,20 @@ def _angular_steps(solid, p2, h, chord) -> int:
     return max(3 if solid.full else 1, int(math.ceil(solid.sweep / step - 1e-9)))
 
 
-def _sweep_revolution(solid, p2, t2, h, chord):
+def _sweep_revolution(solid, p2, t2, h, chord, cuts=()):
     """The profile mesh turned through equal angular steps of at most ``h`` at the largest
-    radius (and within the chord tolerance there); the copies of a vertex on the axis, and
-    of the last angle of a full turn, merged; the collapsed tetrahedra dropped."""
+    radius (and within the chord tolerance there), every jump half-plane's angle of
+    ``cuts`` a step; the copies of a vertex on the axis, and of the last angle of a full
+    turn, merged; the collapsed tetrahedra dropped."""
     n = _angular_steps(solid, p2, h, chord)
-    theta = solid.sweep * np.arange(n + 1) / n
+    if len(cuts):
+        ends = np.concatenate([[0.0], np.asarray(cuts, dtype=float)[np.asarray(cuts) > 0],
+                               [solid.sweep]])
+        theta = np.concatenate([_layer_levels(a, b, solid.sweep / n)[:-1]
+                                for a, b in zip(ends[:-1], ends[1:])] + [[solid.sweep]])
+        n = len(theta) - 1
+    else:
+        theta = solid.sweep * np.arange(n + 1) / n
     pl, tets, _ = prism_tets(p2, t2, theta)
     n2 = len(p2)
     ids = np.arange(len(pl))
@@ -251,7 +259,10 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
     cuts = ()
     if revolved:
-        points, tets, tri_of, info = _sweep_revolution(solid, p2, t2, h, chord)
+        from .revolve import revolution_cuts
+        if has_subregions(model.material) and not _is_swept(model):
+            cuts = revolution_cuts(solid, model.material)
+        points, tets, tri_of, info = _sweep_revolution(solid, p2, t2, h, chord, cuts)
     else:
         cuts = prism_cuts(solid, model.material) if has_subregions(model.material) else ()
         points, tets, tri_of, info = _sweep_prism(solid, p2, t2, h, cuts)
@@ -281,8 +292,13 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
         f2, k2 = strip_faces(tets, column, ie[d])
         faces, markers = np.concatenate([faces, f2]), np.concatenate([markers, imark[d][k2]])
     cut_names = ()
-    if len(cuts):  # then the jump planes across the axis
-        f3, k3 = plane_faces(points, tets, solid.axis, np.asarray(cuts))
+    if len(cuts):  # then the jump planes across the axis (half-planes of a revolution)
+        if revolved:
+            from .revolve import on_half_planes
+            on = on_half_planes(points, cuts, 1e-9 * solid.diameter)
+        else:
+            on = on_axial_planes(points, solid.axis, cuts)
+        f3, k3 = plane_faces(tets, on)
         cut_names = cut_face_names(disc, len(cuts))
         faces = np.concatenate([faces, f3])
         markers = np.concatenate([markers, len(solid.face_names) + len(disc) + 1 + k3])
