@@ -57,7 +57,9 @@ def mesh_model(model, threshold: float, *, seed: int = 0, chord_tol: float | Non
     """Tetrahedral mesh of a 3D model (:class:`hetmesh.io.model3d.Model3D`) with every
     element's delta below ``threshold``, verified.
 
-    ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002;
+    ``chord_tol`` is relative to the solid's diameter (as in 2D), default 0.002 (an
+    extrusion's, box's or cylinder's section without it: the 2D mesher's default, 0.001 of
+    the section's diameter, never looser);
     ``max_size`` (model units) bounds the node spacing: in swept and revolved meshes it
     evens out the section's sizes, which shapes the tetrahedra better at a higher count.
     The result's ``info["composition"]`` holds the vertex compositions ``(N, m)``, its
