@@ -112,9 +112,14 @@ def _is_revolution(solid) -> bool:
 def section_chord(solid, chord_tol: float | None) -> float:
     """The 2D mesh's chord tolerance relative to the section's (profile's) diameter, from the
     solid's (relative to its diameter): all of it for a prism, half for a revolution (the
-    angular steps take the other half)."""
+    angular steps take the other half). Without ``chord_tol``, a prism's section takes the
+    2D mesher's default, as the adaptive sweep's does (the baseline meets the same bound)."""
+    from ..options import DEFAULT_CHORD_TOL
+
     revolved = _is_revolution(solid)
     dom = solid.profile if revolved else solid.section
+    if chord_tol is None and not revolved:
+        return float(DEFAULT_CHORD_TOL)
     chord = (CHORD if chord_tol is None else float(chord_tol)) * solid.diameter
     return min(max((0.5 if revolved else 1.0) * chord / dom.diameter, 1e-7), 0.05)
 
