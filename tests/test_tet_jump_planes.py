@@ -326,3 +326,15 @@ def test_a_full_turn_in_two_halves_is_cut_at_angle_0_and_pi(tmp_path, text, angl
         check_half_planes(res, angles, profile_area)
         c = res.points[res.tets.astype(np.int64)].mean(axis=1)
         assert ((c[:, 1] > 0).astype(int) == np.asarray(res.info["regions"])).all()
+
+
+def test_a_layer_thinner_than_the_section_s_elements_is_warned_of(tmp_path, capsys):
+    """A coating 0.01 thick on a section meshed at about 0.4: the mesh is written (valid,
+    verified) with one warning naming the layer, since its tetrahedra are flat."""
+    path = write(tmp_path, BOX.replace("z < 1.5", "z < 1.99"))
+    out = tmp_path / "m.vtu"
+    code = main(["mesh", str(path), "--threshold", "0.3", "--output", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 0 and out.exists()
+    warn = [line for line in err if line.startswith("hetmesh: warning:")]
+    assert len(warn) == 1 and "between the jumps at z = 1.99 and 2 is 0.01 thick" in warn[0]

@@ -71,6 +71,7 @@ from .sweep_regions import (
     repaired_sweep,
     surface_problems,
     sweep_faces,
+    warn_thin_layers,
 )
 from .verify import tet_problems
 
@@ -236,6 +237,10 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
     if gs > 0:
         cap = min(cap if cap is not None else np.inf, BETA * threshold / gs)
     levels = np.concatenate([[solid.s0], cuts, [solid.s1]])  # the layers between cuts
+    # a thin layer's flat tetrahedra stay flat through MMG, which keeps the jump planes
+    # (a 3 x 2 x 2 box with a coating 0.01 thick at 0.3: its pass took 4 s, not kept)
+    thin = bool(len(cuts)) and warn_thin_layers(np.diff(levels), float(np.median(size)),
+                                                levels, "z", log)
     counts = np.stack([column_counts(float(b - a), size, ratio=COLUMN_RATIO, cap=cap)
                        for a, b in zip(levels[:-1], levels[1:])])
     ntet = int(counts[:, t2].sum())
@@ -315,7 +320,7 @@ def generate_extruded(solid, field3d, threshold: float, section_model, *, swept:
         if probs:
             from ..errors import VerificationError
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
-    if not swept and MMG_PASS:
+    if not swept and MMG_PASS and not thin:
         res = _mmg_pass(res, solid, sec, field3d, threshold, curves, planes, chord_abs,
                         problems, max_elements)
     res.info["time_total"] = time.perf_counter() - t0

@@ -64,6 +64,7 @@ from .sweep_regions import (
     section_grid,
     surface_problems,
     sweep_faces,
+    warn_thin_layers,
 )
 from .verify import validity_problems
 
@@ -302,6 +303,11 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     n2 = len(p2)
     on_axis = np.abs(p2[:, 0]) <= 1e-12 * prof.diameter
     levels = _layer_levels(solid, cuts)  # the layers between the jump half-planes
+    # a layer's width at the largest radius against the profile's edges (its flat
+    # tetrahedra stay flat through MMG: no pass then)
+    thin = bool(len(cuts)) and warn_thin_layers(
+        np.diff(levels) * float(p2[:, 0].max()), float(np.median(vertex_size(p2, t2))),
+        levels, "the angle", log)
     counts = angular_counts(solid, p2, t2, chord, on_axis, max_size, levels=levels)
     ntet = int(counts[:, t2].sum())
     if max_elements is not None and ntet > max_elements:
@@ -407,7 +413,8 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
         probs = problems(res, inter, im)
         if probs:
             raise VerificationError(f"tetrahedral mesh verification failed: {probs[0]}")
-    if not axisym and MMG_PASS:  # the end planes' vertices snapped back, the rest required
+    if not axisym and MMG_PASS and not thin:  # the end planes' vertices snapped back, the
+        # rest required
         res = improve_result(res, field, threshold,
                              curved=set(range(3, len(res.face_names) + 1)) - set(planes),
                              interfaces=set(curves) | set(planes), hausd=chord,

@@ -55,7 +55,7 @@ from .refine import corner_compositions, repair
 from .smooth import smooth
 
 __all__ = ["PlaneField", "check_swept_regions", "axial_cuts", "plane_faces", "plane_problems",
-           "on_axial_planes", "area", "section_grid",
+           "on_axial_planes", "area", "section_grid", "warn_thin_layers", "THIN_LAYER",
            "interface_edges", "repaired_sweep", "sweep_faces", "MAX_CUTS",
            "interface_faces", "surface_problems", "region_problems"]
 
@@ -232,6 +232,28 @@ def axial_cuts(field3d, section, place, s0: float, s1: float, what: str) -> np.n
     if len(mids) > 1:
         _same_partitions(field3d, section, place, np.array(mids), what)
     return cuts
+
+
+#: a layer between jump planes thinner than this x the section's median edge is warned of
+THIN_LAYER = 0.25
+
+
+def warn_thin_layers(thickness: np.ndarray, edge: float, levels: np.ndarray, what: str,
+                     log) -> bool:
+    """Log one warning if a layer between jump planes (``thickness (K,)``, between
+    ``levels (K + 1,)``) is thinner than :data:`THIN_LAYER` x the section's median edge
+    ``edge``: its tetrahedra are flat (their smallest dihedral angles fall with the ratio),
+    as an isotropic mesh cannot be coarser than the layer is thin without them. Whether
+    one is."""
+    thin = np.flatnonzero(np.asarray(thickness) < THIN_LAYER * edge)
+    if not len(thin):
+        return False
+    k = int(thin[np.argmin(np.asarray(thickness)[thin])])
+    log.warning("the layer between the jumps at %s = %.6g and %.6g is %.3g thick, under "
+                "the section's median edge %.3g: its tetrahedra are flat; a --max-size "
+                "about its thickness shapes them better, at many more tetrahedra", what,
+                levels[k], levels[k + 1], thickness[k], edge)
+    return True
 
 
 def _same_partitions(field3d, section, place, mids: np.ndarray, what: str) -> None:
