@@ -303,11 +303,13 @@ def generate_revolved(solid: Revolution, field, threshold: float, profile_model,
     n2 = len(p2)
     on_axis = np.abs(p2[:, 0]) <= 1e-12 * prof.diameter
     levels = _layer_levels(solid, cuts)  # the layers between the jump half-planes
-    # a layer's width at the largest radius against the profile's edges (its flat
-    # tetrahedra stay flat through MMG: no pass then)
-    thin = bool(len(cuts)) and warn_thin_layers(
-        np.diff(levels) * float(p2[:, 0].max()), float(np.median(vertex_size(p2, t2))),
-        levels, "the angle", log)
+    thin = False
+    if len(cuts) and (~on_axis).any():  # a layer's arc against the profile's edge at every
+        # vertex off the axis, where it is thinnest (its flat tetrahedra stay flat through
+        # MMG: no pass then)
+        r, e2 = p2[~on_axis, 0], vertex_size(p2, t2)[~on_axis]
+        i = int(np.argmin(r / e2))
+        thin = warn_thin_layers(np.diff(levels) * r[i], e2[i], levels, "the angle", log)
     counts = angular_counts(solid, p2, t2, chord, on_axis, max_size, levels=levels)
     ntet = int(counts[:, t2].sum())
     if max_elements is not None and ntet > max_elements:

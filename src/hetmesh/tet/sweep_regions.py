@@ -238,21 +238,23 @@ def axial_cuts(field3d, section, place, s0: float, s1: float, what: str) -> np.n
 THIN_LAYER = 0.25
 
 
-def warn_thin_layers(thickness: np.ndarray, edge: float, levels: np.ndarray, what: str,
+def warn_thin_layers(thickness: np.ndarray, edge, levels: np.ndarray, what: str,
                      log) -> bool:
     """Log one warning if a layer between jump planes (``thickness (K,)``, between
-    ``levels (K + 1,)``) is thinner than :data:`THIN_LAYER` x the section's median edge
-    ``edge``: its tetrahedra are flat (their smallest dihedral angles fall with the ratio),
-    as an isotropic mesh cannot be coarser than the layer is thin without them. Whether
-    one is."""
-    thin = np.flatnonzero(np.asarray(thickness) < THIN_LAYER * edge)
+    ``levels (K + 1,)``) is thinner than :data:`THIN_LAYER` x the section's edge there
+    (``edge``: one length, or one per layer): its tetrahedra are flat (their smallest
+    dihedral angles fall with the ratio), as an isotropic mesh cannot be coarser than the
+    layer is thin without them. Whether one is."""
+    t = np.asarray(thickness, dtype=float)
+    e = np.broadcast_to(np.asarray(edge, dtype=float), t.shape)
+    thin = np.flatnonzero(t < THIN_LAYER * e)
     if not len(thin):
         return False
-    k = int(thin[np.argmin(np.asarray(thickness)[thin])])
+    k = int(thin[np.argmin(t[thin] / e[thin])])
     log.warning("the layer between the jumps at %s = %.6g and %.6g is %.3g thick, under "
-                "the section's median edge %.3g: its tetrahedra are flat; a --max-size "
+                "the section's edge %.3g there: its tetrahedra are flat; a --max-size "
                 "about its thickness shapes them better, at many more tetrahedra", what,
-                levels[k], levels[k + 1], thickness[k], edge)
+                levels[k], levels[k + 1], t[k], e[k])
     return True
 
 
