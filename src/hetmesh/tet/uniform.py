@@ -83,6 +83,7 @@ from .masked import (
     remesh_phases,
 )
 from .mesher import TetResult
+from .revolve import on_half_planes, revolution_cuts
 from .surface import SurfaceSolid
 from .sweep_regions import interface_edges, on_axial_planes, plane_faces, region_problems
 from .verify import raise_problems
@@ -263,13 +264,12 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     m2, _ = sections(h, min_angle=min_angle, max_elements=max_elements)
     p2, t2 = np.asarray(m2.points), np.asarray(m2.cells, dtype=np.int64)
     cuts = ()
+    moving = has_subregions(model.material) and not _is_swept(model)  # jumps may move
     if revolved:
-        from .revolve import revolution_cuts
-        if has_subregions(model.material) and not _is_swept(model):
-            cuts = revolution_cuts(solid, model.material)
+        cuts = revolution_cuts(solid, model.material) if moving else ()
         points, tets, tri_of, info = _sweep_revolution(solid, p2, t2, h, chord, cuts)
     else:
-        cuts = prism_cuts(solid, model.material) if has_subregions(model.material) else ()
+        cuts = prism_cuts(solid, model.material) if moving else ()
         points, tets, tri_of, info = _sweep_prism(solid, p2, t2, h, cuts)
     check_count(h, len(tets), max_elements)
     v = simplex_measures(points, tets)
@@ -299,7 +299,6 @@ def uniform_tets_at(model, h: float, threshold: float, *, sections: SectionMeshe
     cut_names = ()
     if len(cuts):  # then the jump planes across the axis (half-planes of a revolution)
         if revolved:
-            from .revolve import on_half_planes
             on = on_half_planes(points, cuts, 1e-9 * solid.diameter)
         else:
             on = on_axial_planes(points, solid.axis, cuts)
