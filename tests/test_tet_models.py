@@ -427,3 +427,49 @@ def test_mesh_read_back_and_fea_3d(tmp_path, capsys, ext):
     code, o, err = run(["fea", model, "--mesh", out], capsys)
     assert code == 0, err
     assert "3-D" in o and "T in [300.00, 1000.00] K" in o
+
+
+#: a box of one material (a constant composition), or two without a gradient in either
+HOMOGENEOUS = """
+[model]
+name = "homogeneous"
+
+[solid]
+type = "box"
+min = [0, 0, 0]
+max = [3, 2, 2]
+
+[material]
+constituents = ["ceramic", "metal"]
+
+[material.composition]
+metal = "{formula}"
+"""
+
+
+@pytest.mark.parametrize("formula", ["0.3", "where(z < 1.5, 0.2, 0.8)"],
+                         ids=["constant", "constant-branches"])
+def test_a_composition_without_a_gradient_meshes(tmp_path, capsys, formula):
+    """A constant composition went to the layered placement, which put a plane at each of
+    its 4,097 axial samples (the field equals its only level everywhere) and ran for
+    minutes; constant branches made N_iso3 = 0 and the statistics divided by it. Both mesh
+    now, coarsely, and the statistics say N_iso3 = 0."""
+    path = write(tmp_path, HOMOGENEOUS.format(formula=formula))
+    res = mesh_model(load_model(path), 0.2)
+    branch = (lambda p: np.full(len(p), 0.3)) if formula == "0.3" else \
+        (lambda p: np.where(p[:, 2] < 1.5, 0.2, 0.8))
+    if "regions" in res.info:  # a vertex on the jump takes its tetrahedron's side
+        c = res.points[res.tets.astype(np.int64)].mean(axis=1)
+        assert ((c[:, 2] < 1.5).astype(int) == np.asarray(res.info["regions"])).all()
+        assert not ((res.points[res.tets][..., 2].min(axis=1) < 1.5)
+                    & (res.points[res.tets][..., 2].max(axis=1) > 1.5)).any()
+    else:
+        check_tet_mesh(res.points, res.tets, branch, 0.2,
+                       box_bounds=(np.zeros(3), np.array([3.0, 2.0, 2.0])))
+    assert 0 < len(res.tets) < 2000
+    out = tmp_path / "m.vtu"
+    stats = tmp_path / "s.json"
+    code, text, _ = run(["mesh", path, "-d", "0.2", "-o", out, "--stats", stats], capsys)
+    assert code == 0 and "(N_iso3 = 0)" in text
+    doc = json.loads(stats.read_text())
+    assert doc["stats"]["n_iso3"] == 0 and doc["stats"]["ratio_n_iso3"] is None

@@ -52,8 +52,17 @@ def tet_statistics(model, res) -> dict:
     return {"n_points": int(len(res.points)), "n_elements": int(len(res.tets)),
             "delta_max": float(res.delta.max()), "delta_avg": float(res.delta.mean()),
             "volume": float(simplex_measures(res.points, res.tets).sum()),
-            "n_iso3": float(niso), "ratio_n_iso3": float(len(res.tets) / niso),
+            "n_iso3": float(niso),
+            # a composition constant within every subregion needs no element: no ratio
+            "ratio_n_iso3": float(len(res.tets) / niso) if niso > 0 else None,
             **q}
+
+
+def _iso_ratio(stats: dict) -> str:
+    """``"1.234 x N_iso3"``, or ``"N_iso3 = 0"`` for a composition constant within every
+    subregion."""
+    r = stats["ratio_n_iso3"]
+    return "N_iso3 = 0" if r is None else f"{r:.3f} x N_iso3"
 
 
 def _section(points, tets, values, axis: int, at: float):
@@ -181,7 +190,7 @@ def run_tet(args: argparse.Namespace, model, kwargs: dict) -> int:
         console.print(f"{model.name}, delta_0 = {args.threshold:g}")
         console.print(
             f"  {stats['n_elements']} tetrahedra, {stats['n_points']} points "
-            f"({stats['ratio_n_iso3']:.3f} x N_iso3), delta_max {stats['delta_max']:.4g}, "
+            f"({_iso_ratio(stats)}), delta_max {stats['delta_max']:.4g}, "
             f"dihedral min {stats['dihedral_min']:.1f} / 1st percentile "
             f"{stats['dihedral_p1']:.1f} deg, mean radius ratio "
             f"{stats['radius_ratio_mean']:.3f}, {seconds:.2f} s")

@@ -145,7 +145,12 @@ def _planes(F1, s0: float, s1: float, levels: np.ndarray, n: int = 4097) -> np.n
     for lev in levels:
         d = v - lev
         idx = np.flatnonzero(d[:-1] * d[1:] < 0)
-        idx = np.r_[idx, np.flatnonzero(d == 0)]
+        # samples on the level: the ends of every run of them (a plateau at the level, a
+        # constant composition, is one plane at each end, not a plane per sample: a
+        # constant composition gave 4,097 planes and ran for minutes)
+        z = d == 0
+        idx = np.r_[idx, np.flatnonzero(z & ~np.r_[False, z[:-1]]),
+                    np.flatnonzero(z & ~np.r_[z[1:], False])]
         for i in unique(idx):
             if d[i] == 0:
                 out.append(ss[i])
