@@ -319,14 +319,23 @@ def test_a_jump_across_the_bracket_s_web_and_bore(tmp_path):
 
 # -- refused ----------------------------------------------------------------------------------
 
-def test_a_jump_nearly_tangent_to_the_surface_fails_in_one_line(tmp_path, capsys):
-    """The plane x = 0.499 meets the cylinder r = 0.5 at under 4 degrees: refused with one
-    line naming the condition and a point (exit 2, nothing written)."""
-    path = model_file(tmp_path, "tangent", cylinder_surface(0.5, 1.0),
-                      "where(x < 0.499, 0.2 + 0.1*z, 0.8)")
+@pytest.mark.parametrize("surface, formula, condition, near", [
+    # the plane x = 0.499 meets the cylinder r = 0.5 at under 4 degrees
+    (cylinder_surface(0.5, 1.0), "where(x < 0.499, 0.2 + 0.1*z, 0.8)", "x < 0.499",
+     "at 3.8 degrees near (0.4"),
+    # the plane through the box's edge x = 1, z = 0 at 2.9 degrees to its face x = 1: a
+    # thin wedge along the face
+    (box_surface([0, 0, 0], [1, 1, 1]), "where(x + 0.05*z < 1, 0.2 + 0.1*z, 0.8)",
+     "x + 0.05*z < 1", "at 2.9 degrees near (1, "),
+])
+def test_a_jump_nearly_tangent_to_the_surface_fails_in_one_line(tmp_path, capsys, surface,
+                                                                formula, condition, near):
+    """Refused with one line naming the condition and a point (exit 2, nothing
+    written)."""
+    path = model_file(tmp_path, "tangent", surface, formula)
     out = tmp_path / "x.vtu"
     rc = main(["mesh", str(path), "--threshold", "0.25", "--output", str(out)])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and not out.exists() and len(err.splitlines()) == 1
-    assert "material.composition.metal: condition 'x < 0.499'" in err
-    assert "nearly tangent" in err and "near (0.4" in err
+    assert f"material.composition.metal: condition '{condition}'" in err
+    assert "nearly tangent" in err and near in err, err

@@ -53,8 +53,7 @@ from .implicit import onto_surfaces
 from .levelset import split_across
 
 __all__ = ["has_jumps", "JumpSurface", "cut_jumps", "jump_cap", "onto_jumps",
-           "jump_problems", "interface_bits", "phase_delta", "jump_radius", "interface_off",
-           "jump_surfaces"]
+           "jump_problems", "interface_bits", "phase_delta", "jump_radius", "interface_off"]
 
 log = logging.getLogger(__name__)
 
@@ -162,9 +161,7 @@ def interface_bits(t: np.ndarray, phase: np.ndarray, n: int):
     return faces, bits, per
 
 
-def jump_surfaces(field, bits: int) -> list:
-    """The :class:`JumpSurface` of every condition of ``field`` whose bit is set in
-    ``bits``, in the conditions' order."""
+def _surfaces(field, bits: int) -> list:
     return [JumpSurface(field, i) for i in range(len(field.conditions)) if bits >> i & 1]
 
 
@@ -185,7 +182,7 @@ def onto_jumps(field, p: np.ndarray, t: np.ndarray, phase: np.ndarray,
     for v, b, fs in zip(ids.tolist(), per[ids].tolist(), extra):
         groups.setdefault((b, tuple(fs)), []).append(v)
     for (b, fs), vs in groups.items():
-        surfs = (list(fs) + jump_surfaces(field, b))[:3]
+        surfs = (list(fs) + _surfaces(field, b))[:3]
         vs = np.asarray(vs)
         want[vs] = onto_surfaces(p[vs], surfs)
     bad = ~np.isfinite(want).all(axis=1)

@@ -59,7 +59,6 @@ from .jumps import (
     interface_bits,
     interface_off,
     jump_cap,
-    jump_surfaces,
     onto_jumps,
     phase_delta,
 )
@@ -141,7 +140,7 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     phase = None
     jumps = has_jumps(field)
     if jumps:
-        check_jump_crossings(solid, field)
+        check_jump_crossings(solid, field, chord)
         p, t, faces, markers, phase = _cut_start(solid, field, p, t, faces, markers,
                                                  threshold, h_max, h_min, chord)
         size = jump_cap(field, p, size_field(field, p, threshold, h_max, h_min), chord)
@@ -350,13 +349,16 @@ def _unit_normals(V, F) -> np.ndarray:
     return n / np.linalg.norm(n, axis=1)[:, None]
 
 
-def check_jump_crossings(solid: SurfaceSolid, field) -> None:
+def check_jump_crossings(solid: SurfaceSolid, field, chord: float) -> None:
     """:class:`MaterialError` (naming the condition and a point) where a jump surface of
-    ``field`` crosses the input surface at under :data:`TANGENT_ANGLE` degrees: on every
-    input triangle whose samples (corners and 12 inner points) lie on both sides of the
-    jump by more than 1e-9 x the diameter, the sample nearest to the jump gives the angle
-    between the triangle's normal and the level function's gradient. A jump surface that
-    coincides with facets (no sign change over them) is not a crossing."""
+    ``field`` meets the input surface at under :data:`TANGENT_ANGLE` degrees. An input
+    triangle meets a jump where its samples (corners and 12 inner points) lie on both sides
+    of it, or one lies within ``chord`` of it (first-order distance, the level function
+    over its gradient's norm), unless all lie within 1e-9 x the diameter of it (a jump
+    surface that coincides with facets, as a plane through a flat face, is no crossing);
+    the sample nearest to the jump gives the angle between the triangle's normal and the
+    level function's gradient. This also refuses a jump that leaves a thin wedge along a
+    face (a plane through an edge of a box, nearly parallel to one of its faces)."""
     V, F = solid.V, solid.F
     pts = np.einsum("bk,nkd->nbd", _SAMPLES, V[F])                   # (m, b, 3)
     nrm = _unit_normals(V, F)
@@ -365,15 +367,18 @@ def check_jump_crossings(solid: SurfaceSolid, field) -> None:
     for i in range(len(field.conditions)):
         surf = JumpSurface(field, i)
         sd = surf.signed(pts.reshape(-1, 3)).reshape(len(F), -1)
-        sd = np.where(np.isfinite(sd), sd, 0.0)
-        cross = np.flatnonzero((sd > eps).any(axis=1) & (sd < -eps).any(axis=1))
-        if not len(cross):
+        sd = np.where(np.isfinite(sd), sd, np.inf)
+        ad = np.abs(sd)
+        meet = ((sd > eps).any(axis=1) & (sd < -eps).any(axis=1)) | (ad.min(axis=1) <= chord)
+        meet &= ad.max(axis=1) > eps
+        tri = np.flatnonzero(meet)
+        if not len(tri):
             continue
-        k = np.argmin(np.abs(sd[cross]), axis=1)
-        at = pts[cross, k]
+        k = np.argmin(ad[tri], axis=1)
+        at = pts[tri, k]
         u = surf.grad(at)
         u = u / np.maximum(np.linalg.norm(u, axis=1), 1e-300)[:, None]
-        c = np.abs(np.einsum("ij,ij->i", u, nrm[cross]))
+        c = np.abs(np.einsum("ij,ij->i", u, nrm[tri]))
         if (c > cos).any():
             j = int(np.argmax(c))
             x = at[j]
@@ -432,15 +437,17 @@ def onto_rim(solid: SurfaceSolid, field, x: np.ndarray, bits: np.ndarray,
     onto their jump surfaces and the input surface: onto the plane of the nearest input
     triangle (and, at a sharp edge, of the input triangle within ``tol`` whose normal is
     farthest from it, more than :data:`RIDGE_ANGLE`) and the jump surfaces at once
-    (:func:`hetmesh.tet.implicit.onto_surfaces`, three surfaces at most), ``rounds`` times
-    with the nearest triangles found again (a curved surface's facets). A plane within
-    :data:`TANGENT_ANGLE` / 2 of parallel to a jump surface is left out (the jump lies on
-    it); a point farther than ``4 tol`` from the surface only goes onto its jumps."""
+    (:func:`hetmesh.tet.implicit.onto_surfaces`), ``rounds`` times with the nearest
+    triangles found again (a curved surface's facets). The surfaces are taken jumps
+    first, then the planes, each only where its normal is more than :data:`TANGENT_ANGLE`
+    / 2 from the span of those taken (three at most): a plane the jump lies on, or a sharp
+    edge lying in a jump surface, adds nothing. A point farther than ``4 tol`` from the
+    surface only goes onto its jumps."""
     x = np.array(x, dtype=float)
     V, F = solid.V, solid.F
     nrm = _unit_normals(V, F)
     cos_r = math.cos(math.radians(RIDGE_ANGLE))
-    cos_t = math.cos(math.radians(0.5 * TANGENT_ANGLE))
+    sin_t = math.sin(math.radians(0.5 * TANGENT_ANGLE))
     n_cond = len(field.conditions)
     for _ in range(rounds):
         r, c, d = _near_pairs(V, F, x, 4 * tol)
@@ -453,28 +460,45 @@ def onto_rim(solid: SurfaceSolid, field, x: np.ndarray, bits: np.ndarray,
             if sel.any():
                 f2 = _first_per_row(r[sel], c[sel], dots[sel])
                 planes[r[sel][f2], 1] = c[sel][f2]
-        for i in range(n_cond):  # no plane (nearly) parallel to a jump through the point
+        # the surfaces each point goes onto: its jumps, then its planes, each only if its
+        # normal is independent of those taken (a plane parallel to a jump through the
+        # point, a sharp edge lying in a jump surface: left out), three at most
+        normals = np.zeros((len(x), n_cond + 2, 3))
+        for i in range(n_cond):
             on = np.flatnonzero(bits >> i & 1)
-            if not len(on):
-                continue
-            u = JumpSurface(field, i).grad(x[on])
-            u = u / np.maximum(np.linalg.norm(u, axis=1), 1e-300)[:, None]
-            for k in range(2):
-                pk = planes[on, k]
-                par = (pk >= 0) & (np.abs(np.einsum("ij,ij->i", u, nrm[pk])) > cos_t)
-                planes[on[par], k] = -1
-        swap = planes[:, 0] < 0
-        planes[swap] = planes[swap][:, ::-1]
-        n_planes = (planes >= 0).sum(axis=1)
+            if len(on):
+                normals[on, i] = JumpSurface(field, i).grad(x[on])
+        for k in range(2):
+            has = planes[:, k] >= 0
+            normals[has, n_cond + k] = nrm[planes[has, k]]
+        normals /= np.maximum(np.linalg.norm(normals, axis=2), 1e-300)[:, :, None]
+        use = np.zeros((len(x), n_cond + 2), dtype=bool)
+        cand = np.c_[(bits[:, None] >> np.arange(n_cond)) & 1 == 1, planes >= 0]
+        for j in range(n_cond + 2):
+            taken = use.sum(axis=1)
+            a = np.where(taken[:, None] >= 1, normals[np.arange(len(x)),
+                                                      np.argmax(use, axis=1)], 0.0)
+            rest = use.copy()
+            rest[np.arange(len(x)), np.argmax(use, axis=1)] = False
+            b = np.where(taken[:, None] >= 2, normals[np.arange(len(x)),
+                                                      np.argmax(rest, axis=1)], 0.0)
+            n = normals[:, j]
+            ab = np.cross(a, b)
+            indep = np.where(taken == 0, True,
+                             np.where(taken == 1,
+                                      np.linalg.norm(np.cross(a, n), axis=1) > sin_t,
+                                      np.abs(np.einsum("ij,ij->i", ab, n))
+                                      > sin_t * np.linalg.norm(ab, axis=1)))
+            use[:, j] = cand[:, j] & indep & (taken < 3)
         new = x.copy()
-        for b in unique(bits).tolist():
-            for k in range(3):
-                rows = np.flatnonzero((bits == b) & (n_planes == k))
-                if not len(rows):
-                    continue
-                surfs = [_RowPlanes(nrm[planes[rows, j]], V[F[planes[rows, j], 0]])
-                         for j in range(k)] + jump_surfaces(field, b)
-                new[rows] = onto_surfaces(x[rows], surfs[:3])
+        pattern, which = unique(use, axis=0, return_inverse=True)
+        for g, pat in enumerate(pattern):
+            rows = np.flatnonzero(which.reshape(-1) == g)
+            surfs = [JumpSurface(field, i) for i in range(n_cond) if pat[i]]
+            surfs += [_RowPlanes(nrm[planes[rows, k]], V[F[planes[rows, k], 0]])
+                      for k in range(2) if pat[n_cond + k]]
+            if surfs:
+                new[rows] = onto_surfaces(x[rows], surfs)
         ok = np.isfinite(new).all(axis=1)
         x[ok] = new[ok]
     return x
