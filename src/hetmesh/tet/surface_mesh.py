@@ -21,6 +21,17 @@
    boundary (no corner cut off), the volume within the chord tolerance x the surface's area
    of the surface's, every tetrahedron's centroid inside, delta_max < delta_0.
 
+*Jumps* of a piecewise composition (:func:`hetmesh.tet.jumps.has_jumps`) are embedded as
+in solids of primitives (:mod:`hetmesh.tet.jumps`): a jump meeting the input surface at
+under :data:`TANGENT_ANGLE` degrees is refused first (:func:`check_jump_crossings`); the
+fill is remeshed to the size capped near curved jumps and cut along them
+(:func:`jump_start`); MMG keeps the phases and their interfaces through the size rounds;
+after every remeshing the interface vertices go back onto their jump surfaces, those on
+the boundary (the rims) onto the input surface as well (:func:`onto_surface_phases`,
+:func:`onto_rim`); delta is measured per phase, the repair keeps the phases, thin
+tetrahedra are flipped within each phase; the interfaces are recorded as faces
+``discontinuity[k]`` and verified with the rims (:func:`rim_problems`).
+
 The fill (Qhull, a seeded perturbation) and MMG are deterministic: the same model gives the
 same mesh, bit for bit.
 """
@@ -75,7 +86,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
            "keep_markers", "check_jump_crossings", "onto_surface_phases", "rim_problems",
-           "TANGENT_ANGLE"]
+           "TANGENT_ANGLE", "jump_start"]
 
 log = logging.getLogger(__name__)
 
@@ -141,8 +152,9 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     jumps = has_jumps(field)
     if jumps:
         check_jump_crossings(solid, field, chord)
-        p, t, faces, markers, phase = _cut_start(solid, field, p, t, faces, markers,
-                                                 threshold, h_max, h_min, chord)
+        p, t, faces, markers, phase = jump_start(solid, field, p, t, faces, markers,
+                                                 threshold, h_max, h_min, chord,
+                                                 max_elements)
         size = jump_cap(field, p, size_field(field, p, threshold, h_max, h_min), chord)
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
@@ -204,24 +216,32 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     return res
 
 
-def _cut_start(solid: SurfaceSolid, field, p, t, faces, markers, threshold: float,
-               h_max: float, h_min: float, chord: float):
+def jump_start(solid: SurfaceSolid, field, p, t, faces, markers, threshold: float,
+               h_max: float, h_min: float, chord: float, max_elements: int | None = None):
     """The first volume mesh remeshed by MMG to the material's size capped near the jump
     surfaces (:func:`hetmesh.tet.jumps.jump_cap`, looking at the points within ``h_max``
     of them: the fill is coarse), then cut along the jumps
     (:func:`hetmesh.tet.jumps.cut_jumps`, a vertex within :data:`JUMP_SNAP` x the median
     edge counting as on a jump), the boundary triangles named and the interface vertices
     moved onto the jump surfaces (:func:`onto_surface_phases`): ``(points, tets, faces,
-    markers, phase)``."""
+    markers, phase)``; :class:`BudgetError` as soon as a mesh has more than
+    ``max_elements`` tetrahedra."""
+    def budget(t):
+        if max_elements is not None and len(t) > max_elements:
+            raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
+                              f"{max_elements}")
+
     for reach in (h_max, None):
         size = jump_cap(field, p, size_field(field, p, threshold, h_max, h_min), chord,
                         reach=reach)
         p, t, fm, rm, _, _ = mmg_remesh(p, t, faces, markers, size, 0.5 * chord)
+        budget(t)
         faces, markers = keep_markers(solid, p, t, fm, rm, chord)
     e = np.concatenate([t[:, [0, 1]], t[:, [0, 2]], t[:, [0, 3]], t[:, [1, 2]],
                         t[:, [1, 3]], t[:, [2, 3]]])
     snap = JUMP_SNAP * float(np.median(np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)))
     p, t, phase = cut_jumps(field, p, t, snap)
+    budget(t)
     faces, markers = keep_markers(solid, p, t, faces, markers, chord)
     p = onto_surface_phases(solid, field, p, t, faces, phase, chord)
     return p, t, faces, markers, phase
@@ -471,9 +491,12 @@ def onto_rim(solid: SurfaceSolid, field, x: np.ndarray, bits: np.ndarray,
         for k in range(2):
             has = planes[:, k] >= 0
             normals[has, n_cond + k] = nrm[planes[has, k]]
-        normals /= np.maximum(np.linalg.norm(normals, axis=2), 1e-300)[:, :, None]
+        length = np.linalg.norm(normals, axis=2)
+        normals /= np.maximum(length, 1e-300)[:, :, None]
         use = np.zeros((len(x), n_cond + 2), dtype=bool)
-        cand = np.c_[(bits[:, None] >> np.arange(n_cond)) & 1 == 1, planes >= 0]
+        # (a jump whose gradient vanishes at the point gives no direction)
+        cand = np.c_[(bits[:, None] >> np.arange(n_cond)) & 1 == 1, planes >= 0] \
+            & (length > 0) & np.isfinite(length)
         for j in range(n_cond + 2):
             taken = use.sum(axis=1)
             a = np.where(taken[:, None] >= 1, normals[np.arange(len(x)),
