@@ -86,7 +86,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
            "keep_markers", "check_jump_crossings", "onto_surface_phases", "rim_problems",
-           "TANGENT_ANGLE", "jump_start"]
+           "TANGENT_ANGLE", "jump_start", "uniform_surface_jumps"]
 
 log = logging.getLogger(__name__)
 
@@ -152,9 +152,9 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     jumps = has_jumps(field)
     if jumps:
         check_jump_crossings(solid, field, chord)
-        p, t, faces, markers, phase = jump_start(solid, field, p, t, faces, markers,
-                                                 threshold, h_max, h_min, chord,
-                                                 max_elements)
+        p, t, faces, markers, phase = jump_start(
+            solid, field, p, t, faces, markers,
+            lambda q: size_field(field, q, threshold, h_max, h_min), chord, max_elements)
         size = jump_cap(field, p, size_field(field, p, threshold, h_max, h_min), chord)
     rounds = 0
     for rounds in range(SIZE_ROUNDS + 1):
@@ -216,11 +216,14 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     return res
 
 
-def jump_start(solid: SurfaceSolid, field, p, t, faces, markers, threshold: float,
-               h_max: float, h_min: float, chord: float, max_elements: int | None = None):
-    """The first volume mesh remeshed by MMG to the material's size capped near the jump
-    surfaces (:func:`hetmesh.tet.jumps.jump_cap`, looking at the points within ``h_max``
-    of them: the fill is coarse), then cut along the jumps
+def jump_start(solid: SurfaceSolid, field, p, t, faces, markers,
+               size_of: Callable[[np.ndarray], np.ndarray], chord: float,
+               max_elements: int | None = None):
+    """The first volume mesh ``(p, t)`` (boundary ``faces`` on the faces ``markers``)
+    remeshed twice by MMG to the size ``size_of(points)`` (the material's, or the uniform
+    baseline's constant) capped near the curved jump surfaces
+    (:func:`hetmesh.tet.jumps.jump_cap`, first looking at the points within a quarter of
+    the extent of them, the fill being coarse, then within their size), cut along the jumps
     (:func:`hetmesh.tet.jumps.cut_jumps`, a vertex within :data:`JUMP_SNAP` x the median
     edge counting as on a jump), the boundary triangles named and the interface vertices
     moved onto the jump surfaces (:func:`onto_surface_phases`): ``(points, tets, faces,
@@ -231,9 +234,9 @@ def jump_start(solid: SurfaceSolid, field, p, t, faces, markers, threshold: floa
             raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
                               f"{max_elements}")
 
-    for reach in (h_max, None):
-        size = jump_cap(field, p, size_field(field, p, threshold, h_max, h_min), chord,
-                        reach=reach)
+    lo, hi = solid.bounds
+    for reach in (float((hi - lo).max()) / 4, None):
+        size = jump_cap(field, p, size_of(p), chord, reach=reach)
         p, t, fm, rm, _, _ = mmg_remesh(p, t, faces, markers, size, 0.5 * chord)
         budget(t)
         faces, markers = keep_markers(solid, p, t, fm, rm, chord)
@@ -588,3 +591,43 @@ def rim_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[str]
                        f"vertices of its rim are off {what} by more than {chord_tol:.3g} "
                        f"(e.g. at ({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
     return out
+
+
+def uniform_surface_jumps(solid: SurfaceSolid, field, h: float, threshold: float, start,
+                          chord: float, *, max_elements: int | None = None):
+    """The uniform baseline's remeshing of a surface solid with the jumps of ``field``
+    embedded, not verified: the start ``(points, tets, faces, markers)`` (the fill with
+    its faces, :func:`hetmesh.tet.uniform.surface_start`) cut along the jumps at the
+    constant size ``h`` (:func:`jump_start`; a jump nearly tangent to the surface refused
+    first, :func:`check_jump_crossings`), remeshed by MMG to ``h`` capped near curved jump
+    surfaces with the phases kept and the interface vertices put back (rounds, at most
+    :data:`~hetmesh.tet.general.SIZE_ROUNDS` + 1, until they are within :data:`SETTLED` x
+    ``chord`` of their jumps), then flipped within each phase as the adaptive mesh is (no
+    new tetrahedron's delta reaching ``threshold``): ``(points, tets, faces, markers,
+    phase, delta)``, ``delta`` per phase. The caller
+    records ``phase`` as ``info["regions"]`` and the interfaces
+    (:func:`hetmesh.tet.general.with_interfaces`)."""
+    check_jump_crossings(solid, field, chord)
+    p, t, faces, markers = start
+
+    def sized(q):
+        return jump_cap(field, q, np.full(len(q), float(h)), chord)
+
+    p, t, faces, markers, phase = jump_start(solid, field, p, t, faces, markers,
+                                             lambda q: np.full(len(q), float(h)), chord,
+                                             max_elements)
+    for _ in range(SIZE_ROUNDS + 1):
+        p, t, fm, rm, _, phase = mmg_remesh(p, t, faces, markers, sized(p), 0.5 * chord,
+                                            phase=phase)
+        faces, markers = keep_markers(solid, p, t, fm, rm, chord)
+        p = onto_surface_phases(solid, field, p, t, faces, phase, chord)
+        if max_elements is not None and len(t) > max_elements:
+            raise BudgetError(f"the mesh has {len(t)} tetrahedra, over the budget of "
+                              f"{max_elements}")
+        if interface_off(field, p, t, phase) <= SETTLED * chord:
+            break
+    n_faces = len(faces)
+    p, t, faces, phase, delta = flip_plain(field, p, t, faces, phase, threshold)
+    if len(faces) != n_faces:
+        raise MeshingError("the flips changed the boundary")
+    return p, t, faces, markers, phase, delta
