@@ -288,14 +288,18 @@ def test_two_conditions_make_four_regions(tmp_path):
 
 # -- the example bracket with a jump across its web and bore --------------------------------------
 
-def test_a_jump_across_the_bracket_s_web_and_bore(tmp_path):
-    """examples/l_bracket.stl (feature faces) with ``where(z < 25, ...)``: the plane crosses
-    the web and its bore (radius 5 around (y, z) = (10, 27), 48 facets); the interface lies
-    on z = 25, its rim on the web's planes or the bore's facets, the faces kept."""
+@pytest.mark.parametrize("z0, bore", [(25.0, True), (10.0, False)])
+def test_a_jump_across_the_bracket_s_web(tmp_path, z0, bore):
+    """examples/l_bracket.stl (feature faces) with ``where(z < z0, ...)``: at z0 = 25 the
+    plane crosses the web and its bore (radius 5 around (y, z) = (10, 27), 48 facets); at
+    z0 = 10 it crosses the web where it meets the foot and lies on the foot's top face (no
+    crossing there). The interface lies on the plane, its rim on the web's planes or the
+    bore's facets, the faces kept."""
     src = hetmesh.example_path("l_bracket")
     text = src.read_text(encoding="utf-8").replace(
         'file = "l_bracket.stl"', f'file = "{(src.parent / "l_bracket.stl").as_posix()}"')
-    text = text.replace('metal = "((x + z)/50)**2"', 'metal = "where(z < 25, 0.2 + 0.01*x, 0.8)"')
+    text = text.replace('metal = "((x + z)/50)**2"',
+                        f'metal = "where(z < {z0:g}, 0.2 + 0.01*x, 0.8)"')
     path = tmp_path / "m.toml"
     path.write_text(text, encoding="utf-8")
     model = load_model(path)
@@ -304,17 +308,27 @@ def test_a_jump_across_the_bracket_s_web_and_bore(tmp_path):
     p, t, region, inter, bnd = check_common(res, branches, 0.25)
     assert res.face_names[:10] == tuple(f"surface.{i}" for i in range(1, 11))
     cen = p[t].mean(axis=1)
-    assert ((cen[:, 2] < 25).astype(int) == region).all()
-    assert np.abs(p[np.unique(inter), 2] - 25).max() <= 1e-9
+    assert ((cen[:, 2] < z0).astype(int) == region).all()
+    assert np.abs(p[np.unique(inter), 2] - z0).max() <= 1e-9
+    # the interface is the web's section: 10 x 20 less the bore's
+    tri = p[inter]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                axis=1).sum()
+    cut = 2 * 10 * np.sqrt(25 - (z0 - 27) ** 2) if bore else 0.0
+    assert abs(area - (200 - cut)) <= 0.05 * cut + 1e-6
     rim = p[rim_of(inter, bnd)]
     assert ((rim[:, 0] > -1e-9) & (rim[:, 0] < 10 + 1e-9)).all()  # in the web
     flat = (np.abs(rim[:, 0]) <= 1e-9) | (np.abs(rim[:, 0] - 10) <= 1e-9) \
         | (np.abs(rim[:, 1]) <= 1e-9) | (np.abs(rim[:, 1] - 20) <= 1e-9)
-    bore = np.hypot(rim[:, 1] - 10, rim[:, 2] - 27)
+    dist = np.hypot(rim[:, 1] - 10, rim[:, 2] - 27)
     chord = 2e-3 * model.solid.diameter
-    assert (flat | (np.abs(bore - 5) <= chord)).all()
-    assert (np.abs(bore - 5) <= chord).sum() >= 8  # the two lines where it crosses the bore
-    assert (np.abs(rim[:, 1]) <= 1e-9).sum() >= 4
+    on_bore = np.abs(dist - 5) <= chord
+    assert (flat | on_bore).all()
+    # the two lines where the plane crosses the bore
+    assert (on_bore.sum() >= 8) == bore
+    # the rim's corners on the end y = 0, where the web's faces x = 0 and x = 10 meet it
+    for x in (0.0, 10.0):
+        assert (np.linalg.norm(rim - [x, 0.0, z0], axis=1) <= 1e-9).any()
 
 
 # -- refused ----------------------------------------------------------------------------------
