@@ -336,11 +336,19 @@ def test_a_jump_across_the_bracket_s_web(tmp_path, z0, bore):
 @pytest.mark.parametrize("surface, formula, condition, near", [
     # the plane x = 0.499 meets the cylinder r = 0.5 at under 4 degrees
     (cylinder_surface(0.5, 1.0), "where(x < 0.499, 0.2 + 0.1*z, 0.8)", "x < 0.499",
-     "at 3.8 degrees near (0.4"),
+     "at 3.8 degrees to it near (0.49"),
     # the plane through the box's edge x = 1, z = 0 at 2.9 degrees to its face x = 1: a
     # thin wedge along the face
     (box_surface([0, 0, 0], [1, 1, 1]), "where(x + 0.05*z < 1, 0.2 + 0.1*z, 0.8)",
-     "x + 0.05*z < 1", "at 2.9 degrees near (1, "),
+     "x + 0.05*z < 1", "meets the surface at 2.9 degrees near (1, "),
+    # a ball poking 0.002 out of the bottom face of a cube of two triangles per face, in
+    # a circle of radius 0.045 around (0.3, 0.3, 0) between the corners
+    (box_surface([0, 0, 0], [1, 1, 1], 1),
+     "where((x-0.3)**2 + (y-0.3)**2 + (z-0.5)**2 < 0.252004, 0.3 + 0.1*z, 0.8)",
+     "(x - 0.3)**2 + (y - 0.3)**2 + (z - 0.5)**2 < 0.252004", "degrees to it near (0.3"),
+    # a layer 0.02 thick along the bottom face, much thinner than the elements
+    (box_surface([0, 0, 0], [1, 1, 1]), "where(z < 0.02, 0.2 + 0.1*x, 0.8)", "z < 0.02",
+     "comes within 0.02 of the surface at 0.0 degrees to it near ("),
 ])
 def test_a_jump_nearly_tangent_to_the_surface_fails_in_one_line(tmp_path, capsys, surface,
                                                                 formula, condition, near):

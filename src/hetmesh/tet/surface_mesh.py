@@ -23,7 +23,8 @@
 
 *Jumps* of a piecewise composition (:func:`hetmesh.tet.jumps.has_jumps`) are embedded as
 in solids of primitives (:mod:`hetmesh.tet.jumps`): a jump meeting the input surface at
-under :data:`TANGENT_ANGLE` degrees is refused first (:func:`check_jump_crossings`); the
+under :data:`TANGENT_ANGLE` degrees, or that close to parallel within :data:`GAP` x the
+element size of it, is refused first (:func:`check_jump_crossings`); the
 fill is remeshed to the size capped near curved jumps and cut along them
 (:func:`jump_start`); MMG keeps the phases and their interfaces through the size rounds;
 after every remeshing the interface vertices go back onto their jump surfaces, those on
@@ -86,7 +87,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_surface", "surface_problems", "initial_volume", "estimate_surface",
            "keep_markers", "check_jump_crossings", "onto_surface_phases", "rim_problems",
-           "TANGENT_ANGLE", "jump_start", "uniform_surface_jumps"]
+           "TANGENT_ANGLE", "GAP", "jump_start", "uniform_surface_jumps"]
 
 log = logging.getLogger(__name__)
 
@@ -151,7 +152,8 @@ def generate_surface(solid: SurfaceSolid, field, threshold: float, *, seed: int 
     phase = None
     jumps = has_jumps(field)
     if jumps:
-        check_jump_crossings(solid, field, chord)
+        check_jump_crossings(solid, field, chord, lambda q: jump_cap(
+            field, q, size_field(field, q, threshold, h_max, h_min), chord))
         p, t, faces, markers, phase = jump_start(
             solid, field, p, t, faces, markers,
             lambda q: size_field(field, q, threshold, h_max, h_min), chord, max_elements)
@@ -351,6 +353,10 @@ def surface_problems(res, solid: SurfaceSolid, field, chord_tol: float) -> list[
 #: a jump surface that crosses the input surface at under this angle (degrees) is refused
 #: (:func:`check_jump_crossings`): its rim would need ever smaller tetrahedra
 TANGENT_ANGLE = 10.0
+#: a jump nearly parallel to the surface within this x the element size of it (inside the
+#: solid) is refused as well (:func:`check_jump_crossings`): a thinner layer would be one
+#: layer of flat tetrahedra
+GAP = 0.2
 #: two input triangles within the chord tolerance of a rim vertex whose normals are more
 #: than this apart (degrees) make it a vertex of a sharp edge, kept on both planes
 RIDGE_ANGLE = 40.0
@@ -362,9 +368,9 @@ PARTIAL = (1.0, 0.5, 0.25)
 SETTLED = 0.25
 #: the jumps' cut counts a vertex within this x the median edge of a jump surface as on it
 JUMP_SNAP = 0.05
-#: the crossings of the jump surfaces with the input surface are sampled at the corners
-#: and these points of every input triangle
-_SAMPLES = np.vstack([np.eye(3), BARY])
+#: the most intervals per edge of the lattice an input triangle is sampled on for its
+#: crossings with the jump surfaces (:func:`check_jump_crossings`)
+MAX_LATTICE = 32
 
 
 def _unit_normals(V, F) -> np.ndarray:
@@ -372,44 +378,92 @@ def _unit_normals(V, F) -> np.ndarray:
     return n / np.linalg.norm(n, axis=1)[:, None]
 
 
-def check_jump_crossings(solid: SurfaceSolid, field, chord: float) -> None:
-    """:class:`MaterialError` (naming the condition and a point) where a jump surface of
-    ``field`` meets the input surface at under :data:`TANGENT_ANGLE` degrees. An input
-    triangle meets a jump where its samples (corners and 12 inner points) lie on both sides
-    of it, or one lies within ``chord`` of it (first-order distance, the level function
-    over its gradient's norm), unless all lie within 1e-9 x the diameter of it (a jump
-    surface that coincides with facets, as a plane through a flat face, is no crossing);
-    the sample nearest to the jump gives the angle between the triangle's normal and the
-    level function's gradient. This also refuses a jump that leaves a thin wedge along a
-    face (a plane through an edge of a box, nearly parallel to one of its faces)."""
+def _lattice(n: int) -> np.ndarray:
+    """The barycentric points of the regular lattice with ``n`` intervals per edge of a
+    triangle: ``((n + 1)(n + 2) / 2, 3)``, the corners among them."""
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    keep = i + j <= n
+    i, j = i[keep], j[keep]
+    return np.c_[n - i - j, i, j] / n
+
+
+def _sample_groups(V, F, spacing: np.ndarray):
+    """The input triangles in groups of equal sampling: ``[(triangles, points (m, b, 3))]``,
+    each triangle sampled on the lattice (:func:`_lattice`) whose intervals are at most
+    ``spacing`` (per triangle) on its longest edge, 2 to :data:`MAX_LATTICE` of them."""
+    tri = V[F]
+    edge = np.linalg.norm(tri - tri[:, [1, 2, 0]], axis=2).max(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = np.clip(np.ceil(edge / spacing), 2, MAX_LATTICE)
+    n = np.where(np.isfinite(n), n, MAX_LATTICE).astype(np.int64)
+    return [(ids, np.einsum("bk,nkd->nbd", _lattice(int(k)), tri[ids]))
+            for k in unique(n).tolist() for ids in [np.flatnonzero(n == k)]]
+
+
+def check_jump_crossings(solid: SurfaceSolid, field, chord: float,
+                         size_of: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+    """:class:`MaterialError` (naming the condition, the angle and a point) where a jump
+    surface of ``field`` meets the input surface at under :data:`TANGENT_ANGLE` degrees,
+    or comes that close to parallel within :data:`GAP` x the element size of it on the
+    inside (the element size ``size_of(points)`` at the sample; None: the band is
+    ``chord``). Every input triangle is sampled on a lattice of spacing at most the band
+    at its centroid (:func:`_sample_groups`), the distance to a jump taken to first order
+    (the level function over its gradient's norm).
+
+    * A triangle whose samples lie on both sides of a jump by more than 1e-9 x the
+      diameter crosses it: the angle between its normal and the level function's gradient
+      at the sample nearest to the jump.
+    * A sample within ``chord`` of a jump, or within the band where the jump lies inside
+      the solid (the step onto it goes against the outward normal): the angle there. A
+      thin layer between the jump and the surface would be one layer of flat tetrahedra; a
+      jump touching the surface, or through an edge nearly parallel to a face (a thin
+      wedge), too.
+
+    A triangle all of whose samples lie on a jump (within 1e-9 x the diameter: a plane
+    through a flat face) is no crossing."""
     V, F = solid.V, solid.F
-    pts = np.einsum("bk,nkd->nbd", _SAMPLES, V[F])                   # (m, b, 3)
     nrm = _unit_normals(V, F)
     eps = 1e-9 * solid.diameter
     cos = math.cos(math.radians(TANGENT_ANGLE))
+    band = np.full(len(F), chord)
+    if size_of is not None:
+        band = np.maximum(band, GAP * size_of(V[F].mean(axis=1)))
+    groups = _sample_groups(V, F, band)
     for i in range(len(field.conditions)):
         surf = JumpSurface(field, i)
-        sd = surf.signed(pts.reshape(-1, 3)).reshape(len(F), -1)
-        sd = np.where(np.isfinite(sd), sd, np.inf)
-        ad = np.abs(sd)
-        meet = ((sd > eps).any(axis=1) & (sd < -eps).any(axis=1)) | (ad.min(axis=1) <= chord)
-        meet &= ad.max(axis=1) > eps
-        tri = np.flatnonzero(meet)
-        if not len(tri):
-            continue
-        k = np.argmin(ad[tri], axis=1)
-        at = pts[tri, k]
-        u = surf.grad(at)
-        u = u / np.maximum(np.linalg.norm(u, axis=1), 1e-300)[:, None]
-        c = np.abs(np.einsum("ij,ij->i", u, nrm[tri]))
-        if (c > cos).any():
-            j = int(np.argmax(c))
-            x = at[j]
-            ang = math.degrees(math.acos(min(1.0, float(c[j]))))
+        worst = None
+        for ids, pts in groups:
+            flat = pts.reshape(-1, 3)
+            sd = surf.signed(flat).reshape(len(ids), -1)
+            sd = np.where(np.isfinite(sd), sd, np.inf)
+            ad = np.abs(sd)
+            u = surf.grad(flat).reshape(len(ids), -1, 3)
+            u = u / np.maximum(np.linalg.norm(u, axis=2), 1e-300)[:, :, None]
+            un = np.einsum("nbd,nd->nb", u, nrm[ids])
+            cross = (sd > eps).any(axis=1) & (sd < -eps).any(axis=1)
+            near = np.zeros_like(ad, dtype=bool)
+            near[np.flatnonzero(cross), np.argmin(ad[cross], axis=1)] = True
+            at = np.full(ad.shape, chord)
+            if size_of is not None:  # the band at the samples near the jump
+                close = np.flatnonzero((ad <= band[ids, None]).ravel())
+                at.ravel()[close] = np.maximum(chord, GAP * size_of(flat[close]))
+            inward = np.where(np.isfinite(sd), sd, 0.0) * un > 0
+            near |= (ad <= chord) | ((ad <= at) & inward)
+            near &= (ad.max(axis=1) > eps)[:, None] & np.isfinite(sd)
+            bad = near & (np.abs(un) > cos)
+            if bad.any():
+                j, k = np.argwhere(bad)[np.argmin(ad[bad])]
+                if worst is None or ad[j, k] < worst[0]:
+                    worst = (float(ad[j, k]), float(abs(un[j, k])), pts[j, k])
+        if worst is not None:
+            d, c, x = worst
+            ang = math.degrees(math.acos(min(1.0, c)))
+            where = (f"meets the surface at {ang:.1f} degrees" if d <= eps else
+                     f"comes within {d:.3g} of the surface at {ang:.1f} degrees to it")
             raise MaterialError(
-                f"{field.describe_jump(0, 1 << i)}: the jump meets the surface at "
-                f"{ang:.1f} degrees near ({x[0]:.6g}, {x[1]:.6g}, {x[2]:.6g}), nearly "
-                f"tangent to it (under {TANGENT_ANGLE:g} degrees is not supported)")
+                f"{field.describe_jump(0, 1 << i)}: the jump {where} near ({x[0]:.6g}, "
+                f"{x[1]:.6g}, {x[2]:.6g}), nearly tangent to it (under {TANGENT_ANGLE:g} "
+                f"degrees within {GAP:g} x the element size is not supported)")
 
 
 class _RowPlanes:
@@ -607,11 +661,11 @@ def uniform_surface_jumps(solid: SurfaceSolid, field, h: float, threshold: float
     phase, delta)``, ``delta`` per phase. The caller
     records ``phase`` as ``info["regions"]`` and the interfaces
     (:func:`hetmesh.tet.general.with_interfaces`)."""
-    check_jump_crossings(solid, field, chord)
-    p, t, faces, markers = start
-
     def sized(q):
         return jump_cap(field, q, np.full(len(q), float(h)), chord)
+
+    check_jump_crossings(solid, field, chord, sized)
+    p, t, faces, markers = start
 
     p, t, faces, markers, phase = jump_start(solid, field, p, t, faces, markers,
                                              lambda q: np.full(len(q), float(h)), chord,
