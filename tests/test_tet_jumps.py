@@ -228,19 +228,7 @@ def test_jumps_where_curved_faces_meet_fail_in_one_line(tmp_path, capsys):
     assert "material.composition.metal: condition 'z < 1'" in err and "meet" in err
 
 
-def test_jumps_in_a_surface_solid_fail_in_one_line(tmp_path, capsys):
-    import hetmesh
-
-    src = hetmesh.example_path("l_bracket")
-    text = src.read_text(encoding="utf-8").replace(
-        'file = "l_bracket.stl"', f'file = "{(src.parent / "l_bracket.stl").as_posix()}"')
-    text = text.replace('metal = "((x + z)/50)**2"', 'metal = "where(x < 20, 0.2, 0.7)"')
-    path = write(tmp_path, text)
-    out = tmp_path / "x.vtu"
-    rc = main(["mesh", str(path), "--threshold", "0.2", "--output", str(out)])
-    err = capsys.readouterr().err.strip()
-    assert rc == 2 and not out.exists() and len(err.splitlines()) == 1
-    assert "material: a composition with jumps" in err
+# (jumps in a solid from a surface file are embedded: tests/test_tet_surface_jumps.py)
 
 
 #: a box cut by an inclined jump plane x + z = 2.5, which moves along its sweep axis (a

@@ -564,12 +564,11 @@ def parse_model3d(data: Mapping, where: str = "model", *, parsers: tuple,
         material2d = None
     from ..tet.jumps import has_jumps
     from ..tet.masked import VoxelSolid
-    from ..tet.surface import SurfaceSolid
-    if isinstance(solid, (SurfaceSolid, VoxelSolid)):
-        if has_jumps(material):  # embedded in solids of primitives and in sweeps only
+    if isinstance(solid, VoxelSolid):
+        if has_jumps(material):  # embedded in solids of primitives, surfaces and sweeps
             raise ctx.fail("material", "a composition with jumps (where, sign) is not "
-                                       "available for a solid from a surface file or a mask "
-                                       "(its remeshing does not keep the discontinuities)")
+                                       "available for a solid from a mask (its remeshing "
+                                       "does not keep the discontinuities)")
     if check:
         samples = solid.sample(20)
         try:

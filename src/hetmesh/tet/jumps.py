@@ -5,7 +5,9 @@ interfaces, so that no tetrahedron straddles one.
 A piecewise formula field (:class:`hetmesh.material.AnalyticField` with jump conditions)
 has a level function per condition (:meth:`~hetmesh.material.AnalyticField.levels`: ``b - a``
 for ``a < b``, positive where the condition holds). Its subregion ids are the conditions'
-truth values read as bits. The solids of primitives (:mod:`hetmesh.tet.general`) embed them:
+truth values read as bits. The solids of primitives (:mod:`hetmesh.tet.general`) embed them
+(and, with the input surface in place of the faces, the solids bounded by a triangulated
+surface: :mod:`hetmesh.tet.surface_mesh`):
 
 1. *Cut* (:func:`cut_jumps`): after the solid's own cuts, MMG's level-set mode splits the
    tetrahedra along the zero set of every condition's level function that changes sign
