@@ -363,34 +363,22 @@ def test_a_jump_nearly_tangent_to_the_surface_fails_in_one_line(tmp_path, capsys
     assert "nearly tangent" in err and near in err, err
 
 
-# -- the uniform baseline's remeshing with the jumps (hetmesh.tet.uniform does not call it
-# yet) ----------------------------------------------------------------------------------------
+# -- the uniform baseline with the jumps ------------------------------------------------------
 
-def test_the_uniform_remeshing_keeps_the_jump(tmp_path):
-    """:func:`uniform_surface_jumps` at the constant size 0.2: the plane z = 0.4 an
-    interface of the box, every centroid on its side, the rim on the box, delta per side
-    as the branch formulas give it."""
-    from hetmesh.tet.general import with_interfaces
-    from hetmesh.tet.mesher import TetResult
-    from hetmesh.tet.surface_mesh import uniform_surface_jumps
-    from hetmesh.tet.uniform import surface_start
+def test_the_uniform_baseline_keeps_the_jump(tmp_path):
+    """``hetmesh uniform`` of the box with the plane jump: the size search meets delta_0 (it
+    could not before: no size does across a jump), the plane z = 0.4 an interface, every
+    centroid on its side, the rim on the box, delta per side as the branch formulas give
+    it; verified as the adaptive mesh is."""
+    from hetmesh.tet.uniform import uniform_model
 
     path = model_file(tmp_path, "uni", box_surface([0, 0, 0], [2, 1, 1]), PLANE)
     model = load_model(path)
-    solid, field = model.solid, model.material
-    chord = CHORD_TOL * solid.diameter
-    p, t, faces, markers, phase, delta = uniform_surface_jumps(
-        solid, field, 0.2, 0.25, surface_start(solid, chord), chord)
-    res = with_interfaces(TetResult(p, t.astype(np.int32), faces.astype(np.int32),
-                                    (markers + 1).astype(np.int32), solid.face_names, delta,
-                                    0.25, {"regions": phase.astype(np.int32)}),
-                          field, len(solid.face_names))
+    res = uniform_model(model, 0.25, chord_tol=CHORD_TOL)
     p, t, region, inter, bnd = check_common(res, PLANE_BRANCH, 0.25)
-    assert np.allclose(branch_delta(p, t, region, PLANE_BRANCH), delta, atol=1e-12)
+    assert np.allclose(branch_delta(p, t, region, PLANE_BRANCH), res.delta, atol=1e-12)
     assert ((p[t].mean(axis=1)[:, 2] < 0.4).astype(int) == region).all()
     assert np.abs(p[np.unique(inter), 2] - 0.4).max() <= 1e-12
     assert on_box(p[np.unique(bnd)], [0, 0, 0], [2, 1, 1], 1e-12).all()
-    edges = np.concatenate([t[:, [a, b]] for a in range(4) for b in range(a + 1, 4)])
-    length = np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1)
-    assert 0.1 < np.median(length) < 0.3  # the constant size
-    assert surface_problems(res, solid, field, chord) == []
+    assert res.info["placement"] == "uniform remeshed"
+    assert res.info["jump_conditions"] == ("z < 0.4",)

@@ -70,6 +70,7 @@ from .general import (
     mmg_remesh,
     solid_problems,
     uniform_solid_at,
+    with_interfaces,
 )
 from .implicit import CSGSolid
 from .masked import (
@@ -418,11 +419,24 @@ def uniform_surface_at(solid: SurfaceSolid, field, h: float, threshold: float, *
     mesh is (MMG keeps the sharp edges as ridges and refines where the surface curves).
     Nothing is refined for the material: ``delta`` over the vertices is measured,
     ``threshold`` recorded but not required."""
-    from .surface_mesh import keep_markers
+    from .jumps import has_jumps
+    from .surface_mesh import keep_markers, uniform_surface_jumps
 
     chord = CHORD * solid.diameter if chord_tol is None else float(chord_tol)
     est = _check_estimate(solid, h, max_elements)
     p, t, faces, markers = surface_start(solid, chord) if start is None else start
+    if has_jumps(field):  # cut along the jumps, kept through the remeshing, delta per side
+        p, t, faces, markers, phase, delta = uniform_surface_jumps(
+            solid, field, h, threshold, (p, t, faces, markers), chord,
+            max_elements=max_elements)
+        check_count(h, len(t), max_elements)
+        info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
+                "chord_tol": chord, "composition": field.composition(p), "hgrad": HGRAD,
+                "regions": np.asarray(phase, dtype=np.int32)}
+        return with_interfaces(TetResult(p, t.astype(np.int32), faces.astype(np.int32),
+                                         (markers + 1).astype(np.int32),
+                                         tuple(solid.face_names), delta, float(threshold),
+                                         info), field, len(solid.face_names))
     p, t, fm, rm, _, _ = mmg_remesh(p, t, faces, markers, np.full(len(p), float(h)),
                                  0.5 * chord)
     check_count(h, len(t), max_elements)
