@@ -88,7 +88,8 @@ from .refine import repair
 from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
-           "quiet_mmg", "next_size", "keep_positive", "centroid_and_delta_problems", "S", "SHRINK",
+           "quiet_mmg", "next_size", "keep_positive", "moves_in_part",
+           "centroid_and_delta_problems", "S", "SHRINK",
            "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
            "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
            "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",
@@ -687,14 +688,24 @@ def onto_phases(solid: CSGSolid, field, p, t, faces, markers, phase) -> np.ndarr
         return out
 
     want = onto_jumps(field, p, t, phase, face_surfaces)
-    pending = (want != p).any(axis=1)
     # on a curved face, a part of the move would leave the surface: whole moves only
     curved = np.array([any(solid.faces[fi].surface.curved for fi in fs) for fs in inc],
                       dtype=bool).reshape(-1)
+    q = moves_in_part(p, want, t, whole_only=curved)
+    _check_positive(q, t, "after moving the interface vertices onto the jumps")
+    return q
+
+
+def moves_in_part(p: np.ndarray, want: np.ndarray, t: np.ndarray, *,
+                  whole_only: np.ndarray | None = None) -> np.ndarray:
+    """``p`` with every vertex moved to ``want`` where no tetrahedron around it loses its
+    positive volume (:func:`keep_positive`), else by the fractions :data:`PARTIAL` of the
+    move in turn (not those of ``whole_only (N,) bool``), else not at all."""
+    pending = (want != p).any(axis=1)
     q = p
     for frac in PARTIAL:  # what a whole move would flatten, in part
-        if frac < 1.0:
-            pending &= ~curved
+        if frac < 1.0 and whole_only is not None:
+            pending &= ~whole_only
         if not pending.any():
             break
         cand = q.copy()
@@ -702,7 +713,6 @@ def onto_phases(solid: CSGSolid, field, p, t, faces, markers, phase) -> np.ndarr
         new = keep_positive(q, cand, t, pending)
         pending &= ~(new != q).any(axis=1) | (frac < 1.0)
         q = new
-    _check_positive(q, t, "after moving the interface vertices onto the jumps")
     return q
 
 

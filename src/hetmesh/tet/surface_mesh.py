@@ -56,8 +56,8 @@ from .general import (
     SIZE_ROUNDS,
     centroid_and_delta_problems,
     flip_plain,
-    keep_positive,
     mmg_remesh,
+    moves_in_part,
     next_size,
     recorded_interface_problems,
     size_field,
@@ -360,9 +360,6 @@ GAP = 0.2
 #: two input triangles within the chord tolerance of a rim vertex whose normals are more
 #: than this apart (degrees) make it a vertex of a sharp edge, kept on both planes
 RIDGE_ANGLE = 40.0
-#: the interface vertices are moved in part where a whole move would flatten a
-#: tetrahedron (the next remeshing goes on from there)
-PARTIAL = (1.0, 0.5, 0.25)
 #: the size rounds go on until every interface vertex is within this x the chord tolerance
 #: of its jump surfaces (and delta is met)
 SETTLED = 0.25
@@ -591,7 +588,7 @@ def onto_surface_phases(solid: SurfaceSolid, field, p, t, faces, phase,
     surface as well (:func:`onto_rim`, ``tol`` the chord tolerance), except where a move
     would leave a tetrahedron around it without a positive volume
     (:func:`hetmesh.tet.general.keep_positive`): those are moved in part
-    (:data:`PARTIAL`), or not at all."""
+    (:func:`hetmesh.tet.general.moves_in_part`), or not at all."""
     want = onto_jumps(field, p, t, phase)
     _, _, per = interface_bits(t, phase, len(p))
     on_bnd = np.zeros(len(p), dtype=bool)
@@ -599,16 +596,7 @@ def onto_surface_phases(solid: SurfaceSolid, field, p, t, faces, phase,
     rim = np.flatnonzero(on_bnd & (per > 0))
     if len(rim):
         want[rim] = onto_rim(solid, field, p[rim], per[rim], tol)
-    pending = (want != p).any(axis=1)
-    q = p
-    for frac in PARTIAL:
-        if not pending.any():
-            break
-        cand = q.copy()
-        cand[pending] = q[pending] + frac * (want[pending] - q[pending])
-        new = keep_positive(q, cand, t, pending)
-        pending &= ~(new != q).any(axis=1) | (frac < 1.0)
-        q = new
+    q = moves_in_part(p, want, t)
     v = simplex_measures(q, t)
     if (v <= 0).any():
         c = q[t[int(np.argmin(v))]].mean(axis=0)
