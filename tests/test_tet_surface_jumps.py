@@ -288,7 +288,8 @@ def test_two_conditions_make_four_regions(tmp_path):
 
 # -- the example bracket with a jump across its web and bore --------------------------------------
 
-@pytest.mark.parametrize("z0, bore", [(25.0, True), (10.0, False)])
+@pytest.mark.parametrize("z0, bore", [(25.0, True),
+                                      pytest.param(10.0, False, marks=pytest.mark.slow)])
 def test_a_jump_across_the_bracket_s_web(tmp_path, z0, bore):
     """examples/l_bracket.stl (feature faces) with ``where(z < z0, ...)``: at z0 = 25 the
     plane crosses the web and its bore (radius 5 around (y, z) = (10, 27), 48 facets); at
@@ -365,6 +366,7 @@ def test_a_jump_nearly_tangent_to_the_surface_fails_in_one_line(tmp_path, capsys
 
 # -- the uniform baseline with the jumps ------------------------------------------------------
 
+@pytest.mark.slow  # its size search remeshes every size tried (14-17 s on the loaded machine)
 def test_the_uniform_baseline_keeps_the_jump(tmp_path):
     """``hetmesh uniform`` of the box with the plane jump: the size search meets delta_0 (it
     could not before: no size does across a jump), the plane z = 0.4 an interface, every
