@@ -501,6 +501,7 @@ def test_interfaces_and_jumps_are_refused(tmp_path):
                          + MATERIAL.format(formula="where(x < 1, 0.2, 0.8)")))
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_written_meshes_carry_the_new_face_names(tmp_path, capsys):
     body, _ = random_case(1)
     p = write(tmp_path, body + MATERIAL.format(formula="(x*x + y*y) / 20"))

@@ -284,6 +284,7 @@ def test_cli_adapt(tmp_path, capsys, cylinder, start):
         assert len(err.splitlines()) == 1 and word in err, err
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_refinement_study_and_its_table(cylinder):
     """The 3-D study's third family on a small plan: every step a mesh with its errors,
     the counts for 0.5 % of the three families, and the table of ``reproduce --3d``."""

@@ -236,6 +236,7 @@ def test_voxel_delta_sees_a_sheet_the_vertices_miss():
     assert f.pixel_delta(P, T)[0] == pytest.approx(0.8)
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_pixel_sampling_meshes_meet_delta_over_every_voxel(tmp_path):
     import hetmesh
 

@@ -140,6 +140,7 @@ def test_label_volume_extent_and_cli(tmp_path):
     assert d.max() < 0.3
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_example_phase_volume(tmp_path):
     from hetmesh.material.image import write_examples
 

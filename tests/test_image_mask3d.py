@@ -141,6 +141,7 @@ def test_mask_mesh_meets_the_quality_targets(tmp_path, threshold):
     assert_quality_targets(r)
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_mask_mesh_is_deterministic(tmp_path):
     m = load_model(write_model(tmp_path))
     a, b = mesh_model(m, 0.25), mesh_model(m, 0.25)
@@ -187,6 +188,7 @@ def test_separate_regions_are_dropped_with_a_warning(tmp_path, caplog):
     assert on.any(axis=1).mean() > 0.75
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_example_masked_part(tmp_path):
     from hetmesh.material.image import write_examples
     from hetmesh.tet.masked import VoxelSolid

@@ -56,7 +56,7 @@ metal = "0.3*x"
 
 
 @pytest.mark.parametrize("text, planes", [
-    (CAVITY, {"bottom": (2, 0.0), "top": (2, 2.0)}),
+    pytest.param(CAVITY, {"bottom": (2, 0.0), "top": (2, 2.0)}, marks=pytest.mark.slow),
     (CORNER, {"xmin": (0, 0.0), "zmax": (2, 1.0), "ymax": (1, 1.0)}),
 ], ids=["cavity", "corner"])
 def test_plane_faces_stay_exact(tmp_path, text, planes):

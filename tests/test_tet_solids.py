@@ -111,6 +111,7 @@ def test_graded_sphere_meets_every_guarantee():
     assert len(res.tets) <= 4.0 * n_iso3
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_partial_subtractions(tmp_path):
     """A blind bore and a pocket cut into an edge: planar faces exact, curved ones within
     the chord tolerance, the bore's bottom a disk at z = 0.4, same mesh twice."""

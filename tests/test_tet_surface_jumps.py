@@ -210,6 +210,7 @@ def test_the_verification_catches_a_rim_vertex_off_the_surface(plane):
     assert any("rim" in s for s in problems), problems
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_same_model_same_mesh(tmp_path):
     path = model_file(tmp_path, "det", box_surface([0, 0, 0], [1, 1, 1]), PLANE)
     h = []
@@ -227,6 +228,7 @@ BALL = "where(x**2 + y**2 + z**2 < 0.49, 0.3 + 0.2*z, 0.9 - 0.1*x)"
 BALL_BRANCH = {1: lambda q: 0.3 + 0.2 * q[:, 2], 0: lambda q: 0.9 - 0.1 * q[:, 0]}
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_a_ball_jump_meets_three_faces_of_a_box(tmp_path):
     """The sphere r = 0.7 around a corner of the unit box: its interface within the chord
     tolerance of the sphere (checked at 7 points per triangle), its rim (three quarter

@@ -82,6 +82,7 @@ def graded_mask_model(tmp_path, n=N):
     return load_model(path)
 
 
+@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
 def test_a_mask_solid_gets_a_verified_uniform_mesh(tmp_path):
     n = 10
     m = graded_mask_model(tmp_path, n)
