@@ -89,7 +89,7 @@ from .verify import raise_problems, validity_problems
 
 __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "orient_positive",
            "quiet_mmg", "next_size", "keep_positive", "moves_in_part",
-           "centroid_and_delta_problems", "S", "SHRINK",
+           "centroid_and_delta_problems", "S", "SHRINK", "JUMP_SNAP", "SETTLED",
            "SIZE_ROUNDS", "uniform_solid_at", "background_spacing", "levelset_cut", "split_bits",
            "edge_problems", "onto_curve", "size_rounds", "finish_meeting", "REGULAR_PER_H3",
            "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",

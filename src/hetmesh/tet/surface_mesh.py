@@ -51,8 +51,10 @@ from ..mesh import simplex_measures
 from ..metrics import delta_vertices
 from ..topology import unique
 from .faces import BARY, boundary_faces
-from .general import (
+from .general import (  # JUMP_SNAP, SETTLED: the cut's snap, the interfaces' settling
     HGRAD,
+    JUMP_SNAP,
+    SETTLED,
     SIZE_ROUNDS,
     centroid_and_delta_problems,
     flip_plain,
@@ -360,11 +362,6 @@ GAP = 0.2
 #: two input triangles within the chord tolerance of a rim vertex whose normals are more
 #: than this apart (degrees) make it a vertex of a sharp edge, kept on both planes
 RIDGE_ANGLE = 40.0
-#: the size rounds go on until every interface vertex is within this x the chord tolerance
-#: of its jump surfaces (and delta is met)
-SETTLED = 0.25
-#: the jumps' cut counts a vertex within this x the median edge of a jump surface as on it
-JUMP_SNAP = 0.05
 #: the most intervals per edge of the lattice an input triangle is sampled on for its
 #: crossings with the jump surfaces (:func:`check_jump_crossings`)
 MAX_LATTICE = 32
