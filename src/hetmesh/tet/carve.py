@@ -80,6 +80,7 @@ from .general import (
     SIZE_ROUNDS,
     cap_curved,
     estimate_solid,
+    face_keeper,
     keep_positive,
     levelset_cut,
     orient_positive,
@@ -792,14 +793,14 @@ def project_untangled(solid: CarvedSolid, p, t, faces, markers, ok=None):
     return q[kept], remap[t], remap[faces], markers, kept
 
 
-def collapse_boundary(q, t, faces, markers, ok=None, bound: float = 0.0):
+def collapse_boundary(q, t, faces, markers, ok=None, bound: float = 0.0, keeps=None):
     """Boundary edges of the tetrahedra whose :func:`_signed_angle` is at most ``bound``
     (0: those without a positive volume) collapsed, the shortest first
     (:func:`hetmesh.tet.collapse.collapse_edges`: the triangles moved stay on their faces,
-    the tetrahedra changed get a better smallest angle and pass ``ok(tets)``):
-    ``(tets, faces, markers)``."""
+    the tetrahedra changed get a better smallest angle and pass ``ok(tets)``, the boundary
+    triangles at the kept end ``keeps(faces, markers)``): ``(tets, faces, markers)``."""
     return collapse_edges(q, t, faces, markers, angle=_signed_angle,
-                          bad=lambda ang: ang <= bound, ok=ok)
+                          bad=lambda ang: ang <= bound, ok=ok, keeps=keeps)
 
 
 def remesh_carved(solid: CarvedSolid, p, t, faces, markers, size, hausd: float, tol: float):
@@ -921,16 +922,21 @@ def carved_start(solid: CarvedSolid, field, threshold: float, section_model, *,
     return p, t, faces, markers, pre
 
 
-def remove_slivers(p, t, faces, markers, comp, threshold: float):
+def remove_slivers(solid: CarvedSolid, p, t, faces, markers, comp, threshold: float,
+                   chord: float):
     """Step 6 of :func:`generate_carved`: short boundary edges of the tetrahedra under
-    :data:`SLIVER_COLLAPSE` degrees collapsed (:func:`collapse_boundary`), then flips and
+    :data:`SLIVER_COLLAPSE` degrees collapsed (:func:`collapse_boundary`; the triangles at
+    the kept end pass the verification's checks of their faces,
+    :func:`hetmesh.tet.general.face_keeper`: a collapse along a curved face can leave a
+    triangle whose middle is farther from the surface than ``chord``), then flips and
     edge removals of those under :data:`SLIVER` inside the solid
     (:func:`hetmesh.tet.flips.flip_slivers`), every new tetrahedron's delta over the vertex
     compositions ``comp`` below ``threshold``: ``(points, tets, faces, markers, comp)``, the
     vertices no longer used removed."""
     t, faces, markers = collapse_boundary(p, t, faces, markers,
                                           lambda tets: delta_vertices(comp, tets) < threshold,
-                                          bound=SLIVER_COLLAPSE)
+                                          bound=SLIVER_COLLAPSE,
+                                          keeps=face_keeper(solid, p, chord))
     p, t, faces, comp = flip_slivers(p, t, faces, comp, threshold, SLIVER)
     return p, t, faces, markers, comp
 
@@ -1001,7 +1007,8 @@ def generate_carved(solid: CarvedSolid, field, threshold: float, section_model, 
         raise MeshingError(f"the delta repair and the projection onto curved faces did not "
                            f"settle in {REPROJECT} rounds")
     # 6. slivers
-    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, comp, threshold)
+    p, t, faces, markers, comp = remove_slivers(solid, p, t, faces, markers, comp, threshold,
+                                                chord)
     delta = delta_vertices(comp, t)
     info = {"placement": "carved", "estimate": est, "background_rounds": pre,
             "size_rounds": rounds, "remeshings": remeshings, "repair_passes": passes,

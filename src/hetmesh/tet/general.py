@@ -95,7 +95,8 @@ __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "
            "estimate_regular", "check_estimate", "check_count", "remesh_until_settled",
            "SETTLE", "SETTLE_PASSES", "HAUSD", "carry", "solid_start", "onto_phases",
            "INTERFACE_REF", "with_interfaces", "recorded_interface_problems", "check_jumps",
-           "onto_planes", "flip_plain", "collapse_phase_slivers", "finish_plain"]
+           "onto_planes", "flip_plain", "collapse_phase_slivers", "finish_plain",
+           "face_keeper"]
 
 log = logging.getLogger(__name__)
 
@@ -524,7 +525,19 @@ def _collapse_slivers(solid, p, t, faces, markers, ok, chord: float):
     if the tetrahedra changed get a larger smallest dihedral angle and pass ``ok(tets)``
     (delta), and the triangles at the kept end pass the verification's checks of their
     faces (curved ones within ``chord``, planes exactly) and of the edges between meeting
-    faces (:func:`edge_problems`). ``(tets, faces, markers)``; the points are not changed."""
+    faces (:func:`face_keeper`). ``(tets, faces, markers)``; the points are not changed."""
+    return collapse_edges(p, t, faces, markers, angle=min_dihedral,
+                          bad=lambda ang: ang < COLLAPSE_BOUND, ok=ok,
+                          keeps=face_keeper(solid, p, chord), passes=COLLAPSE_PASSES)
+
+
+def face_keeper(solid, p, chord: float):
+    """The predicate ``keeps(faces, markers)`` of an edge collapse
+    (:func:`hetmesh.tet.collapse.collapse_edges`) that holds when the boundary triangles it
+    is given pass the verification's checks (:func:`solid_problems`): on a curved face
+    within ``chord`` of its surface at the sample points :data:`BARY`, on a plane exactly,
+    and the edges between meeting faces (:func:`edge_problems`). ``solid`` a
+    :class:`CSGSolid` or another solid with ``faces`` and ``diameter`` (a carved one)."""
     exact = 1e-9 * solid.diameter
 
     def keeps(f, m) -> bool:
@@ -535,9 +548,7 @@ def _collapse_slivers(solid, p, t, faces, markers, ok, chord: float):
                 return False
         return not edge_problems(p, f, m, solid, chord)
 
-    return collapse_edges(p, t, faces, markers, angle=min_dihedral,
-                          bad=lambda ang: ang < COLLAPSE_BOUND, ok=ok, keeps=keeps,
-                          passes=COLLAPSE_PASSES)
+    return keeps
 
 
 def _boundary(solid, p, t, tol):

@@ -512,8 +512,8 @@ def uniform_carved_at(solid: CarvedSolid, field, h: float, threshold: float, sta
     p, t, faces, markers, _ = remesh_carved(solid, p, t, faces, markers, size, 0.5 * chord,
                                             max(0.25 * h, 10 * chord))
     check_count(h, len(t), max_elements)
-    p, t, faces, markers, comp = remove_slivers(p, t, faces, markers, field.composition(p),
-                                                threshold)
+    p, t, faces, markers, comp = remove_slivers(solid, p, t, faces, markers,
+                                                field.composition(p), threshold, chord)
     info = {"placement": "uniform remeshed", "size": float(h), "estimate": est,
             "chord_tol": chord, "composition": comp}
     return TetResult(p, t.astype(np.int32), faces.astype(np.int32),
