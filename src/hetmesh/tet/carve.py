@@ -79,6 +79,7 @@ from .general import (
     SHRINK,
     SIZE_ROUNDS,
     cap_curved,
+    check_positive,
     estimate_solid,
     face_keeper,
     keep_positive,
@@ -101,7 +102,7 @@ from .verify import raise_problems
 
 __all__ = ["CarvedSolid", "FlatSurface", "MeridianSurface", "generate_carved",
            "carved_problems", "carve_refusal", "carved_start",
-           "snapped_levels", "split_across", "remove_slivers", "remesh_settled", "round_size",
+           "snap_onto", "split_across", "remove_slivers", "remesh_settled", "round_size",
            "shrink_at", "next_shrink", "HAUSD"]
 
 log = logging.getLogger(__name__)
@@ -117,7 +118,7 @@ RESOLVED = 2.5
 #: vertices within this x the primitive's size of a surface count as on it in its cut
 SNAP = 0.1
 #: a vertex within SNAP of a surface is not snapped onto it where that would leave a
-#: tetrahedron at this fraction of its volume or less (:func:`snapped_levels`)
+#: tetrahedron at this fraction of its volume or less (:func:`snap_onto`)
 CRUSH = 0.02
 #: ... checked for the vertices within this x the primitive's size of the face's extent
 SNAP_REACH = 1.0
@@ -643,23 +644,28 @@ def _cut(p, t, ls, refs, bit: int):
     return q, tt, rr
 
 
-def snapped_levels(prim, k: int, p, t, snap: float) -> np.ndarray:
+def snap_onto(prim, k: int, p, t, snap: float) -> tuple[np.ndarray, np.ndarray]:
     """The level set of surface ``k`` of ``prim`` at the vertices ``p`` for its cut: its
     function ``g``, zero within ``snap`` of the surface (such a vertex counts as on it, and
-    the projection moves it there later), except where that move would crush a tetrahedron:
+    moved there), except where that move would crush a tetrahedron:
     vertices near the face's extent (within :data:`SNAP_REACH` x ``snap / SNAP``) are moved
     onto the surface (one step along the gradient, exact for a plane) and in every
     tetrahedron whose volume falls to :data:`CRUSH` x its own or less (two vertices on a
     line across the surface, one of them an earlier cut's, would meet), the snapped vertex
     farthest from the surface keeps its value, until none does. MMG's cut then splits the
-    edges from that vertex across the surface exactly."""
+    edges from that vertex across the surface exactly. ``(levels, points)``: the points with
+    the snapped vertices near the face's extent moved onto the surface, so that the cuts of
+    the primitive's other surfaces interpolate between points on it (a vertex snapped but
+    left where it was put those cuts' new vertices off the face too, up to 0.0175 on a
+    pocket's walls, which the projection could then not move without crushing
+    tetrahedra)."""
     s = prim.surfaces[k]
     g = s.g(p)
     snapped = np.abs(g) < snap
     ls = np.where(snapped, 0.0, g)
     near = snapped & prim.on_face(k, p, SNAP_REACH * snap / SNAP)
     if not near.any():
-        return ls
+        return ls, p
     grad = s.grad(p[near])
     q = p.copy()
     q[near] = p[near] - (g[near] / np.maximum((grad * grad).sum(axis=1), 1e-300))[:, None] * grad
@@ -683,22 +689,24 @@ def snapped_levels(prim, k: int, p, t, snap: float) -> np.ndarray:
     if kept.any():
         log.debug("cut of surface %d: %d vertices near it not snapped (they would crush a "
                   "tetrahedron)", k, int(kept.sum()))
-    return ls
+    return ls, q
 
 
 def _carve_one(prim, p, t, chord: float):
     """The tetrahedra of ``(p, t)`` cut along the surfaces of one subtracted primitive,
     those inside it dropped (the points not used any more stay). The vertices within
-    :data:`SNAP` x :func:`feature_size` of a surface count as on it (:func:`snapped_levels`)."""
+    :data:`SNAP` x :func:`feature_size` of a surface count as on it and those near its face
+    are moved onto it (:func:`snap_onto`)."""
     snap = SNAP * feature_size(prim, chord)
     refs = np.ones(len(t), dtype=np.int64)
     cut = []
     for k in range(len(prim.surfaces)):
-        ls = snapped_levels(prim, k, p, t, snap)
+        ls, snapped = snap_onto(prim, k, p, t, snap)
         if (ls >= 0).all():  # the mesh is outside this surface: nothing to drop
             return p, t
         if (ls < 0).all():  # the mesh is on the primitive's side of it
             continue
+        p = snapped
         n = len(p)
         p, t, refs = _cut(p, t, ls, refs, k)
         # those left across it outside another of the primitive's surfaces are outside it
@@ -781,12 +789,7 @@ def project_untangled(solid: CarvedSolid, p, t, faces, markers, ok=None):
         # old tetrahedra, the blocked vertices where they were
         q0, t, faces, markers, moved = first
         q = keep_positive(p, q0, t, moved)
-    v = simplex_measures(q, t)
-    if (v <= 0).any():
-        c = q[t[int(np.argmin(v))]].mean(axis=0)
-        raise MeshingError(f"{int((v <= 0).sum())} tetrahedra not of positive volume after "
-                           f"projecting the boundary (e.g. at ({c[0]:.6g}, {c[1]:.6g}, "
-                           f"{c[2]:.6g}))")
+    check_positive(q, t, "after projecting the boundary")
     kept = unique(t)
     remap = np.full(len(p), -1, dtype=np.int64)
     remap[kept] = np.arange(len(kept))

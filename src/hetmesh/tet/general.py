@@ -96,7 +96,7 @@ __all__ = ["generate_solid", "solid_problems", "estimate_solid", "mmg_remesh", "
            "SETTLE", "SETTLE_PASSES", "HAUSD", "carry", "solid_start", "onto_phases",
            "INTERFACE_REF", "with_interfaces", "recorded_interface_problems", "check_jumps",
            "onto_planes", "flip_plain", "collapse_phase_slivers", "finish_plain",
-           "face_keeper"]
+           "face_keeper", "check_positive"]
 
 log = logging.getLogger(__name__)
 
@@ -410,7 +410,7 @@ def _project_safely(solid, points, tets, faces, markers, meeting: bool,
         if left.any():  # planar faces are exact: their coordinates at least, if that fits
             flat = onto_planes(solid, q, faces, markers)
             q = keep_positive(q, flat, tets, left & (flat != q).any(axis=1), rounds)
-        _check_positive(q, tets, "after projecting the boundary vertices")
+        check_positive(q, tets, "after projecting the boundary vertices")
         return q
     floor = MIN_VOLUME * solid.diameter ** 3
     q = points.copy()
@@ -426,7 +426,7 @@ def _project_safely(solid, points, tets, faces, markers, meeting: bool,
         log.info("projection: %d of %d moves not made in full (largest %.3g)",
                  int(back.sum()), int((want != points).any(axis=1).sum()),
                  float(np.linalg.norm(want[back] - q[back], axis=1).max()))
-    _check_positive(q, tets, "after projecting the boundary vertices")
+    check_positive(q, tets, "after projecting the boundary vertices")
     return q
 
 
@@ -703,7 +703,7 @@ def onto_phases(solid: CSGSolid, field, p, t, faces, markers, phase) -> np.ndarr
     curved = np.array([any(solid.faces[fi].surface.curved for fi in fs) for fs in inc],
                       dtype=bool).reshape(-1)
     q = moves_in_part(p, want, t, whole_only=curved)
-    _check_positive(q, t, "after moving the interface vertices onto the jumps")
+    check_positive(q, t, "after moving the interface vertices onto the jumps")
     return q
 
 
@@ -1171,7 +1171,10 @@ def _flip_meeting(p, t, faces, comp, threshold: float):
     return p, t, faces, comp, delta_vertices(comp, t)
 
 
-def _check_positive(p, t, when):
+def check_positive(p, t, when: str) -> None:
+    """Raise :class:`~hetmesh.errors.MeshingError` if a tetrahedron of ``(p, t)`` has no
+    positive volume, naming how many, where the first is and ``when`` (the step that left
+    them, e.g. "after projecting the boundary vertices")."""
     v = simplex_measures(p, t)
     if (v <= 0).any():
         i = int(np.argmin(v))

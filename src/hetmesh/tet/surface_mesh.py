@@ -57,6 +57,7 @@ from .general import (  # JUMP_SNAP, SETTLED: the cut's snap, the interfaces' se
     SETTLED,
     SIZE_ROUNDS,
     centroid_and_delta_problems,
+    check_positive,
     flip_plain,
     mmg_remesh,
     moves_in_part,
@@ -594,12 +595,7 @@ def onto_surface_phases(solid: SurfaceSolid, field, p, t, faces, phase,
     if len(rim):
         want[rim] = onto_rim(solid, field, p[rim], per[rim], tol)
     q = moves_in_part(p, want, t)
-    v = simplex_measures(q, t)
-    if (v <= 0).any():
-        c = q[t[int(np.argmin(v))]].mean(axis=0)
-        raise MeshingError(f"{int((v <= 0).sum())} tetrahedra not of positive volume after "
-                           f"moving the interface vertices onto the jumps (e.g. at "
-                           f"({c[0]:.6g}, {c[1]:.6g}, {c[2]:.6g}))")
+    check_positive(q, t, "after moving the interface vertices onto the jumps")
     return q
 
 
