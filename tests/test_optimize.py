@@ -15,7 +15,7 @@ from hetmesh.material import element_subregions, has_subregions
 from hetmesh.metrics import quality, signed_area2
 from hetmesh.tri import pipeline as adapt
 from hetmesh.tri.discontinuity import embed_discontinuities
-from hetmesh.tri.optimize import DeltaEvaluator, independent_sets, optimize, sweep
+from hetmesh.tri.optimize import KEEP, DeltaEvaluator, independent_sets, optimize, sweep
 from hetmesh.tri.workset import FIXED
 
 
@@ -100,6 +100,59 @@ def test_one_independent_set_never_lowers_a_star_minimum(case, request):
     assert (star1[moved] >= star0[moved]).all()
     assert (q1 > q0).sum() > 0
     assert _delta(ctx, ws.P, tris, "vertices").max() < ctx.threshold
+
+
+@pytest.mark.parametrize("case", ["plate", "ring"])
+def test_mean_rule_keeps_every_triangle_above_the_lower_of_its_quality_and_keep(case, request):
+    """The mean-quality phase's rule on one independent set: a triangle may lose quality,
+    but never below KEEP, and one below KEEP never loses any."""
+    ws0, ctx, tris = request.getfixturevalue(case)
+    ws = copy.deepcopy(ws0)
+    ev = DeltaEvaluator(ctx, "vertices")
+    comp, _, reg = ev.full(ws.P, tris)
+    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    movable = ~ws.pinned & (ws.vcurve != FIXED)
+    one = independent_sets(ws.n, e, movable)[0]
+    active = np.zeros(ws.n, bool)
+    active[one] = True
+    moved = sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=30.0,
+                  steps=(1.0, 0.5, 0.25), grad_steps=(0.1, 0.03), salt=0, keep=KEEP)
+    assert moved.sum() > 0 and not (moved & ~active).any()
+    q0, q1 = quality(ws0.P, tris), quality(ws.P, tris)
+    assert (q1 >= np.minimum(q0, KEEP) - 1e-12).all()
+    assert q1.mean() > q0.mean()
+    assert _delta(ctx, ws.P, tris, "vertices").max() < ctx.threshold
+
+
+@pytest.mark.parametrize("case", ["plate", "ring"])
+def test_mean_rule_pass_after_the_pass_raises_the_mean_and_keeps_the_minimum(case, request):
+    """The pass with the mean rule on the pass's result (as generate() makes it): a larger
+    mean quality, and a minimum no lower than the lower of the one before and KEEP."""
+    ws0, ctx, tris0 = request.getfixturevalue(case)
+    ws = copy.deepcopy(ws0)
+    tris, comp, delta = optimize(ws, ctx, tris0)
+    q1 = quality(ws.P, tris)
+    tris, _, delta = optimize(ws, ctx, tris, comp, delta, keep=KEEP)
+    q2 = quality(ws.P, tris)
+    assert delta.max() < ctx.threshold
+    np.testing.assert_array_equal(delta, _delta(ctx, ws.P, tris, "vertices"))
+    assert q2.mean() > q1.mean()
+    assert q2.min() >= min(q1.min(), KEEP)
+
+
+def test_generate_polishes_the_kept_mesh():
+    """generate() compares the placements as the first pass leaves them, then makes the
+    mean-rule pass on the one it keeps: same elements, a mean quality at least as large."""
+    model = hetmesh.load_model(hetmesh.example_path("power_plate"))
+    r = hetmesh.generate(model, 0.1)
+    check_invariants(r, model, 0.1)
+    kept = r.options["placements"][r.options["method"]]
+    assert r.history[-1]["stage"] == "optimize" and r.history[-1]["rule"] == "mean"
+    assert "optimize_mean" in r.timings
+    assert r.stats.n_elements == kept["elements"]
+    assert r.stats.q_avg > kept["q_avg"]
+    off = hetmesh.generate(model, 0.1, optimize=False)
+    assert all(h.get("rule") != "mean" for h in off.history)
 
 
 def test_independent_sets_cover_and_are_independent(plate):

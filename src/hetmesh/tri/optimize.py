@@ -24,6 +24,14 @@ pass then raises the element quality q(T) (Eq. 17) at the same nodes and element
   (c) the smallest angle at least the floor or its old value, and (d) the star's minimum
   quality no lower than before. (b) is the costly test: it is made only for each node's best
   geometric candidate, then its next best where that fails.
+* **The mean rule** (``keep``; :func:`hetmesh.tri.pipeline.generate` makes one such pass,
+  with :data:`KEEP` = 0.8, on the mesh it keeps). Rule (d) raises the worst triangles, but
+  it also refuses every move that costs a good triangle a little quality for a larger gain
+  of its neighbours, which leaves the mean short of what the same nodes allow. With
+  ``keep`` (d) becomes (d'): no triangle of the star falls below the lower of its old
+  quality and ``keep``. A triangle below ``keep`` then never loses quality and one above it
+  stays above ``keep``, so the mesh's minimum quality after the pass is at least the lower
+  of its value before and ``keep``.
 * **Independent sets.** Nodes move in sets with no two adjacent (Jones-Plassmann colouring
   by a fixed hash of the node id), so the moves of one set never share an element and are
   checked exactly in parallel (Jacobi within a set, Gauss-Seidel over the sets).
@@ -66,6 +74,9 @@ log = logging.getLogger(__name__)
 
 SQRT3_2 = 0.5 * np.sqrt(3.0)
 DELTA_MARGIN = 1e-3  # relative: moves keep delta(T) < (1 - DELTA_MARGIN) delta_0
+#: the mean rule's bound (``optimize(keep=...)``) in :func:`hetmesh.tri.pipeline.generate`'s
+#: last pass: no triangle falls below the lower of its quality and this
+KEEP = 0.8
 
 
 # --------------------------------------------------------------------------- helpers
@@ -213,7 +224,8 @@ class _Star:
 
 
 def sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: DeltaEvaluator, active, *,
-          min_angle_deg, steps, grad_steps, salt, wake=0.0, shifted=None) -> np.ndarray:
+          min_angle_deg, steps, grad_steps, salt, wake=0.0, shifted=None,
+          keep: float | None = None) -> np.ndarray:
     """One Gauss-Seidel sweep of the ``active`` nodes over independent sets; returns the
     mask of the nodes moved with a star mean quality gain above ``wake``. ``shifted``, a
     mask if given, gets every node moved set."""
@@ -262,7 +274,10 @@ def sweep(ws: WorkSet, ctx: Context, tris, comp, reg, ev: DeltaEvaluator, active
         ok &= (cs <= cmax) | (cs <= np.tile(cs0, K))
         q, ok = q.reshape(K, R), ok.reshape(K, R)
         good = valid & np.logical_and.reduceat(ok, st.starts, axis=1)
-        good &= np.minimum.reduceat(q, st.starts, axis=1) >= qmin0
+        if keep is None:  # the star's minimum quality may not fall
+            good &= np.minimum.reduceat(q, st.starts, axis=1) >= qmin0
+        else:  # no triangle may fall below the lower of its quality and keep
+            good &= np.logical_and.reduceat(q >= np.minimum(q0, keep), st.starts, axis=1)
         gain = (np.add.reduceat(q, st.starts, axis=1) - qsum0) / st.cnt
         good &= gain > 0
         best_k = np.full(len(idx), -1)
@@ -509,13 +524,15 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
              sampling: str = "vertices",
              min_angle_deg: float = 30.0, sweeps: int = 4, steps=(1.0, 0.5, 0.25),
              grad_steps=(0.1, 0.03), flips: int = 1, q_active: float = 0.99, wake: float = 1e-3,
-             callback=None):
+             keep: float | None = None, callback=None):
     """Raise the element quality of a repaired mesh, keeping every claim (see the module).
 
     ``ws`` is updated in place (node positions and curve parameters); ``comp`` and
     ``delta``, if given, are the repair loop's (compositions at the nodes, delta(T)).
     Returns ``(triangles, composition, delta)`` of the optimised mesh, as the loop does.
-    ``sweeps`` rounds each of ``flips`` flip rounds and one smoothing sweep.
+    ``sweeps`` rounds each of ``flips`` flip rounds and one smoothing sweep. ``keep`` None:
+    no move lowers a star's minimum quality, (d); a quality: none lowers a triangle below the
+    lower of its quality and ``keep``, (d') (see the module).
     """
     ev = DeltaEvaluator(ctx, sampling)
     ckeys = unique(edge_keys(ws.E[:, 0], ws.E[:, 1]))
@@ -549,7 +566,8 @@ def optimize(ws: WorkSet, ctx: Context, tris: np.ndarray, comp=None, delta=None,
         active = low & near
         shifted = np.zeros(ws.n, bool)
         moved = sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=min_angle_deg,
-                      steps=steps, grad_steps=grad_steps, salt=it, wake=wake, shifted=shifted)
+                      steps=steps, grad_steps=grad_steps, salt=it, wake=wake, shifted=shifted,
+                      keep=keep)
         touched = np.flatnonzero(any_corner(shifted, tris))
         q[touched] = _qa(ws.P[tris[touched]])[0]
         nm = int(moved.sum())
