@@ -463,3 +463,26 @@ def test_pslg_is_immutable_and_many_segments_fast_enough():
     assert len(g.edges) > 3 * n
     with pytest.raises(ValueError):
         g.vertices[0, 0] = 1.0
+
+
+def test_sample_parameters_nearest_rounds_the_count_to_the_nearest():
+    seg = [Segment((0, 0), (1, 0))]
+    assert len(sample_parameters(seg, 0.3)[1]) == 5  # ceil(3.33) = 4 intervals of 0.25
+    assert len(sample_parameters(seg, 0.3, nearest=True)[1]) == 4  # 3 intervals of 0.33
+    grow = lambda p: 0.3 + 0.0 * p[:, 0]  # noqa: E731
+    assert len(sample_parameters(seg, grow, nearest=True)[1]) == 4
+    assert len(sample_parameters(seg, 0.4, nearest=True)[1]) == 4  # 2.5 rounds up
+
+
+@pytest.mark.parametrize("tol", [1e-3, 1.7e-3, 2.3e-3, 3e-3])
+def test_sample_parameters_nearest_keeps_the_chord_tolerance(tol):
+    # the size grows from 0.02 to 0.4 along a half circle: the chord cap (0.09 at 1e-3)
+    # sets the steps on one side; rounding the count down there would stretch them beyond it
+    arc = Arc.from_center((1, 0), (-1, 0), (0, 0))
+    size = lambda p: 0.21 - 0.19 * p[:, 0]  # noqa: E731
+    for s in (size, 0.5):
+        t = sample_parameters([arc], s, tol, nearest=True)[1]
+        theta = np.pi * t
+        sagitta = 1.0 - np.cos(0.5 * np.diff(theta))
+        assert sagitta.max() <= tol
+        assert len(t) <= len(sample_parameters([arc], s, tol)[1])

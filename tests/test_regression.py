@@ -23,7 +23,10 @@ def test_power_plate_counts_and_quality_economy(threshold, elements):
     assert s.angle_min >= 30.0
 
 
-@pytest.mark.parametrize("threshold, elements, q_avg", [(0.1, 532, 0.965), (0.05, 1854, 0.977),
+# at 0.1 the auto comparison keeps the springs-dense start since the springs starts' curves
+# follow their relaxed interior (626 elements of q_avg 0.985; before, the springs start's
+# 569 of 0.980)
+@pytest.mark.parametrize("threshold, elements, q_avg", [(0.1, 600, 0.965), (0.05, 1854, 0.977),
                                                         (0.03, 5049, 0.984)])
 def test_power_plate_counts_and_quality_default(threshold, elements, q_avg):
     """The default row spacing (0.85 delta_0) buys element quality with elements: q_avg at

@@ -577,13 +577,17 @@ def _check_count(n: np.ndarray) -> None:
 
 
 def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
-                      chord_tol: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      chord_tol: float | None = None, *,
+                      nearest: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Parameters of points spaced by the local target edge length along many curves.
 
     The count of intervals on a curve is ``ceil(∫ 1/h ds)`` (at least one; for arcs at least
     one per 90 degrees and three for a full circle), with ``h = min(size, max_step)`` where
-    ``max_step`` keeps the sagitta of an arc's chords below ``chord_tol``. Points sit at equal
-    increments of that integral, computed on a fine sub-sampling (at least 4 per interval).
+    ``max_step`` keeps the sagitta of an arc's chords below ``chord_tol``; with ``nearest``
+    the integral is rounded to the nearest count instead (the mean interval then follows
+    ``size`` on short curves too, where rounding up shortens it by up to a half interval),
+    but never so low that a step exceeds ``max_step``. Points sit at equal increments of that
+    integral, computed on a fine sub-sampling (at least 4 per interval).
 
     Parameters
     ----------
@@ -620,8 +624,7 @@ def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
         h = float(size)
         if not h > 0:
             raise GeometryError(f"size must be positive, got {size!r}")
-        x = L / np.minimum(h, cap)
-        n = np.maximum(nmin, np.ceil(x * (1 - 1e-12))).astype(np.int64)
+        n = _count(L / np.minimum(h, cap), nmin, L / cap, nearest)
         _check_count(n)
         offsets = np.r_[0, np.cumsum(n + 1)]
         idx = np.repeat(np.arange(C), n + 1)
@@ -635,7 +638,11 @@ def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
         w = np.where(same, 0.5 * (inv[1:] + inv[:-1]) * (L / m)[idx[:-1]], 0.0)
         F = np.r_[0.0, np.cumsum(w)]
         total = F[first + m] - F[first]
-        n = np.maximum(nmin, np.ceil(total * (1 - 1e-12))).astype(np.int64)
+        # the chord cap's share of the local step (0 where it never binds): the count
+        # rounded to the nearest stretches every step by total / n, which must keep the
+        # steps that the cap sets within it
+        chords = total * np.maximum.reduceat(1.0 / (inv * cap[idx]), first) if nearest else 0
+        n = _count(total, nmin, chords, nearest)
         _check_count(n)
         if np.all(m >= 4 * n):
             break
@@ -654,6 +661,21 @@ def sample_parameters(curves: Sequence[Curve] | CurveBatch, size: SizeLike,
     out[offsets[:-1]] = 0.0
     out[offsets[1:] - 1] = 1.0
     return offsets, np.clip(out, 0.0, 1.0)
+
+
+#: with ``nearest``, the steps that the chord cap sets stay this much below it
+CHORD_SPARE = 1.01
+
+
+def _count(total: np.ndarray, nmin: np.ndarray, chords, nearest: bool) -> np.ndarray:
+    """Intervals per curve for the integral ``total`` of 1/h: rounded up, or with
+    ``nearest`` to the nearest count but at least ``chords`` (the count whose steps keep
+    the chord tolerance, with 1 % to spare; never above the count rounded up); and at least
+    ``nmin``."""
+    up = np.ceil(total * (1 - 1e-12))
+    if nearest:
+        up = np.minimum(up, np.maximum(np.floor(total + 0.5), np.ceil(CHORD_SPARE * chords)))
+    return np.maximum(nmin, up).astype(np.int64)
 
 
 def _ragged(m: np.ndarray):

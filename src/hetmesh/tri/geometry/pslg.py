@@ -77,7 +77,8 @@ class PSLG:
         return np.r_[e[:, 0], e[-1:, 1]]
 
 
-def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -> PSLG:
+def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None, *,
+               nearest: bool = False) -> PSLG:
     """Sample every curve of ``domain`` into a PSLG.
 
     Parameters
@@ -88,6 +89,9 @@ def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -
         Target edge length along the curves (see :func:`.curves.sample_parameters`).
     chord_tol : float, optional
         Largest distance between an arc and its chords; ``1e-3 * diameter`` by default.
+    nearest : bool
+        Round each curve's interval count to the nearest, not up
+        (:func:`.curves.sample_parameters`).
 
     Returns
     -------
@@ -95,7 +99,7 @@ def build_pslg(domain: Domain, size: SizeLike, chord_tol: float | None = None) -
     """
     if chord_tol is None:
         chord_tol = 1e-3 * domain.diameter
-    offsets, t = sample_parameters(domain.curve_batch, size, chord_tol)
+    offsets, t = sample_parameters(domain.curve_batch, size, chord_tol, nearest=nearest)
     return pslg_from_parameters(domain, offsets, t)
 
 
