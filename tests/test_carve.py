@@ -368,7 +368,9 @@ def test_snap_spares_a_vertex_that_would_meet_another():
     """Two vertices on a line across a plane, both within the snap distance of it (one an
     earlier cut's): snapping both would move them onto one point, so the farther keeps its
     value; a vertex alone near the plane is snapped; a vertex off the face's extent is
-    snapped whatever it crushes (it is never moved)."""
+    snapped whatever it crushes (it is never moved). The snapped vertices near the face's
+    extent are moved onto the plane (so the cuts of the box's other planes interpolate
+    between points on it), the others stay where they were."""
     from hetmesh.tet.carve import snap_onto
     from hetmesh.tet.implicit import Box
     prim = Box((-1.0, -1.0, 1.0), (1.0, 1.0, 3.0), ("a", "b", "c", "d", "e", "f"))
@@ -380,12 +382,15 @@ def test_snap_spares_a_vertex_that_would_meet_another():
     a, b, c, d = (p[t[:, i]] for i in range(4))
     neg = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)) < 0
     t[neg] = t[neg][:, [1, 0, 2, 3]]
-    ls = snap_onto(prim, k, p, t, 0.05)[0]
+    ls, q = snap_onto(prim, k, p, t, 0.05)
     g = prim.surfaces[k].g(p)
     assert ls[0] == 0.0 and ls[1] == g[1] != 0.0  # the nearer snapped, the farther kept
     assert ls[6] == 0.0 and ls[5] == g[5] and ls[2] == g[2]
+    assert (q[[0, 6], 2] == 1.0).all() and (q[[0, 6], :2] == p[[0, 6], :2]).all()
+    assert (q[[1, 2, 3, 4, 5]] == p[[1, 2, 3, 4, 5]]).all()
     far = Box((5.0, 5.0, 1.0), (6.0, 6.0, 3.0), ("a", "b", "c", "d", "e", "f"))
-    assert (snap_onto(far, k, p, t, 0.05)[0][[0, 1, 6]] == 0).all()
+    ls, q = snap_onto(far, k, p, t, 0.05)
+    assert (ls[[0, 1, 6]] == 0).all() and (q == p).all()
 
 
 def test_tetrahedra_left_across_a_plane_are_split_along_it():
@@ -544,30 +549,6 @@ def test_a_collapse_keeps_curved_triangles_within_the_chord(tmp_path):
     flat = np.array([[0.1, 0.1, 0.0], [0.3, 0.1, 0.0], [0.1, 0.3, 0.0]])
     assert face_keeper(solid, flat, chord)(f, np.array([bottom]))
     assert not face_keeper(solid, flat + [0, 0, 1e-3], chord)(f, np.array([bottom]))
-
-
-def test_snapped_vertices_near_the_face_are_moved_onto_it():
-    """``snap_onto`` (the levels and the points of a cut): of the vertices of
-    ``test_snap_spares_a_vertex_that_would_meet_another``, those snapped near the face's
-    extent are on the plane afterwards (so the cuts of the box's other planes interpolate
-    between points on it), the one kept from crushing a tetrahedron and those farther away
-    are where they were; off the face's extent nothing moves."""
-    from hetmesh.tet.carve import snap_onto
-    from hetmesh.tet.implicit import Box
-    prim = Box((-1.0, -1.0, 1.0), (1.0, 1.0, 3.0), ("a", "b", "c", "d", "e", "f"))
-    p = np.array([[0.0, 0.0, 0.99], [0.0, 0.0, 0.97], [1.0, 0.0, 0.5], [0.0, 1.0, 0.5],
-                  [-1.0, -1.0, 0.5], [0.5, 0.5, 1.5], [0.3, 0.0, 0.995]])
-    t = np.array([[0, 1, 2, 3], [0, 2, 3, 5]])
-    a, b, c, d = (p[t[:, i]] for i in range(4))
-    neg = np.linalg.det(np.stack([b - a, c - a, d - a], axis=1)) < 0
-    t[neg] = t[neg][:, [1, 0, 2, 3]]
-    ls, q = snap_onto(prim, 4, p, t, 0.05)
-    assert (ls[[0, 6]] == 0).all() and (q[[0, 6], 2] == 1.0).all()
-    assert (q[[0, 6], :2] == p[[0, 6], :2]).all()
-    assert (q[[1, 2, 3, 4, 5]] == p[[1, 2, 3, 4, 5]]).all()
-    far = Box((5.0, 5.0, 1.0), (6.0, 6.0, 3.0), ("a", "b", "c", "d", "e", "f"))
-    ls, q = snap_onto(far, 4, p, t, 0.05)
-    assert (ls[[0, 1, 6]] == 0).all() and (q == p).all()
 
 
 def test_the_carved_start_has_every_boundary_vertex_on_its_face(tmp_path):

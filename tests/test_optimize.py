@@ -76,10 +76,9 @@ def test_curve_nodes_stay_on_their_curves_and_fixed_nodes_stay(ring):
     np.testing.assert_array_equal(ws.E, ws0.E)
 
 
-@pytest.mark.parametrize("case", ["plate", "ring"])
-def test_one_independent_set_never_lowers_a_star_minimum(case, request):
-    """Within one independent set every node's star changes by its own move only: each
-    moved node's star minimum quality (and every star element's delta) is checked."""
+def _one_set_sweep(case, request, keep=None):
+    """One smoothing sweep of the first independent set of the fixture ``case``'s mesh
+    (``keep``: the mean rule's bound): ``(ws before, ws after, ctx, tris, active, moved)``."""
     ws0, ctx, tris = request.getfixturevalue(case)
     ws = copy.deepcopy(ws0)
     ev = DeltaEvaluator(ctx, "vertices")
@@ -90,7 +89,15 @@ def test_one_independent_set_never_lowers_a_star_minimum(case, request):
     active = np.zeros(ws.n, bool)
     active[one] = True
     moved = sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=30.0,
-                  steps=(1.0, 0.5, 0.25), grad_steps=(0.1, 0.03), salt=0)
+                  steps=(1.0, 0.5, 0.25), grad_steps=(0.1, 0.03), salt=0, keep=keep)
+    return ws0, ws, ctx, tris, active, moved
+
+
+@pytest.mark.parametrize("case", ["plate", "ring"])
+def test_one_independent_set_never_lowers_a_star_minimum(case, request):
+    """Within one independent set every node's star changes by its own move only: each
+    moved node's star minimum quality (and every star element's delta) is checked."""
+    ws0, ws, ctx, tris, active, moved = _one_set_sweep(case, request)
     assert moved.sum() > 0 and not (moved & ~active).any()
     q0, q1 = quality(ws0.P, tris), quality(ws.P, tris)
     star0 = np.ones(ws.n)
@@ -106,17 +113,7 @@ def test_one_independent_set_never_lowers_a_star_minimum(case, request):
 def test_mean_rule_keeps_every_triangle_above_the_lower_of_its_quality_and_keep(case, request):
     """The mean-quality phase's rule on one independent set: a triangle may lose quality,
     but never below KEEP, and one below KEEP never loses any."""
-    ws0, ctx, tris = request.getfixturevalue(case)
-    ws = copy.deepcopy(ws0)
-    ev = DeltaEvaluator(ctx, "vertices")
-    comp, _, reg = ev.full(ws.P, tris)
-    e = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
-    movable = ~ws.pinned & (ws.vcurve != FIXED)
-    one = independent_sets(ws.n, e, movable)[0]
-    active = np.zeros(ws.n, bool)
-    active[one] = True
-    moved = sweep(ws, ctx, tris, comp, reg, ev, active, min_angle_deg=30.0,
-                  steps=(1.0, 0.5, 0.25), grad_steps=(0.1, 0.03), salt=0, keep=KEEP)
+    ws0, ws, ctx, tris, active, moved = _one_set_sweep(case, request, keep=KEEP)
     assert moved.sum() > 0 and not (moved & ~active).any()
     q0, q1 = quality(ws0.P, tris), quality(ws.P, tris)
     assert (q1 >= np.minimum(q0, KEEP) - 1e-12).all()
