@@ -538,17 +538,24 @@ def face_keeper(solid, p, chord: float):
     within ``chord`` of its surface at the sample points :data:`BARY`, on a plane exactly,
     and the edges between meeting faces (:func:`edge_problems`). ``solid`` a
     :class:`CSGSolid` or another solid with ``faces`` and ``diameter`` (a carved one)."""
-    exact = 1e-9 * solid.diameter
-
     def keeps(f, m) -> bool:
-        for fi in unique(m).tolist():
-            surf = solid.faces[fi].surface
-            at = np.einsum("bk,nkd->nbd", BARY, p[f[m == fi]]).reshape(-1, 3)
-            if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved else exact):
-                return False
-        return not edge_problems(p, f, m, solid, chord)
+        return _on_their_faces(solid, p, f, m, chord) and not edge_problems(p, f, m, solid,
+                                                                             chord)
 
     return keeps
+
+
+def _on_their_faces(solid, p, f, m, chord: float) -> bool:
+    """Whether the triangles ``f`` lie on the faces ``m`` (indices into ``solid.faces``):
+    a curved one within ``chord`` of its surface at the sample points :data:`BARY`, a
+    plane within the rounding (1e-9 x the diameter)."""
+    exact = 1e-9 * solid.diameter
+    for fi in unique(m).tolist():
+        surf = solid.faces[fi].surface
+        at = np.einsum("bk,nkd->nbd", BARY, p[f[m == fi]]).reshape(-1, 3)
+        if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved else exact):
+            return False
+    return True
 
 
 def _boundary(solid, p, t, tol):
@@ -1127,17 +1134,13 @@ def collapse_phase_slivers(solid: CSGSolid, field, p, t, faces, markers, phase,
     inter, sides = interface_faces(np.asarray(t, dtype=np.int64), np.asarray(phase))
     allf = np.concatenate([faces, inter]).astype(np.int64)
     allm = np.r_[markers, nb + (sides[:, 0] ^ sides[:, 1])].astype(np.int64)
-    exact = 1e-9 * solid.diameter
 
     def keeps(f, m) -> bool:
-        for fi in unique(m).tolist():
+        bnd = m < nb
+        if not _on_their_faces(solid, p, f[bnd], m[bnd], chord):
+            return False
+        for fi in unique(m[~bnd]).tolist():
             at = np.einsum("bk,nkd->nbd", BARY, p[f[m == fi]]).reshape(-1, 3)
-            if fi < nb:
-                surf = solid.faces[fi].surface
-                if float(np.abs(surf.g(at)).max(initial=0.0)) > (chord if surf.curved
-                                                                  else exact):
-                    return False
-                continue
             for i in range(len(field.conditions)):
                 if (fi - nb) >> i & 1 and \
                         float(JumpSurface(field, i).distance(at).max()) > chord:

@@ -248,7 +248,6 @@ def _mesh_with(method: str, ctx: Context, frame, threshold: float, chord_tol: fl
     return mesh, stats, (ws, tris, comp, delta)
 
 
-
 def _polish(state, ctx: Context, frame, threshold: float, history: list, timings: dict, *,
             min_angle: float, sampling: str):
     """The optimisation pass with the mean rule (:data:`~hetmesh.tri.optimize.KEEP`) on the
