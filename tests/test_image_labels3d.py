@@ -112,16 +112,6 @@ def check_phases(r, lab, field, threshold, solid_labels):
         assert np.allclose(comp[reg == ph][..., 1], value)
 
 
-@pytest.mark.slow  # 44 s: the default suite stays under 10 minutes
-def test_label_volume_phases_are_embedded(tmp_path):
-    m = load_model(write(tmp_path))
-    assert m.solid.phases == (1, 2, 3) and m.material.dim == 3
-    assert m.material.region_names == ["label 1", "ball", "label 3"]
-    r = mesh_model(m, 0.15)
-    check_phases(r, labels(), m.material, 0.15, m.solid.phases)
-    assert len(set(r.info["regions"].tolist())) == 3
-
-
 @pytest.mark.slow  # 48 s: the default suite stays under 10 minutes
 def test_label_volume_extent_and_cli(tmp_path):
     from hetmesh.io.read import read_mesh
@@ -140,29 +130,18 @@ def test_label_volume_extent_and_cli(tmp_path):
     assert d.max() < 0.3
 
 
-@pytest.mark.slow  # 10-28 s: the default step stays under 10 minutes
-def test_example_phase_volume(tmp_path):
-    from hetmesh.material.image import write_examples
-
-    models = write_examples(tmp_path, shape=(32, 64), volume=8, masked=8, phases=16)
-    m = load_model(models["phase_volume"])
-    assert m.solid.phases == (1, 2, 3)
-    assert m.material.region_names == ["matrix", "inclusion", "fibre"]
-    r = mesh_model(m, 0.3)
-    assert r.delta.max() < 0.3 and r.mesh.problems() == []
-    assert len(set(r.info["regions"].tolist())) == 3
-
-
-
 @pytest.mark.slow
-def test_label_volume_meets_the_angle_targets(tmp_path):
-    """Three phases meeting along lines (the ball, the slab, the matrix, the notch): the
-    smallest dihedral angle >= 10 degrees and its 1st percentile >= 20. (The mean radius
-    ratio of this small volume, most of whose tetrahedra touch an interface, is about 0.72;
-    the example below reaches 0.75.)"""
+def test_label_volume_phases_are_embedded_and_meet_the_angle_targets(tmp_path):
+    """Three phases meeting along lines (the ball, the slab, the matrix, the notch), each
+    embedded with its own composition; the smallest dihedral angle >= 10 degrees and its
+    1st percentile >= 20. (The mean radius ratio of this small volume, most of whose
+    tetrahedra touch an interface, is about 0.72; the example below reaches 0.75.)"""
     m = load_model(write(tmp_path))
+    assert m.solid.phases == (1, 2, 3) and m.material.dim == 3
+    assert m.material.region_names == ["label 1", "ball", "label 3"]
     r = mesh_model(m, 0.3)
     assert r.mesh.problems() == [] and r.delta.max() < 0.3
+    check_phases(r, labels(), m.material, 0.3, m.solid.phases)
     assert len(set(r.info["regions"].tolist())) == 3
     dmin, _ = tet_quality(r.points, r.tets.astype(np.int64))
     assert dmin.min() >= 10.0, dmin.min()
@@ -171,14 +150,17 @@ def test_label_volume_meets_the_angle_targets(tmp_path):
 
 @pytest.mark.slow
 def test_example_phase_volume_meets_the_quality_targets(tmp_path):
-    """The example label volume (32^3 voxels): smallest dihedral angle >= 10 degrees, its
-    1st percentile >= 20, mean radius ratio >= 0.75."""
+    """The example label volume (32^3 voxels): its three named phases embedded; smallest
+    dihedral angle >= 10 degrees, its 1st percentile >= 20, mean radius ratio >= 0.75."""
     from hetmesh.material.image import write_examples
 
     models = write_examples(tmp_path, shape=(32, 64), volume=8, masked=8, phases=32)
     m = load_model(models["phase_volume"])
+    assert m.solid.phases == (1, 2, 3)
+    assert m.material.region_names == ["matrix", "inclusion", "fibre"]
     r = mesh_model(m, 0.3)
     assert r.delta.max() < 0.3 and r.mesh.problems() == []
+    assert len(set(r.info["regions"].tolist())) == 3
     dmin, rr = tet_quality(r.points, r.tets.astype(np.int64))
     assert dmin.min() >= 10.0, dmin.min()
     assert np.percentile(dmin, 1.0) >= 20.0, np.percentile(dmin, 1.0)

@@ -157,8 +157,8 @@ def test_verification_rejects_a_chord_beyond_the_tolerance(disc, monkeypatch):
         return tris, comp, delta
 
     monkeypatch.setattr(A, "optimize_mesh", slide)
-    with pytest.raises(VerificationError) as err:
-        hetmesh.generate(disc, 0.05)
+    with pytest.raises(VerificationError) as err:  # one placement, then the CVT fallback
+        hetmesh.generate(disc, 0.05, method="layers")
     assert isinstance(err.value, MeshingError) and err.value.internal
     msg = str(err.value)
     assert "hole[0][0]: 1 of" in msg and "chords stray up to" in msg
