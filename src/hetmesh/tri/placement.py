@@ -10,7 +10,9 @@ Three placements, by ``method`` name (:data:`PLACEMENTS`):
   equilateral elements, for the best mean quality where the element count allows;
   ``"springs-dense"`` the same from 1.5 x;
 * ``"layers"`` -- rows of nodes on the composition's level curves
-  (:mod:`hetmesh.tri.layers`).
+  (:mod:`hetmesh.tri.layers`); ``"layers-crossings"`` the same with a curve node at every
+  crossing of a level with a curve, also where the rows meet the curve square (the 3D
+  sweeps' sections, :data:`hetmesh.tri.pipeline.SWEEP_STARTS`).
 """
 
 from __future__ import annotations
@@ -120,6 +122,7 @@ def place_springs(ctx: Context, rng, chord_tol: float, progress=None,
 
 #: node placements of MOR, by ``method`` name
 PLACEMENTS = {"cvt": place_cvt, "layers": place_layers,
+              "layers-crossings": functools.partial(place_layers, mid_levels=False),
               "cvt-dense": functools.partial(place_cvt, start=DENSE_START),
               "springs": place_springs,
               "springs-dense": functools.partial(place_springs, start=SPRING_DENSE_START)}

@@ -25,7 +25,8 @@ The stages, one module each, in the order :func:`place_layers` runs them:
 - :mod:`.levels` -- level selection: the row levels of every piece, counted from an anchor;
 - :mod:`.paths` -- gradient paths (steepest ascent and descent) from just inside the curves;
 - :mod:`.grading` -- intermediate levels in bands much higher than their neighbours;
-- :mod:`.crossings` -- where the levels cross the curves, and the curve nodes between them;
+- :mod:`.crossings` -- where the levels cross the curves, and the curve nodes between them
+  (half-way between the levels where the rows meet a curve square);
 - :mod:`.rows` -- all the row nodes: rows from the crossings, then from gradient-line seeds;
 - :mod:`.tracing` -- one level curve followed node by node (predictor-corrector);
 - :mod:`.respacing` -- the nodes of a row spaced evenly, in phase with its neighbours;

@@ -1,8 +1,10 @@
 """Where the levels cross the curves, and the curve nodes between the crossings.
 
-Every row that meets a curve ends on a node of it: the crossings are pinned curve nodes
+Every row that meets a curve ends at a node of it: the crossings are pinned curve nodes
 (:func:`curve_crossings`), and the curve is divided between them at the local row step
 (:func:`curve_params`), so the triangles along a curve are as high as the band next to it.
+Where the rows meet a curve square, one band after the other, the curve nodes lie half-way
+between the levels instead (:func:`wall_pins`).
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...topology import unique
 from ..geometry import pslg_from_parameters
 from ..workset import Context, WorkSet, workset_from_pslg
 from .curves import side_points
@@ -137,3 +140,103 @@ def pslg_workset(ctx: Context, nodes: list[CurveNodes]) -> WorkSet:
     offsets = np.r_[0, np.cumsum([len(x) for x in ts])]
     pslg = pslg_from_parameters(ctx.domain, offsets, np.concatenate(ts))
     return workset_from_pslg(pslg, [n.pinned for n in nodes])
+
+
+#: a crossing is square to its curve where the curve's tangent and the gradient of f (the
+#: normal of the level) are within this cosine of each other (about 10 degrees)
+SQUARE_COS = 0.985
+
+
+def curve_points(ctx: Context, curve: np.ndarray, t: np.ndarray, ev: np.ndarray
+                 ) -> np.ndarray:
+    """The points at parameters ``t`` of curves ``curve``: on the curve (``ev`` 0) or just
+    off it (+1 / -1, :func:`~.curves.side_points`), one call per curve and side."""
+    x = np.empty((len(t), 2))
+    for k in unique(curve):
+        for e in unique(ev[curve == k]):
+            m = np.flatnonzero((curve == k) & (ev == e))
+            x[m] = side_points(ctx, int(k), t[m], int(e))
+    return x
+
+
+def curve_tangents(ctx: Context, curve: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The unit tangents at parameters ``t`` of curves ``curve``."""
+    tg = np.empty((len(t), 2))
+    for k in unique(curve):
+        m = np.flatnonzero(curve == k)
+        tg[m] = ctx.curves[k].tangent(t[m])
+    return tg
+
+
+def wall_pins(ctx: Context, levels: Levels, cross: Crossings) -> tuple[np.ndarray, np.ndarray]:
+    """The pinned curve nodes, ``(curve, t)``: the crossings, except where the rows meet a
+    curve square (within :data:`SQUARE_COS`) one band after the other; there the curve
+    nodes lie half-way between the levels.
+
+    Why: rows of alternate phases (:func:`~.respacing.start_phase`) end a full and a half
+    spacing from a curve that they meet at a right angle. With a node at every crossing,
+    the triangle on each curve edge has its two curve nodes on adjacent levels and its apex
+    on one of them: a right triangle, q <= 0.83 (about 0.78 after smoothing: unit_square's
+    side walls). With curve nodes half-way between the levels, the curve edge spans one band
+    from mid-level to mid-level and the triangle on it has its apex on the level between:
+    near-equilateral, the rows' ends staying where they are.
+
+    A gap between two consecutive crossings of one curve side, of adjacent levels of one
+    piece, or between a curve's end and a crossing a full band (within 10 %) from it in f,
+    is *square* when the curve is square to the levels at both (within :data:`SQUARE_COS`)
+    and the gap is one curve interval (shorter than 1.15 local row steps, as
+    :func:`curve_params` divides it). A crossing whose gaps on both sides are square is
+    dropped, and every square gap next to a dropped crossing gets a node at the mean of the
+    f of its two ends (bisection on t). Runs of one square gap between two crossings are
+    left as they are (a node in the middle would halve the band on the curve); curve ends
+    stay nodes. Returns the crossings unchanged where no gap is square (bit-identical
+    meshes)."""
+    if len(cross) == 0:
+        return cross.curve, cross.t
+    # the crossings, and both ends of every curve side they lie on (f there as their level)
+    grp = unique(np.column_stack([cross.curve, cross.side]), axis=0)
+    ge = np.repeat(grp, 2, axis=0)
+    te = np.tile([0.0, 1.0], len(grp))
+    eve = np.where(ctx.boundary_curve[ge[:, 0]], 0, ge[:, 1])
+    fe = ctx.f(curve_points(ctx, ge[:, 0], te, eve))
+    o = np.lexsort((np.r_[cross.t, te], np.r_[cross.side, ge[:, 1]],
+                    np.r_[cross.curve, ge[:, 0]]))
+    nc = len(cross)
+    end = o >= nc
+    c, side = np.r_[cross.curve, ge[:, 0]][o], np.r_[cross.side, ge[:, 1]][o]
+    t, lv = np.r_[cross.t, te][o], np.r_[cross.level, fe][o]
+    pc = np.r_[cross.piece, np.full(len(te), -1)][o]
+    dp = np.r_[cross.dprime, np.full(len(te), np.inf)][o]
+    ix = np.where(end, -10, levels.index(np.maximum(pc, 0), lv))
+    ev = np.where(ctx.boundary_curve[c], 0, side)
+    g = ctx.grad_f(curve_points(ctx, c, t, ev))
+    gn = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+    square = np.abs((gn * curve_tangents(ctx, c, t)).sum(1)) > SQUARE_COS
+    # consecutive crossings of adjacent levels, or a curve end a full band from a crossing
+    step_f = np.minimum(dp[1:], dp[:-1])
+    df = np.abs(lv[1:] - lv[:-1])
+    adjacent = np.where(end[1:] | end[:-1], np.abs(df - step_f) < 0.1 * step_f,
+                        (np.abs(ix[1:] - ix[:-1]) == 1) & (pc[1:] == pc[:-1]))
+    a = np.flatnonzero((c[1:] == c[:-1]) & (side[1:] == side[:-1]) & ~(end[1:] & end[:-1])
+                       & adjacent & square[1:] & square[:-1])
+    if len(a):
+        length = np.array([ctx.curves[k].length for k in c[a]])
+        mid = curve_points(ctx, c[a], 0.5 * (t[a] + t[a + 1]), ev[a])
+        step = row_step_at(ctx, mid, step_f[a])
+        a = a[(t[a + 1] - t[a]) * length < 1.15 * step]
+    gaps = np.bincount(a, minlength=len(c)) + np.bincount(a + 1, minlength=len(c))
+    drop = (gaps == 2) & ~end
+    a = a[drop[a] | drop[a + 1]]
+    if len(a) == 0:
+        return cross.curve, cross.t
+    keep = ~drop & ~end
+    # the mid-levels: bisection on t, all gaps at once
+    target = 0.5 * (lv[a] + lv[a + 1])
+    lo, hi = t[a].copy(), t[a + 1].copy()
+    flo = lv[a] - target
+    for _ in range(40):
+        m = 0.5 * (lo + hi)
+        fm = ctx.f(curve_points(ctx, c[a], m, ev[a])) - target
+        left = np.sign(fm) == np.sign(flo)
+        lo, hi = np.where(left, m, lo), np.where(left, hi, m)
+    return np.concatenate([c[keep], c[a]]), np.concatenate([t[keep], 0.5 * (lo + hi)])
