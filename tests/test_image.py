@@ -683,12 +683,14 @@ map = { linear = [0, 1], constituent = "b" }
 
 
 def stripe_image() -> np.ndarray:
-    """50 x 400 pixels of 0.01: a ramp in y (0.3 to 0.6) and, on column 202, a stripe one
-    pixel wide, 0.08 higher: narrower than the vertex spacing, and between the points of the
-    mesher's 160-cell background grid (x = 200.75 and 203.25 in pixel units)."""
+    """50 x 400 pixels of 0.01: a ramp in y (0.3 to 0.6) and, on columns 52, 102, ..., 352,
+    stripes one pixel wide, 0.08 higher: narrower than the vertex spacing, and between the
+    points of the mesher's 160-cell background grid (x = 200.75 and 203.25 in pixel units
+    around column 202). Seven of them, so that wherever the vertices fall some stripe lies
+    between them (a vertex in a stripe makes the repair refine around it)."""
     j, _ = np.mgrid[0:50, 0:400]
     a = 0.3 + 0.3 * (j + 0.5) / 50
-    a[:, 202] += 0.08
+    a[:, 52:400:50] += 0.08
     return a
 
 
@@ -739,7 +741,7 @@ def test_pixel_sampling_sees_a_stripe_vertices_miss(stripe):
         if sampling == "pixels":  # the mesh's delta covers the pixels and the vertices
             assert (r.mesh.cell_data["delta"] >= seen[sampling] - 1e-12).all()
             assert r.options["sampling"] == "pixels"
-    assert seen["vertices"].max() >= 0.1  # an element straddles the stripe unseen
+    assert seen["vertices"].max() >= 0.1  # an element straddles a stripe unseen
     assert seen["pixels"].max() < 0.1
 
 
