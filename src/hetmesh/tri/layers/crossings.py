@@ -72,19 +72,26 @@ def curve_crossings(ctx: Context, pieces: Pieces, levels: Levels, dprime: float)
                 continue
             seg, kk = crossed_levels(i, idx[i], idx[i + 1])
             level = levels.value[kk]
-            a, b = ts[seg], ts[seg + 1]
-            fa = f[seg] - level
-            for _ in range(40):  # bisection on t, vectorised
-                m = 0.5 * (a + b)
-                fm = ctx.f(side_points(ctx, k, m, ev)) - level
-                left = np.sign(fm) == np.sign(fa)
-                a = np.where(left, m, a)
-                fa = np.where(left, fm, fa)
-                b = np.where(left, b, m)
-            parts.append(Crossings(curve=np.full(len(a), k), t=0.5 * (a + b), level=level,
-                                   side=np.full(len(a), side), piece=pc[seg],
+            t = bisect_on_t(lambda m, k=k, ev=ev, level=level:
+                            ctx.f(side_points(ctx, k, m, ev)) - level,
+                            ts[seg], ts[seg + 1], f[seg] - level)
+            parts.append(Crossings(curve=np.full(len(t), k), t=t, level=level,
+                                   side=np.full(len(t), side), piece=pc[seg],
                                    dprime=levels.dprime[kk]))
     return Crossings.concat(parts) if parts else Crossings.empty()
+
+
+def bisect_on_t(g, a: np.ndarray, b: np.ndarray, ga: np.ndarray, steps: int = 40
+                ) -> np.ndarray:
+    """Roots of ``g`` (vectorised, ``t -> values``) in the brackets ``[a, b]``, ``ga`` its
+    values at ``a`` (of the other sign than at ``b``): ``steps`` bisections, the mid-points
+    of the last brackets."""
+    for _ in range(steps):
+        m = 0.5 * (a + b)
+        gm = g(m)
+        left = np.sign(gm) == np.sign(ga)
+        a, ga, b = np.where(left, m, a), np.where(left, gm, ga), np.where(left, b, m)
+    return 0.5 * (a + b)
 
 
 @dataclass(frozen=True)
@@ -230,13 +237,8 @@ def wall_pins(ctx: Context, levels: Levels, cross: Crossings) -> tuple[np.ndarra
     if len(a) == 0:
         return cross.curve, cross.t
     keep = ~drop & ~end
-    # the mid-levels: bisection on t, all gaps at once
+    # the mid-levels, all gaps at once
     target = 0.5 * (lv[a] + lv[a + 1])
-    lo, hi = t[a].copy(), t[a + 1].copy()
-    flo = lv[a] - target
-    for _ in range(40):
-        m = 0.5 * (lo + hi)
-        fm = ctx.f(curve_points(ctx, c[a], m, ev[a])) - target
-        left = np.sign(fm) == np.sign(flo)
-        lo, hi = np.where(left, m, lo), np.where(left, hi, m)
-    return np.concatenate([c[keep], c[a]]), np.concatenate([t[keep], 0.5 * (lo + hi)])
+    mid_t = bisect_on_t(lambda m: ctx.f(curve_points(ctx, c[a], m, ev[a])) - target,
+                        t[a], t[a + 1], lv[a] - target)
+    return np.concatenate([c[keep], c[a]]), np.concatenate([t[keep], mid_t])
