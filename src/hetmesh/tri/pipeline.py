@@ -147,11 +147,12 @@ SWEEP_STARTS = ("layers-crossings", "cvt", "cvt-dense")
 def candidates(method: str, ctx: Context, est: float,
                starts: tuple[str, ...] | None = None) -> list[str]:
     """The placements to try, in order. ``"auto"`` tries ``starts`` (default
-    :data:`AUTO_STARTS`: the layers and the springs placements from 1.3 and from 1.5 x the
-    density's node count) on small models, and on models of more than two constituents
-    always: their rows follow one constituent's level curves (:func:`row_constituent`),
-    which bound the others' variation only where they share level curves, and the
-    isotropic starts may be the better ones; on large models the first alone."""
+    :data:`AUTO_STARTS`: the layers and the springs placements, from 1.3 x the density's
+    node count where the material sets the size and from 1.5 x everywhere) on small
+    models, and on models of more than two constituents always: their rows follow one
+    constituent's level curves (:func:`row_constituent`), which bound the others'
+    variation only where they share level curves, and the isotropic starts may be the
+    better ones; on large models the first alone."""
     if method == "auto":
         every = list(AUTO_STARTS if starts is None else starts)
         many = len(ctx.field.constituents) > 2
@@ -301,8 +302,9 @@ def generate(model, threshold: float, *, min_angle: float = 30.0, max_size: floa
         (isotropically sized nodes relaxed as a truss of springs: nearly equilateral
         elements) or "cvt" (the paper's CVT start). "auto" meshes from the layers placement
         and, where the model is small (a-priori estimate up to 50,000 elements) or has more
-        than two constituents, from the springs placement too (from 1.3 and from 1.5 x the
-        density's node count: ``"springs"`` and ``"springs-dense"``), and keeps the best mesh
+        than two constituents, from the springs placement too (from 1.3 x the density's
+        node count where the material sets the size, ``max_size`` where it does not:
+        ``"springs"``; from 1.5 x everywhere: ``"springs-dense"``), and keeps the best mesh
         (the lower ``Ne exp(-22.7 q_avg)``: each 0.005 of mean quality is worth 12 % of the
         elements); ``Result.options["placements"]`` has every outcome (before the kept
         mesh's last pass, see ``optimize``) and ``["method"]`` the one kept.

@@ -5,10 +5,11 @@ Three placements, by ``method`` name (:data:`PLACEMENTS`):
 * ``"cvt"`` -- the paper's start (Sec. 3.2.3): nodes sampled with the density
   rho = |grad f|^(d+2) (Eq. 9), then conforming Lloyd iterations (the CVT step,
   :mod:`hetmesh.tri.cvt`); ``"cvt-dense"`` the same from 1.3 x the density's node count;
-* ``"springs"`` -- nodes at the same isotropic size as ``"cvt"``'s (from 1.3 x the
-  density's node count), relaxed as a truss of springs (:mod:`hetmesh.tri.springs`): nearly
-  equilateral elements, for the best mean quality where the element count allows;
-  ``"springs-dense"`` the same from 1.5 x;
+* ``"springs"`` -- isotropically sized nodes (1.3 x the density's node count where the
+  material sets the size, ``h_max`` where it does not: :func:`start_size`), relaxed as a
+  truss of springs (:mod:`hetmesh.tri.springs`): nearly equilateral elements, for the best
+  mean quality where the element count allows; ``"springs-dense"`` from 1.5 x the count
+  everywhere (flat zones too: smaller elements, a better mean quality on small models);
 * ``"layers"`` -- rows of nodes on the composition's level curves
   (:mod:`hetmesh.tri.layers`); ``"layers-crossings"`` the same with a curve node at every
   crossing of a level with a curve, also where the rows meet the curve square (the 3D
@@ -27,13 +28,38 @@ from .layers import place_layers
 from .springs import relax
 from .workset import Context, WorkSet, add_free_points, smooth, triangulate, workset_from_pslg
 
-__all__ = ["place_cvt", "place_springs", "size_fn", "sample_interior", "PLACEMENTS",
-           "DENSE_START", "SPRING_START", "SPRING_DENSE_START", "BOUNDARY_SPACING"]
+__all__ = ["place_cvt", "place_springs", "size_fn", "start_size", "sample_interior",
+           "PLACEMENTS", "DENSE_START", "SPRING_START", "SPRING_DENSE_START", "BOUNDARY_SPACING"]
 
 
 def size_fn(ctx: Context, factor: float):
     def h(pts):
         return dens.size_at(ctx.g(pts), ctx.threshold, ctx.h_at(pts), factor)
+    return h
+
+
+
+def start_size(ctx: Context, start: float):
+    """The springs start's edge length: ``start`` x the density's node count where the
+    material sets the size, the largest size where it does not,
+
+        1 / h^2 = 1 / h_max^2 + start (1 / h_m^2 - 1 / h_max^2),
+
+    ``h_m = delta_0 / g`` the material size (``g`` graded, so ``h_m <= h_max``), then capped
+    by ``Context.h_at`` (small features). Far below ``h_max`` that is
+    ``h_m / sqrt(start)``, as ``size_fn(ctx, 1 / sqrt(start))``; where the material is flat
+    it is ``h_max``, continuously in between. The extra nodes of ``start > 1`` leave fewer
+    elements above delta_0 after the relaxation where the composition varies; where the
+    size is ``h_max`` no element comes near delta_0, and ``size_fn`` (which scales
+    ``h_max`` too) only put 1.3 x the nodes a geometric mesher puts there: a near-constant
+    field on a 3 x 2 rectangle at delta_0 = 0.1 had 94 elements of mean edge 0.86 h_max
+    (68 equilateral ones of side h_max tile it), 70 of 0.99 h_max with this size."""
+    hmax = ctx.h_max
+
+    def h(pts):
+        hm = dens.size_at(ctx.g(pts), ctx.threshold, hmax)
+        inv = 1.0 / hmax ** 2 + start * (1.0 / hm ** 2 - 1.0 / hmax ** 2)
+        return np.minimum(1.0 / np.sqrt(inv), ctx.h_at(pts))
     return h
 
 
@@ -107,13 +133,19 @@ BOUNDARY_SPACING = 1.1
 
 
 def place_springs(ctx: Context, rng, chord_tol: float, progress=None,
-                  start: float = SPRING_START) -> WorkSet:
-    """The springs start: the interior filled as by :func:`place_cvt` at ``start`` x the
-    density's node count, the curves sampled at :data:`BOUNDARY_SPACING` x that size (the
-    count of intervals rounded to the nearest), then the free nodes moved to the
-    equilibrium of a truss of springs (:func:`hetmesh.tri.springs.relax`)."""
-    h = size_fn(ctx, 1.0 / np.sqrt(start))
-    hb = size_fn(ctx, BOUNDARY_SPACING / np.sqrt(start))
+                  start: float = SPRING_START, everywhere: bool = False) -> WorkSet:
+    """The springs start: the interior filled at the size :func:`start_size` (``start`` x
+    the density's node count where the material sets the size, ``h_max`` where it does
+    not; ``everywhere=True``: ``size_fn(ctx, 1 / sqrt(start))``, ``start`` x the count
+    everywhere, flat zones too, as ``"springs-dense"`` does), the curves sampled at
+    :data:`BOUNDARY_SPACING` x that size (the count of intervals rounded to the nearest),
+    then the free nodes moved to the equilibrium of a truss of springs
+    (:func:`hetmesh.tri.springs.relax`)."""
+    h = size_fn(ctx, 1.0 / np.sqrt(start)) if everywhere else start_size(ctx, start)
+
+    def hb(pts):
+        return np.minimum(BOUNDARY_SPACING * h(pts), ctx.h_at(pts))
+
     ws = workset_from_pslg(build_pslg(ctx.domain, hb, chord_tol, nearest=True))
     add_free_points(ws, sample_interior(ctx, h, rng))
     relax(ws, ctx, h)
@@ -125,4 +157,5 @@ PLACEMENTS = {"cvt": place_cvt, "layers": place_layers,
               "layers-crossings": functools.partial(place_layers, mid_levels=False),
               "cvt-dense": functools.partial(place_cvt, start=DENSE_START),
               "springs": place_springs,
-              "springs-dense": functools.partial(place_springs, start=SPRING_DENSE_START)}
+              "springs-dense": functools.partial(place_springs, start=SPRING_DENSE_START,
+                                                       everywhere=True)}

@@ -5,7 +5,8 @@ The node moves of MOR's springs start (``method="springs"``,
 (:func:`hetmesh.tri.placement.place_cvt`) and the springs placement size their nodes alike:
 the curves are sampled and the interior is filled at the edge length
 ``h = delta_0 / (sqrt(start) |grad f|)`` (graded, capped by ``max_size`` and by the geometric
-size near small features). They differ in how the nodes then move:
+size near small features; the springs start keeps ``max_size`` itself where the material is
+flat, :func:`hetmesh.tri.placement.start_size`). They differ in how the nodes then move:
 
 * **Springs.** Every edge of the constrained Delaunay triangulation is a bar whose rest
   length is the mean of ``h`` at its two ends, scaled by one factor so that the rest
