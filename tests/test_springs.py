@@ -103,6 +103,19 @@ def test_springs_meshes_a_flat_field_as_a_geometric_mesher_would():
     assert r.stats.q_avg > 0.95
 
 
+def test_springs_aims_below_an_explicit_max_size():
+    # aimed at the bound itself, the relaxed edges above it were split: 329 elements of
+    # q_avg 0.940 on this rectangle with max_size 0.3 (the springs-dense start: 239 of 0.966)
+    model = hetmesh.io.model.parse_model(tomllib.loads(FLAT_RECTANGLE))
+    r = hetmesh.generate(model, 0.1, method="springs", max_size=0.3)
+    assert independent_check(r, r.model, 0.1) == []
+    P, T = r.mesh.points, r.mesh.triangles
+    e = np.unique(np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1), axis=0)
+    assert np.linalg.norm(P[e[:, 0]] - P[e[:, 1]], axis=1).max() <= 0.3
+    assert r.stats.n_elements < 260
+    assert r.stats.q_avg > 0.97
+
+
 def test_relaxation_raises_the_shape_and_keeps_the_curves():
     ws, ctx, h = _start("fgm_plate", 0.1)
     before = quality(ws.P, triangulate(ws, ctx)).mean()
