@@ -183,6 +183,20 @@ def test_batch_distance_matches_curves():
     np.testing.assert_allclose(CurveBatch.from_curves(curves).distance(p), ref, atol=1e-12)
 
 
+def test_batch_points_and_tangents_are_the_curves_own():
+    rng = np.random.default_rng(1)
+    curves = [Segment(rng.random(2), rng.random(2)) for _ in range(5)]
+    curves += [Arc.from_center((1, 0), (0, 1), (0, 0), ccw=False), Arc.circle((0.5, 0.5), 0.2),
+               Arc.through((0, 0), (1, 0.5), (2, 0))]
+    idx = rng.integers(0, len(curves), 200)
+    t = rng.random(200)
+    batch = CurveBatch.from_curves(curves)
+    for k, c in enumerate(curves):
+        m = idx == k
+        np.testing.assert_array_equal(batch.points(idx[m], t[m]), c.point(t[m]))
+        np.testing.assert_array_equal(batch.tangents(idx[m], t[m]), c.tangent(t[m]))
+
+
 # ----------------------------------------------------------------------------- domains
 def test_power_plate_area_is_exact():
     d = power_plate()

@@ -93,8 +93,7 @@ def test_springs_meshes_a_flat_field_as_a_geometric_mesher_would():
     model = hetmesh.io.model.parse_model(tomllib.loads(FLAT_RECTANGLE))
     r = hetmesh.generate(model, 0.1, method="springs")
     assert independent_check(r, r.model, 0.1) == []
-    P, T = r.mesh.points, r.mesh.triangles
-    e = np.unique(np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1), axis=0)
+    P, e = r.mesh.points, r.mesh.unique_edges[0]
     mean_edge = np.linalg.norm(P[e[:, 0]] - P[e[:, 1]], axis=1).mean()
     h_max = r.options["max_size"]
     tiling = 6.0 / (np.sqrt(3.0) / 4.0 * h_max ** 2)
@@ -109,8 +108,7 @@ def test_springs_aims_below_an_explicit_max_size():
     model = hetmesh.io.model.parse_model(tomllib.loads(FLAT_RECTANGLE))
     r = hetmesh.generate(model, 0.1, method="springs", max_size=0.3)
     assert independent_check(r, r.model, 0.1) == []
-    P, T = r.mesh.points, r.mesh.triangles
-    e = np.unique(np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1), axis=0)
+    P, e = r.mesh.points, r.mesh.unique_edges[0]
     assert np.linalg.norm(P[e[:, 0]] - P[e[:, 1]], axis=1).max() <= 0.3
     assert r.stats.n_elements < 260
     assert r.stats.q_avg > 0.97

@@ -422,6 +422,23 @@ class CurveBatch:
         out[a] = self.center[i] + self.radius[i, None] * np.c_[np.cos(ang), np.sin(ang)]
         return out
 
+    def tangents(self, idx: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Unit tangents at parameters ``t`` (M,) of curves ``idx`` (M,) -> (M, 2), in the
+        direction of increasing t (as each curve's ``tangent``)."""
+        idx = np.asarray(idx, dtype=np.intp)
+        t = np.asarray(t, dtype=np.float64)
+        out = np.empty((len(idx), 2))
+        arc = self.is_arc[idx]
+        i = idx[~arc]
+        d = self.p1[i] - self.p0[i]
+        n = np.hypot(d[:, 0], d[:, 1])[:, None]
+        out[~arc] = np.where(n > 0, d / np.where(n > 0, n, 1.0), d)
+        i = idx[arc]
+        ang = self.theta0[i] + t[arc] * self.sweep[i]
+        s = np.where(self.sweep[i] >= 0, 1.0, -1.0)
+        out[arc] = np.c_[-s * np.sin(ang), s * np.cos(ang)]
+        return out
+
     def bounds(self) -> np.ndarray:
         """Exact bounding boxes ``(C, 4)`` as ``xmin, ymin, xmax, ymax``."""
         lo = np.minimum(self.p0, self.p1)

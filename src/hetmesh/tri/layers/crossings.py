@@ -16,7 +16,7 @@ import numpy as np
 from ...topology import unique
 from ..geometry import pslg_from_parameters
 from ..workset import Context, WorkSet, workset_from_pslg
-from .curves import side_points
+from .curves import side_eps, side_points
 from .levels import Levels, crossed_levels
 from .pieces import OUTSIDE, Pieces
 from .records import Records
@@ -157,22 +157,12 @@ SQUARE_COS = 0.985
 def curve_points(ctx: Context, curve: np.ndarray, t: np.ndarray, ev: np.ndarray
                  ) -> np.ndarray:
     """The points at parameters ``t`` of curves ``curve``: on the curve (``ev`` 0) or just
-    off it (+1 / -1, :func:`~.curves.side_points`), one call per curve and side."""
-    x = np.empty((len(t), 2))
-    for k in unique(curve):
-        for e in unique(ev[curve == k]):
-            m = np.flatnonzero((curve == k) & (ev == e))
-            x[m] = side_points(ctx, int(k), t[m], int(e))
-    return x
-
-
-def curve_tangents(ctx: Context, curve: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """The unit tangents at parameters ``t`` of curves ``curve``."""
-    tg = np.empty((len(t), 2))
-    for k in unique(curve):
-        m = np.flatnonzero(curve == k)
-        tg[m] = ctx.curves[k].tangent(t[m])
-    return tg
+    off it, to the left (+1) or right (-1) of increasing t (as :func:`~.curves.side_points`,
+    for many curves at once)."""
+    batch = ctx.domain.curve_batch
+    tg = batch.tangents(curve, t)
+    off = (ev * side_eps(ctx))[:, None] * np.column_stack([-tg[:, 1], tg[:, 0]])
+    return batch.points(curve, t) + off
 
 
 def wall_pins(ctx: Context, levels: Levels, cross: Crossings) -> tuple[np.ndarray, np.ndarray]:
@@ -218,7 +208,7 @@ def wall_pins(ctx: Context, levels: Levels, cross: Crossings) -> tuple[np.ndarra
     ev = np.where(ctx.boundary_curve[c], 0, side)
     g = ctx.grad_f(curve_points(ctx, c, t, ev))
     gn = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
-    square = np.abs((gn * curve_tangents(ctx, c, t)).sum(1)) > SQUARE_COS
+    square = np.abs((gn * ctx.domain.curve_batch.tangents(c, t)).sum(1)) > SQUARE_COS
     # consecutive crossings of adjacent levels, or a curve end a full band from a crossing
     step_f = np.minimum(dp[1:], dp[:-1])
     df = np.abs(lv[1:] - lv[:-1])
